@@ -1,0 +1,153 @@
+"""The robosolve command line (thin: parse options, call the library, print)."""
+from __future__ import annotations
+
+import json
+import sys
+from enum import Enum
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from .errors import UserError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="Solve, explain, verify robotics (dynamics & control) exam problems written as YAML specs.")
+
+
+class Fmt(str, Enum):
+    md = "md"
+    tex = "tex"
+    json = "json"
+
+
+def _fail(exc: UserError) -> None:
+    typer.echo(str(exc), err=True)
+    raise typer.Exit(2)
+
+
+@app.command()
+def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
+          format: Fmt = typer.Option(Fmt.md, "--format", "-f", help="md, tex or json"),
+          output: Optional[Path] = typer.Option(None, "--output", "-o", help="write here (plots beside it)"),
+          fragment: bool = typer.Option(False, help="LaTeX body only, no preamble"),
+          templates: Optional[Path] = typer.Option(None, help="directory with your own md/ and tex/ templates")) -> None:
+    """Solve a problem and print the step-by-step solution."""
+    from .render import render
+    from .solve import solve_problem
+    from .spec import load_problem
+    try:
+        problem = load_problem(spec)
+        solutions = solve_problem(problem)
+        text = render(problem, solutions, format.value, fragment=fragment, template_dir=templates)
+    except UserError as exc:
+        _fail(exc)
+        return
+    if output:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        output.write_text(text, encoding="utf-8")
+        typer.echo(f"wrote {output}", err=True)
+    else:
+        sys.stdout.write(text)
+
+
+@app.command()
+def check(specs: list[Path] = typer.Argument(..., help="spec files to validate")) -> None:
+    """Validate specs without solving: 'ok' or a clear error (exit code 2)."""
+    from .spec import load_problem
+    bad = 0
+    for s in specs:
+        try:
+            p = load_problem(s)
+            _check_expected(p)
+            typer.echo(f"{s}: ok")
+        except UserError as exc:
+            typer.echo(str(exc), err=True)
+            bad += 1
+    if bad:
+        raise typer.Exit(2)
+
+
+def _check_expected(problem) -> None:  # type: ignore[no-untyped-def]
+    """Parse every expected value (names must be known) without solving."""
+    from .verify import _abbreviations
+    exp = problem.expected
+    names = problem.names
+    if "where" in exp:
+        names, _ = _abbreviations(problem, ("expected", "where"), names)
+    for key, entry in exp.items():
+        if key == "where":
+            continue
+        fields = ["value", "corrected"] if isinstance(entry, dict) else [None]
+        for f in fields:
+            if f is None:
+                problem.parse_at(("expected", key), names)
+            elif f in entry:
+                lnames = names
+                if "where" in entry:
+                    lnames, _ = _abbreviations(problem, ("expected", key, "where"), names)
+                problem.parse_at(("expected", key, f), lnames)
+
+
+@app.command()
+def verify(paths: list[Path] = typer.Argument(..., help="spec files or directories"),
+           quiet: bool = typer.Option(False, "--quiet", "-q", help="only failures and the summary")) -> None:
+    """Solve every problem and compare with its expected (printed) values; non-zero exit on any mismatch."""
+    from .verify import describe, verify_paths
+    try:
+        reports = verify_paths(paths)
+    except UserError as exc:
+        _fail(exc)
+        return
+    for rep in reports:
+        lines = describe(rep)
+        if not quiet or not rep.ok:
+            typer.echo("\n".join(lines))
+    n_ok = sum(r.ok for r in reports)
+    checks = sum(len(r.checks) for r in reports)
+    errata = sum(c.erratum is not None for r in reports for c in r.checks)
+    typer.echo(f"\n{n_ok}/{len(reports)} problems ok, {checks} results checked, {errata} errata recorded")
+    if n_ok != len(reports) or not reports:
+        raise typer.Exit(1)
+
+
+@app.command()
+def schema() -> None:
+    """Print the JSON Schema of the spec format (for editor completion)."""
+    from .spec import json_schema
+    typer.echo(json.dumps(json_schema(), indent=2, ensure_ascii=False))
+
+
+@app.command("list")
+def list_(paths: list[Path] = typer.Argument(..., help="spec files or directories")) -> None:
+    """One line per problem: id, title, topics, asks."""
+    from .spec import load_problem
+    files: list[Path] = []
+    for p in paths:
+        files += sorted(p.rglob("*.yaml")) if p.is_dir() else [p]
+    bad = 0
+    for f in files:
+        try:
+            pr = load_problem(f)
+        except UserError as exc:
+            typer.echo(f"{f}: {str(exc).splitlines()[0]}", err=True)
+            bad += 1
+            continue
+        asks = ",".join(a.kind for a in pr.asks)
+        topics = ",".join(pr.topics)
+        typer.echo(f"{pr.id:<32} {pr.title[:50]:<50} [{topics}] asks: {asks}")
+    if bad:
+        raise typer.Exit(2)
+
+
+def main() -> None:
+    """Entry point: user errors exit 2 with a message, never a traceback."""
+    try:
+        app()
+    except UserError as exc:
+        typer.echo(str(exc), err=True)
+        sys.exit(2)
+
+
+if __name__ == "__main__":
+    main()

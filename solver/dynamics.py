@@ -1,0 +1,212 @@
+"""Euler-Lagrange dynamic model (ask kind ``dynamic_model``).
+
+    T = Σ_i ½ m_i v_ciᵀ v_ci + ½ ω_iᵀ I_i ω_i (+ T_extra) = ½ q̇ᵀ B(q) q̇,     U = -Σ_i m_i g₀ᵀ p_ci (+ U_extra)
+    C_k(q) = ½ (∂b_k/∂q + (∂b_k/∂q)ᵀ - ∂B/∂q_k),   c_k = q̇ᵀ C_k q̇,   s_kᵀ = q̇ᵀ C_k  (so Ḃ - 2S is skew)
+    g(q) = (∂U/∂q)ᵀ,    B(q) q̈ + S(q, q̇) q̇ + g(q) + F_v q̇ = G u
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal, Optional, Union
+
+import sympy as sp
+from pydantic import Field
+
+from .errors import UserError
+from .registry import ask_kind
+from .results import Solution
+from .robot import Body, Robot
+from .simplify import is_zero, tidy, tidy_matrix
+from .spec import Strict
+
+
+@dataclass
+class BodyEnergy:
+    body: Body
+    pc: sp.Matrix
+    vc: sp.Matrix
+    v2: sp.Expr
+    omega: sp.Matrix
+    T: sp.Expr
+    U: sp.Expr | None
+
+
+@dataclass
+class DynamicModel:
+    """Every quantity of the Lagrangian model, simplified."""
+
+    bodies: list[BodyEnergy]
+    T_extra: sp.Expr
+    T: sp.Expr
+    B: sp.Matrix
+    C: list[sp.Matrix] | None
+    c: sp.Matrix
+    S: sp.Matrix | None
+    skew: bool | None
+    U_extra: sp.Expr
+    U: sp.Expr | None
+    g: sp.Matrix
+    Fv: sp.Matrix | None
+    G: sp.Matrix | None
+    u: sp.Matrix
+    lhs: sp.Matrix
+    notes: list[str] = field(default_factory=list)
+
+
+def quadratic_form_matrix(T: sp.Expr, dq: list[sp.Symbol]) -> sp.Matrix:
+    """B with T = ½ q̇ᵀ B q̇ (the Hessian of T in q̇); raises ValueError if T is not such a form."""
+    B = sp.hessian(T, dq).applyfunc(tidy)
+    v = sp.Matrix(dq)
+    if not is_zero(sp.expand(T - (v.T * B * v)[0] / 2)):
+        raise ValueError("kinetic energy is not a quadratic form in the velocities")
+    return B
+
+
+def body_energy(body: Body, robot: Robot) -> BodyEnergy:
+    """p_c, v_c = J_v(q) q̇, ‖v_c‖², ω and T_i = ½ m ‖v_c‖² + ½ ωᵀ I ω of one body."""
+    q, dq = robot.q, robot.dq
+    pc = body.com.applyfunc(tidy)
+    vc = (pc.jacobian(q) * sp.Matrix(dq)).applyfunc(tidy)
+    v2 = tidy((vc.T * vc)[0])
+    T = tidy(body.mass * v2 / 2 + (body.omega.T * body.inertia * body.omega)[0] / 2)
+    U = None
+    if robot.gravity is not None:
+        U = tidy(-body.mass * (robot.gravity.T * pc)[0])
+    return BodyEnergy(body, pc, vc, v2, body.omega, T, U)
+
+
+def inertia_matrix(robot: Robot, energies: list[BodyEnergy]) -> sp.Matrix:
+    """B(q) = Σ m J_vᵀ J_v + J_ωᵀ I J_ω (+ Hessian of T_extra)."""
+    n, q, dq = robot.n, robot.q, robot.dq
+    B = sp.zeros(n, n)
+    for e in energies:
+        Jv = e.pc.jacobian(q)
+        Jw = e.omega.jacobian(dq)
+        B += e.body.mass * Jv.T * Jv + Jw.T * e.body.inertia * Jw
+    for t in robot.kinetic_extra:
+        B += sp.hessian(t, dq)
+    if robot.given_B is not None:
+        B += robot.given_B
+    return tidy_matrix(B)
+
+
+def christoffel(B: sp.Matrix, q: list[sp.Symbol]) -> list[sp.Matrix]:
+    """C_k = ½ (∂b_k/∂q + (∂b_k/∂q)ᵀ - ∂B/∂q_k), k = 1..n (b_k: k-th column of B)."""
+    out = []
+    for k, qk in enumerate(q):
+        J = B[:, k].jacobian(q)
+        out.append(tidy_matrix((J + J.T - B.diff(qk)) / 2))
+    return out
+
+
+def coriolis(C: list[sp.Matrix], dq: list[sp.Symbol]) -> sp.Matrix:
+    """c_k = q̇ᵀ C_k q̇."""
+    v = sp.Matrix(dq)
+    return sp.Matrix([tidy((v.T * Ck * v)[0]) for Ck in C])
+
+
+def factorization(C: list[sp.Matrix], dq: list[sp.Symbol]) -> sp.Matrix:
+    """S with rows s_kᵀ = q̇ᵀ C_k: S q̇ = c and Ḃ - 2S skew-symmetric."""
+    v = sp.Matrix(dq)
+    return tidy_matrix(sp.Matrix.vstack(*[(v.T * Ck) for Ck in C]))
+
+
+def is_skew_bdot_2s(B: sp.Matrix, S: sp.Matrix, robot: Robot) -> bool:
+    """N = Ḃ - 2S, checked N + Nᵀ ≡ 0 exactly."""
+    Bdot = sum((B.diff(qk) * dqk for qk, dqk in zip(robot.q, robot.dq)), sp.zeros(*B.shape))
+    N = Bdot - 2 * S
+    return all(is_zero(x) for x in (N + N.T))
+
+
+def gravity_vector(U: sp.Expr, q: list[sp.Symbol]) -> sp.Matrix:
+    """g(q) = (∂U/∂q)ᵀ."""
+    return sp.Matrix([tidy(sp.diff(U, qk)) for qk in q])
+
+
+def derive(robot: Robot) -> DynamicModel:
+    """The full Lagrangian model of ``robot``."""
+    n, q, dq = robot.n, robot.q, robot.dq
+    energies = [body_energy(b, robot) for b in robot.bodies]
+    T_extra = tidy(sum(robot.kinetic_extra, sp.Integer(0)))
+    B = inertia_matrix(robot, energies)
+    T = tidy((sp.Matrix(dq).T * B * sp.Matrix(dq))[0] / 2)
+    if robot.given_c is not None:
+        C, c, S, skew = None, tidy_matrix(robot.given_c), None, None
+    else:
+        C = christoffel(B, q)
+        c = coriolis(C, dq)
+        S = factorization(C, dq)
+        skew = is_skew_bdot_2s(B, S, robot)
+    U_extra = tidy(sum(robot.potential_extra, sp.Integer(0)))
+    U: sp.Expr | None = None
+    if robot.given_g is not None:
+        g = tidy_matrix(robot.given_g)
+        if robot.potential_extra:
+            g += gravity_vector(U_extra, q)
+            g = tidy_matrix(g)
+    else:
+        U = sum((e.U for e in energies if e.U is not None), sp.Integer(0)) + U_extra
+        if robot.given_U is not None:
+            U += robot.given_U
+        U = tidy(U)
+        g = gravity_vector(U, q)
+    Fv = robot.friction
+    G = robot.input_map
+    u = sp.Matrix(robot.inputs)
+    lhs = B * sp.Matrix(robot.ddq) + c + g + (Fv * sp.Matrix(dq) if Fv is not None else sp.zeros(n, 1))
+    lhs = tidy_matrix(lhs)
+    return DynamicModel(energies, T_extra, T, B, C, c, S, skew, U_extra, U, g, Fv, G, u, lhs)
+
+
+# ------------------------------------------------------------------------------------------------
+class DynamicModelAsk(Strict):
+    """Derive the Euler-Lagrange dynamic model."""
+
+    kind: Literal["dynamic_model"]
+    title: Optional[str] = Field(None, description="heading of this part in the report")
+    show: list[Literal["energies", "B", "christoffel", "c", "S", "g", "model"]] = Field(
+        ["energies", "B", "christoffel", "c", "S", "g", "model"], description="which parts to explain in the report")
+    at: Optional[dict[str, Union[str, int, float]]] = Field(
+        None, description="a state (q, dq, ddq values) where B, c, g and the model are also evaluated numerically")
+
+
+@ask_kind("dynamic_model", DynamicModelAsk, "Euler-Lagrange dynamic model: T, U, B, Christoffel, c, S, g")
+def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results: T, U, B, christoffel, c, S, g, model (+ T<i>, U<i>, pc<i>, vc<i>, w<i> per body, skew)."""
+    robot: Robot = problem.robot
+    dm = derive(robot)
+    sol = Solution("dynamic_model", title=options.title or "Dynamic model")
+    for i, e in enumerate(dm.bodies, 1):
+        sol.add(f"pc{i}", e.pc, label=f"p_{{c{i}}}")
+        sol.add(f"vc{i}", e.vc, label=f"v_{{c{i}}}")
+        sol.add(f"w{i}", e.omega, label=f"\\omega_{{{i}}}")
+        sol.add(f"T{i}", e.T, "scalar", label=f"T_{{{i}}}")
+        if e.U is not None:
+            sol.add(f"U{i}", e.U, "scalar", label=f"U_{{{i}}}")
+    sol.add("T", dm.T, "scalar", label="T")
+    sol.add("B", dm.B, "matrix", label="B(q)")
+    if dm.C is not None:
+        sol.add("christoffel", dm.C, "list", label="C_k(q)")
+    sol.add("c", dm.c, "vector", label="c(q,\\dot q)")
+    if dm.S is not None:
+        sol.add("S", dm.S, "matrix", label="S(q,\\dot q)")
+        sol.add("skew", bool(dm.skew), "bool", label="\\dot B - 2S \\text{ skew-symmetric}")
+    if dm.U is not None:
+        sol.add("U", dm.U, "scalar", label="U")
+    sol.add("g", dm.g, "vector", label="g(q)")
+    sol.add("model", dm.lhs, "vector", label="B(q)\\ddot q + c(q,\\dot q) + g(q)")
+    sol.step("model", dm=dm, show=options.show, robot=robot)
+    if options.at:
+        state = {}
+        for name in options.at:
+            if name not in problem.names or not any(name == s.name for s in robot.q + robot.dq + robot.ddq):
+                raise UserError(f"'{name}' in at: is not a coordinate, velocity or acceleration",
+                                problem.located.place(ctx.path + ("at", name)), "use q1, dq1, ddq1, ...")
+            state[problem.names[name]] = ctx.expr("at", name)
+        subs = {**problem.values, **state}
+        num = {k: (v.subs(subs) if hasattr(v, "subs") else v) for k, v in
+               {"B": dm.B, "c": dm.c, "g": dm.g, "model": dm.lhs}.items()}
+        for k, v in num.items():
+            sol.add(f"{k}_at", v, label=f"{k}\\big|_{{*}}")
+        sol.step("at", state=state, values=problem.values, num=num)
+    return sol

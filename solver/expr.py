@@ -1,0 +1,335 @@
+"""The one expression parser of robosolve: plain math text -> sympy, by an allow-list.
+
+Grammar (precedence low to high)::
+
+    expr    := term (('+' | '-') term)*
+    term    := unary (('*' | '/') unary)*
+    unary   := ('+' | '-') unary | power
+    power   := primary (('^' | '**') unary)?          # right associative: 2^3^2 = 2^9
+    primary := NUMBER | NAME | NAME '(' expr (',' expr)* ')' | '(' expr ')' | '[' expr (',' expr)* ']'
+
+Names resolve only through the table the caller gives (parameters, coordinates, abbreviations) plus the
+constant ``pi`` and the functions in :data:`FUNCTIONS`. Nothing is ever evaluated by Python: no ``eval``,
+no ``sympify`` of raw text, no attribute access. Lists (``[a, b]``, ``[[a, b], [c, d]]``) come back as
+nested Python lists of sympy expressions.
+"""
+from __future__ import annotations
+
+import difflib
+import re
+from dataclasses import dataclass
+from typing import Callable, Mapping, Union
+
+import sympy as sp
+
+from .errors import ExprError
+
+MAX_LENGTH = 20_000
+MAX_DEPTH = 60
+MAX_EXPONENT = 100
+MAX_LIST = 400
+
+FUNCTIONS: dict[str, tuple[Callable[..., sp.Expr], int]] = {
+    "sin": (sp.sin, 1), "cos": (sp.cos, 1), "tan": (sp.tan, 1), "cot": (sp.cot, 1),
+    "asin": (sp.asin, 1), "acos": (sp.acos, 1), "atan": (sp.atan, 1), "atan2": (sp.atan2, 2),
+    "sinh": (sp.sinh, 1), "cosh": (sp.cosh, 1), "tanh": (sp.tanh, 1),
+    "exp": (sp.exp, 1), "log": (sp.log, 1), "ln": (sp.log, 1), "sqrt": (sp.sqrt, 1),
+    "abs": (sp.Abs, 1), "sign": (sp.sign, 1),
+}
+CONSTANTS: dict[str, sp.Expr] = {"pi": sp.pi}
+GREEK = (
+    "alpha beta gamma delta epsilon zeta eta theta iota kappa lambda mu nu xi omicron rho sigma tau "
+    "upsilon phi chi psi omega Gamma Delta Theta Lambda Xi Pi Sigma Upsilon Phi Psi Omega"
+).split()
+
+Parsed = Union[sp.Expr, list]
+
+_TOKEN = re.compile(
+    r"\s*(?:(?P<num>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<op>\*\*|[-+*/^(),\[\]]))"
+)
+
+
+@dataclass
+class Token:
+    kind: str  # num | name | op | end
+    text: str
+    col: int  # 1-based
+
+
+def tokenize(text: str) -> list[Token]:
+    """Split ``text`` into tokens; anything outside the grammar's alphabet is an error at its column."""
+    tokens: list[Token] = []
+    pos = 0
+    while pos < len(text):
+        if text[pos:].strip() == "":
+            break
+        m = _TOKEN.match(text, pos)
+        if not m:
+            bad = text[pos:].lstrip()[0]
+            col = len(text) - len(text[pos:].lstrip()) + 1
+            hint = {
+                ".": "attribute access is not allowed; write plain math",
+                "=": "an expression has no '='; give the value only",
+                "{": "use [ ] for lists and matrices, ( ) for grouping",
+                "\\": "write plain math here (sin(q1), not \\sin q_1)",
+            }.get(bad, "allowed: numbers, names, + - * / ^ **, ( ), [ ] and ','")
+            raise ExprError(f"unexpected character {bad!r}", text, col, hint)
+        kind = m.lastgroup or "op"
+        tokens.append(Token(kind, m.group(kind), m.start(kind) + 1))
+        pos = m.end()
+    tokens.append(Token("end", "", len(text) + 1))
+    return tokens
+
+
+class Parser:
+    """Recursive-descent parser over :func:`tokenize`'s tokens, resolving names through ``names``."""
+
+    def __init__(self, text: str, names: Mapping[str, sp.Expr], allow_lists: bool = True) -> None:
+        if len(text) > MAX_LENGTH:
+            raise ExprError(f"expression too long ({len(text)} characters, limit {MAX_LENGTH})", "", 0,
+                            "split it with abbreviations (where:)")
+        self.text = text
+        self.names = names
+        self.allow_lists = allow_lists
+        self.tokens = tokenize(text)
+        self.i = 0
+        self.depth = 0
+
+    # -- helpers -----------------------------------------------------------------------------------
+    @property
+    def tok(self) -> Token:
+        return self.tokens[self.i]
+
+    def error(self, message: str, tok: Token | None = None, hint: str | None = None) -> ExprError:
+        tok = tok or self.tok
+        return ExprError(message, self.text, tok.col, hint)
+
+    def expect(self, op: str) -> Token:
+        if self.tok.kind == "op" and self.tok.text == op:
+            t = self.tok
+            self.i += 1
+            return t
+        found = "end of text" if self.tok.kind == "end" else repr(self.tok.text)
+        raise self.error(f"expected {op!r}, found {found}", hint="check that brackets are balanced")
+
+    def at_op(self, *ops: str) -> bool:
+        return self.tok.kind == "op" and self.tok.text in ops
+
+    def enter(self) -> None:
+        self.depth += 1
+        if self.depth > MAX_DEPTH:
+            raise self.error(f"expression nested too deeply (limit {MAX_DEPTH})", hint="simplify the expression")
+
+    # -- grammar -------------------------------------------------------------------------------------
+    def parse(self) -> Parsed:
+        if self.tok.kind == "end":
+            raise self.error("empty expression", hint="write a value, e.g. 0 or m1*l1")
+        value = self.expr()
+        if self.tok.kind != "end":
+            t = self.tok
+            if t.kind in ("name", "num") or (t.kind == "op" and t.text in "(["):
+                raise self.error(f"missing operator before {t.text!r}", t,
+                                 "write products with '*', e.g. m2*l1 or 2*q1")
+            raise self.error(f"unexpected {t.text!r}", t, "check brackets and operators")
+        return value
+
+    def expr(self) -> Parsed:
+        self.enter()
+        left = self.term()
+        while self.at_op("+", "-"):
+            op = self.tok
+            self.i += 1
+            right = self.term()
+            left = self.arith(op, left, right)
+        self.depth -= 1
+        return left
+
+    def term(self) -> Parsed:
+        left = self.unary()
+        while self.at_op("*", "/"):
+            op = self.tok
+            self.i += 1
+            right = self.unary()
+            left = self.arith(op, left, right)
+        return left
+
+    def unary(self) -> Parsed:
+        if self.at_op("-", "+"):
+            op = self.tok
+            self.i += 1
+            self.enter()
+            value = self.unary()
+            self.depth -= 1
+            if isinstance(value, list):
+                raise self.error("a sign cannot apply to a list", op)
+            return -value if op.text == "-" else value
+        return self.power()
+
+    def power(self) -> Parsed:
+        base = self.primary()
+        if self.at_op("^", "**"):
+            op = self.tok
+            self.i += 1
+            self.enter()
+            exponent = self.unary()
+            self.depth -= 1
+            if isinstance(base, list) or isinstance(exponent, list):
+                raise self.error("powers of lists are not defined", op)
+            if exponent.is_number:
+                if not exponent.is_real or abs(float(exponent)) > MAX_EXPONENT:
+                    raise self.error(f"exponent too large (|exponent| <= {MAX_EXPONENT})", op)
+            if base.is_number and exponent.is_number and base.is_real and base != 0:
+                digits = abs(float(exponent)) * abs(float(sp.log(abs(base), 10).evalf(5)))
+                if digits > 5000:
+                    raise self.error("number too large (more than 5000 digits)", op)
+            return sp.Pow(base, exponent)
+        return base
+
+    def primary(self) -> Parsed:
+        t = self.tok
+        if t.kind == "num":
+            self.i += 1
+            if re.fullmatch(r"\d+", t.text):
+                if len(t.text) > 30:
+                    raise self.error("number too long", t)
+                return sp.Integer(t.text)
+            return sp.Rational(t.text) if len(t.text) < 30 else sp.Float(t.text)
+        if t.kind == "name":
+            self.i += 1
+            if self.at_op("("):
+                return self.call(t)
+            return self.name(t)
+        if self.at_op("("):
+            self.i += 1
+            self.enter()
+            value = self.expr()
+            self.depth -= 1
+            self.expect(")")
+            return value
+        if self.at_op("["):
+            if not self.allow_lists:
+                raise self.error("a list is not expected here", t, "give a single expression")
+            self.i += 1
+            self.enter()
+            items = [self.expr()]
+            while self.at_op(","):
+                self.i += 1
+                items.append(self.expr())
+                if len(items) > MAX_LIST:
+                    raise self.error(f"list too long (limit {MAX_LIST})", t)
+            self.depth -= 1
+            self.expect("]")
+            return items
+        if t.kind == "end":
+            raise self.error("expression ends too early", t, "complete the expression or balance brackets")
+        raise self.error(f"unexpected {t.text!r}", t)
+
+    def call(self, t: Token) -> sp.Expr:
+        if t.text not in FUNCTIONS:
+            close = difflib.get_close_matches(t.text, FUNCTIONS, n=1)
+            hint = f"did you mean {close[0]}(...)?" if close else \
+                f"known functions: {', '.join(sorted(FUNCTIONS))}; for a product write {t.text}*(...)"
+            raise self.error(f"unknown function {t.text!r}", t, hint)
+        fn, arity = FUNCTIONS[t.text]
+        self.expect("(")
+        self.enter()
+        args = [self.expr()]
+        while self.at_op(","):
+            self.i += 1
+            args.append(self.expr())
+        self.depth -= 1
+        self.expect(")")
+        if len(args) != arity:
+            raise self.error(f"{t.text} takes {arity} argument(s), got {len(args)}", t)
+        if any(isinstance(a, list) for a in args):
+            raise self.error(f"{t.text} of a list is not defined", t)
+        return fn(*args)
+
+    def name(self, t: Token) -> sp.Expr:
+        if t.text in self.names:
+            return self.names[t.text]
+        if t.text in CONSTANTS:
+            return CONSTANTS[t.text]
+        if t.text in FUNCTIONS:
+            raise self.error(f"{t.text} is a function: write {t.text}(...)", t)
+        close = difflib.get_close_matches(t.text, list(self.names) + list(CONSTANTS), n=3)
+        hint = f"did you mean {' or '.join(close)}?" if close else "declare it under symbols: (with its meaning)"
+        if not close and re.fullmatch(r"[A-Za-z]+\d*[A-Za-z]+\d*", t.text):
+            hint += "; a product needs '*' (m2*l1, not m2l1)"
+        raise self.error(f"unknown name {t.text!r}", t, hint)
+
+    def arith(self, op: Token, left: Parsed, right: Parsed) -> Parsed:
+        if isinstance(left, list) or isinstance(right, list):
+            if op.text == "*" and (isinstance(left, list) != isinstance(right, list)):
+                scalar, lst = (left, right) if isinstance(right, list) else (right, left)
+                return _scale(lst, scalar)
+            if op.text in "+-" and isinstance(left, list) and isinstance(right, list):
+                return _combine(left, right, op.text == "-", lambda: self.error("lists of different shapes", op))
+            raise self.error(f"'{op.text}' is not defined between these operands (lists)", op)
+        if op.text == "+":
+            return left + right
+        if op.text == "-":
+            return left - right
+        if op.text == "*":
+            return left * right
+        if right == 0:
+            raise self.error("division by zero", op)
+        return left / right
+
+
+def _scale(lst: list, k: sp.Expr) -> list:
+    return [_scale(x, k) if isinstance(x, list) else k * x for x in lst]
+
+
+def _combine(a: list, b: list, minus: bool, err: Callable[[], ExprError]) -> list:
+    if len(a) != len(b):
+        raise err()
+    out = []
+    for x, y in zip(a, b):
+        if isinstance(x, list) and isinstance(y, list):
+            out.append(_combine(x, y, minus, err))
+        elif isinstance(x, list) or isinstance(y, list):
+            raise err()
+        else:
+            out.append(x - y if minus else x + y)
+    return out
+
+
+def parse(text: str | int | float, names: Mapping[str, sp.Expr], allow_lists: bool = True) -> Parsed:
+    """Parse plain math ``text`` into a sympy expression (or nested lists of them)."""
+    if isinstance(text, bool):
+        raise ExprError("expected an expression, got a boolean", str(text), 0)
+    if isinstance(text, int):
+        return sp.Integer(text)
+    if isinstance(text, float):
+        return sp.Rational(str(text)) if abs(text) < 1e15 else sp.Float(text)
+    if not isinstance(text, str):
+        raise ExprError(f"expected an expression (text), got {type(text).__name__}", "", 0)
+    return Parser(text, names, allow_lists).parse()
+
+
+def parse_scalar(text: str | int | float, names: Mapping[str, sp.Expr]) -> sp.Expr:
+    """Parse a single scalar expression (lists refused)."""
+    return parse(text, names, allow_lists=False)  # type: ignore[return-value]
+
+
+def shape_of(value: Parsed) -> tuple[int, ...]:
+    """Shape of a parsed value: () scalar, (n,) list, (n, m) list of equal-length lists, ..."""
+    if not isinstance(value, list):
+        return ()
+    inner = {shape_of(v) for v in value}
+    if len(inner) != 1:
+        return (len(value), -1)
+    return (len(value), *inner.pop())
+
+
+def to_matrix(value: Parsed, text: str = "") -> sp.Matrix:
+    """A parsed list as a sympy Matrix: [a, b] is a column, [[a, b], [c, d]] a 2x2 matrix."""
+    shape = shape_of(value)
+    if shape == () :
+        return sp.Matrix([[value]])
+    if len(shape) == 1:
+        return sp.Matrix(value)
+    if len(shape) == 2 and shape[1] >= 0:
+        return sp.Matrix(value)
+    raise ExprError(f"not a vector or matrix (shape {shape})", text, 0, "rows must have equal length")

@@ -1,0 +1,56 @@
+"""A problem as the solvers see it: symbols, numeric values, the robot and the asks, all parsed."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import sympy as sp
+from pydantic import BaseModel
+
+from .robot import Robot
+from .yamlpos import Located, PathT
+
+
+@dataclass
+class AskContext:
+    """Gives a solver the parsed expressions of its ask entry (errors point at the spec's line)."""
+
+    path: PathT
+    parse_at: Callable[[PathT], Any]
+
+    def expr(self, *sub: Any) -> Any:
+        """The parsed value at ``asks[i].<sub...>``."""
+        return self.parse_at(self.path + tuple(sub))
+
+
+@dataclass
+class Ask:
+    kind: str
+    options: BaseModel
+    ctx: AskContext
+
+
+@dataclass
+class Problem:
+    id: str
+    title: str
+    statement: str
+    source: dict[str, Any] | None
+    symbols: dict[str, sp.Symbol]          # parameters
+    meanings: dict[str, str]
+    names: dict[str, sp.Expr]              # every name an expression may use
+    latex_names: dict[sp.Symbol, str]      # how symbols print in LaTeX
+    values: dict[sp.Symbol, sp.Expr]       # numeric values of parameters, where given
+    known: list[sp.Symbol]
+    robot: Robot | None
+    asks: list[Ask]
+    expected: dict[str, Any]
+    located: Located
+    file: str
+    topics: list[str] = field(default_factory=list)
+    notes: str = ""
+    parse_at: Callable[[PathT], Any] | None = None
+
+    def numeric(self, expr: Any) -> Any:
+        """``expr`` with the given parameter values substituted."""
+        return expr.subs(self.values) if self.values and hasattr(expr, "subs") else expr

@@ -1,0 +1,54 @@
+"""Ask kinds: each solver module registers its kind, its options model and its solve function.
+
+A new ask kind = one module in ``solver/`` that calls :func:`ask_kind` + one template per format in
+``templates/``; nothing else changes.
+"""
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable
+
+from pydantic import BaseModel
+
+if TYPE_CHECKING:
+    from .problem import AskContext, Problem
+    from .results import Solution
+
+
+@dataclass
+class AskKind:
+    name: str
+    options: type[BaseModel]
+    solve: Callable[["Problem", BaseModel, "AskContext"], "Solution"]
+    summary: str
+
+
+ASKS: dict[str, AskKind] = {}
+
+
+def ask_kind(name: str, options: type[BaseModel], summary: str) -> Callable:
+    """Decorator registering ``solve(problem, options, ctx) -> Solution`` for ``kind: name``."""
+
+    def wrap(fn: Callable) -> Callable:
+        ASKS[name] = AskKind(name, options, fn, summary)
+        return fn
+
+    return wrap
+
+
+_LOADED = False
+
+
+def load_all() -> dict[str, AskKind]:
+    """Import every module of the package once, so that all ask kinds are registered."""
+    global _LOADED
+    if not _LOADED:
+        import solver
+
+        for info in pkgutil.iter_modules(solver.__path__):
+            if info.name not in ("cli", "__main__"):
+                importlib.import_module(f"solver.{info.name}")
+        _LOADED = True
+    return ASKS

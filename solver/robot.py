@@ -1,0 +1,65 @@
+"""The robot as solvers see it: bodies with CoM positions, angular velocities and inertias, all sympy in q."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+
+@dataclass
+class Body:
+    """One rigid body. ``com`` is p_c(q) in the base frame; ``omega`` is the angular velocity (linear in q̇)
+    expressed in the same frame as ``inertia`` (the barycentric inertia tensor), so T_rot = ½ ωᵀ I ω."""
+
+    name: str
+    mass: sp.Expr
+    com: sp.Matrix
+    omega: sp.Matrix
+    inertia: sp.Matrix
+    rotation: sp.Matrix | None = None
+    omega_frame: str = "base"  # base | link: the frame of omega and inertia, for the report
+
+
+@dataclass
+class Robot:
+    """Generalized coordinates q (velocities dq, accelerations ddq), bodies and the non-body terms.
+
+    Model: B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u, with B from T = Σ T_i + T_extra = ½ q̇ᵀ B q̇ and
+    U = -Σ m_i g₀ᵀ p_ci + U_extra.
+    """
+
+    q: list[sp.Symbol]
+    dq: list[sp.Symbol]
+    ddq: list[sp.Symbol]
+    joints: list[str]
+    bodies: list[Body] = field(default_factory=list)
+    gravity: sp.Matrix | None = None
+    kinetic_extra: list[sp.Expr] = field(default_factory=list)
+    potential_extra: list[sp.Expr] = field(default_factory=list)
+    friction: sp.Matrix | None = None
+    input_map: sp.Matrix | None = None
+    inputs: list[sp.Symbol] = field(default_factory=list)
+    given_B: sp.Matrix | None = None
+    given_U: sp.Expr | None = None
+    given_g: sp.Matrix | None = None
+    given_c: sp.Matrix | None = None
+
+    @property
+    def n(self) -> int:
+        return len(self.q)
+
+    def qv(self) -> sp.Matrix:
+        return sp.Matrix(self.q)
+
+    def dqv(self) -> sp.Matrix:
+        return sp.Matrix(self.dq)
+
+    def ddqv(self) -> sp.Matrix:
+        return sp.Matrix(self.ddq)
+
+    def time_derivative(self, expr: sp.Expr | sp.Matrix) -> sp.Expr | sp.Matrix:
+        """d/dt of a function of (q, q̇): Σ ∂/∂q_k q̇_k + ∂/∂q̇_k q̈_k."""
+        return sum((sp.diff(expr, qk) * dqk for qk, dqk in zip(self.q, self.dq)), sp.zeros(*expr.shape)
+                   if isinstance(expr, sp.MatrixBase) else sp.Integer(0)) + \
+            sum((sp.diff(expr, dqk) * ddqk for dqk, ddqk in zip(self.dq, self.ddq)),
+                sp.zeros(*expr.shape) if isinstance(expr, sp.MatrixBase) else sp.Integer(0))

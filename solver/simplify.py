@@ -1,0 +1,188 @@
+"""Teacher-style simplification of manipulator formulas.
+
+Dynamics expressions are trigonometric polynomials: sums of products of sin/cos of linear combinations of
+angles, with polynomial coefficients in the parameters, prismatic coordinates and velocities. Writing
+cos(x) = (z + 1/z)/2 and sin(x) = (z - 1/z)/(2i) with z = e^{ix} for every angle turns such an expression into a
+Laurent polynomial in the z's, whose collected form is unique. Pairing the monomials z^k and z^{-k} gives the
+canonical Fourier form
+
+    f = a_0 + sum_k ( a_k cos(k.x) + b_k sin(k.x) ),
+
+which is what a teacher prints (c_2, c_{23}, s_{12} rather than products), with each coefficient factored.
+Because the form is canonical, f == 0 exactly when the canonical form of f is 0 (no false zeros from numerics).
+Expressions outside this class (rational in trig functions, tan, atan2, ...) fall back to sympy's simplifiers.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Iterable
+
+import sympy as sp
+
+_TRIG = (sp.sin, sp.cos)
+
+
+class NotTrigPolynomial(Exception):
+    """The expression is not a polynomial in sin/cos of integer combinations of angles."""
+
+
+def angle_symbols(expr: sp.Expr) -> list[sp.Symbol]:
+    """Symbols appearing inside sin/cos arguments, sorted by name."""
+    found: set[sp.Symbol] = set()
+    for f in expr.atoms(sp.sin, sp.cos):
+        found |= f.args[0].free_symbols
+    return sorted(found, key=lambda s: s.name)
+
+
+def _linear(arg: sp.Expr, angles: list[sp.Symbol]) -> tuple[tuple[int, ...], sp.Expr]:
+    """arg = k.x + b with integer k and constant b, or NotTrigPolynomial."""
+    poly = sp.Poly(arg, *angles) if angles else None
+    if poly is None or poly.total_degree() > 1:
+        raise NotTrigPolynomial(arg)
+    k = []
+    for x in angles:
+        c = poly.coeff_monomial(x)
+        if not (c.is_Integer):
+            raise NotTrigPolynomial(arg)
+        k.append(int(c))
+    b = poly.coeff_monomial(1)
+    if b.free_symbols:
+        raise NotTrigPolynomial(arg)
+    return tuple(k), b
+
+
+def _fourier(expr: sp.Expr) -> sp.Expr:
+    """Canonical Fourier form of a trigonometric polynomial (see module doc)."""
+    angles = angle_symbols(expr)
+    if not angles:
+        return _nice(sp.expand(expr))
+    if expr.atoms(sp.tan, sp.cot, sp.sec, sp.csc, sp.atan2, sp.asin, sp.acos, sp.atan, sp.Abs, sp.sign):
+        raise NotTrigPolynomial(expr)
+    zs = [sp.Dummy(f"z_{x.name}") for x in angles]
+
+    def expo(k: tuple[int, ...], b: sp.Expr, sign: int) -> sp.Expr:
+        mono = sp.Mul(*[z ** (sign * kj) for z, kj in zip(zs, k)])
+        phase = sp.cos(b) + sign * sp.I * sp.sin(b) if b != 0 else sp.Integer(1)
+        return mono * phase
+
+    def sub(f: sp.Expr) -> sp.Expr:
+        k, b = _linear(f.args[0], angles)
+        if isinstance(f, sp.cos):
+            return (expo(k, b, 1) + expo(k, b, -1)) / 2
+        return (expo(k, b, 1) - expo(k, b, -1)) / (2 * sp.I)
+
+    laurent = sp.expand(expr.replace(lambda e: isinstance(e, _TRIG), sub))
+    zset = set(zs)
+    coeffs: dict[tuple[int, ...], list[sp.Expr]] = {}
+    for term in sp.Add.make_args(laurent):
+        k = [0] * len(zs)
+        rest = []
+        for fac in sp.Mul.make_args(term):
+            base, e = fac.as_base_exp()
+            if base in zset and e.is_Integer:
+                k[zs.index(base)] += int(e)
+            elif fac.free_symbols & zset:
+                raise NotTrigPolynomial(expr)
+            else:
+                rest.append(fac)
+        coeffs.setdefault(tuple(k), []).append(sp.Mul(*rest))
+    out = []
+    mixed = any(v < 0 or v > 1 for k in coeffs for v in k if k and next((x for x in k if x), 0) > 0)
+    done: set[tuple[int, ...]] = set()
+    for k in sorted(coeffs, key=lambda t: (sum(abs(v) for v in t), [-abs(v) for v in t], t)):
+        if k in done:
+            continue
+        neg = tuple(-v for v in k)
+        done |= {k, neg}
+        ck = sp.Add(*coeffs[k])
+        if not any(k):
+            out.append(_nice(sp.expand(ck)))
+            continue
+        if next(v for v in k if v) < 0:
+            k, neg = neg, k
+            ck = sp.Add(*coeffs[k])
+        cn = sp.Add(*coeffs.get(neg, []))
+        a = sp.expand(ck + cn)
+        b = sp.expand(sp.I * (ck - cn))
+        if a.has(sp.I) or b.has(sp.I):
+            raise NotTrigPolynomial(expr)
+        theta = sum((kj * x for kj, x in zip(k, angles)), sp.Integer(0))
+        if a != 0:
+            out.append(_nice(a) * sp.cos(theta))
+        if b != 0:
+            out.append(_nice(b) * sp.sin(theta))
+    fourier = sp.Add(*out)
+    if mixed:
+        product = _product_form(fourier, angles)
+        if sp.count_ops(product) < sp.count_ops(fourier):
+            return product
+    return fourier
+
+
+def _product_form(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
+    """Sum over monomials in sin/cos of single angles (c1 c2, s2^2, ...), coefficients factored."""
+    e = sp.expand(sp.expand_trig(expr))
+    groups: dict[sp.Expr, list[sp.Expr]] = {}
+    for term in sp.Add.make_args(e):
+        trig, rest = [], []
+        for fac in sp.Mul.make_args(term):
+            (trig if fac.has(*angles) and fac.atoms(sp.sin, sp.cos) else rest).append(fac)
+        groups.setdefault(sp.Mul(*trig), []).append(sp.Mul(*rest))
+    return sp.Add(*[_nice(sp.Add(*c)) * t for t, c in groups.items()])
+
+
+def _nice(c: sp.Expr) -> sp.Expr:
+    """A coefficient as a teacher writes it: factored when that is shorter, else expanded."""
+    if c.is_number or c.is_Symbol:
+        return c
+    f = sp.factor(c)
+    return f if sp.count_ops(f) < sp.count_ops(c) else c
+
+
+@lru_cache(maxsize=20000)
+def tidy(expr: sp.Expr) -> sp.Expr:
+    """Simplify ``expr`` to the compact form a teacher prints (canonical for trigonometric polynomials)."""
+    expr = sp.sympify(expr)
+    if expr.is_number:
+        return sp.nsimplify(expr) if expr.is_Float else sp.simplify(expr)
+    if not expr.free_symbols:
+        return expr
+    try:
+        return _fourier(expr)
+    except NotTrigPolynomial:
+        pass
+    num, den = sp.fraction(sp.together(expr))
+    if den != 1:
+        try:
+            n, d = _fourier(num), _fourier(den)
+            if not angle_symbols(n / d):
+                return sp.factor(n / d)
+            return n / d
+        except NotTrigPolynomial:
+            pass
+    try:
+        return sp.trigsimp(sp.simplify(expr))
+    except Exception:  # pragma: no cover - sympy internals
+        return expr
+
+
+def tidy_matrix(m: sp.Matrix) -> sp.Matrix:
+    """:func:`tidy` applied entry by entry."""
+    return m.applyfunc(tidy)
+
+
+def is_zero(expr: sp.Expr) -> bool | None:
+    """Exact zero test for trigonometric polynomials; None when the canonical form does not decide."""
+    try:
+        return _fourier(sp.sympify(expr)) == 0
+    except NotTrigPolynomial:
+        num, _ = sp.fraction(sp.together(expr))
+        try:
+            return _fourier(num) == 0
+        except NotTrigPolynomial:
+            return None
+
+
+def symbols_sorted(symbols: Iterable[sp.Symbol]) -> list[sp.Symbol]:
+    """Symbols in a stable order (by name)."""
+    return sorted(symbols, key=lambda s: s.name)

@@ -1,0 +1,20 @@
+"""Solving a problem: run each ask's registered solver in order."""
+from __future__ import annotations
+
+from .problem import Problem
+from .registry import load_all
+from .results import Solution
+
+
+def solve_problem(problem: Problem) -> list[Solution]:
+    """One :class:`Solution` per ask of ``problem``."""
+    kinds = load_all()
+    return [kinds[a.kind].solve(problem, a.options, a.ctx) for a in problem.asks]
+
+
+def all_results(solutions: list[Solution]) -> dict:
+    """Results of every ask, by name (a later ask's result of the same name wins)."""
+    out = {}
+    for s in solutions:
+        out.update(s.results)
+    return out

@@ -1,0 +1,499 @@
+"""The spec format: pydantic models (validation, JSON Schema) and the loader that turns a YAML spec into a
+:class:`~solver.problem.Problem` with every expression parsed by the allow-list parser.
+
+Every error is a :class:`~solver.errors.UserError` with file:line:column, what is wrong and how to fix it.
+"""
+from __future__ import annotations
+
+import difflib
+import re
+from functools import lru_cache
+from pathlib import Path
+from typing import Annotated, Any, Literal, Optional, Union
+
+import sympy as sp
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
+
+from . import expr as exprmod
+from .errors import ExprError, Place, UserError
+from .kinematics import dh_chain, omega_from_rotation
+from .problem import Ask, AskContext, Problem
+from .registry import load_all
+from .robot import Body, Robot
+from .simplify import tidy
+from .yamlpos import Located, PathT, load_file, load_text
+
+Scalar = Union[str, int, float]
+ExprT = Union[str, int, float, list[Any]]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Source(Strict):
+    file: str = Field(description="seed file the exercise comes from")
+    lines: Optional[list[int]] = Field(None, description="[first, last] line of the exercise in that file")
+
+
+class SymbolInfo(Strict):
+    meaning: str = Field(description="what the symbol is (shown in reports)")
+    sign: Literal["positive", "nonnegative", "real", "nonzero", "negative"] = Field(
+        "positive", description="assumption on the symbol's value (default: real and positive)")
+    latex: Optional[str] = Field(None, description="LaTeX name, e.g. 'I_{2,xx}' (default: derived from the name)")
+
+
+class Link(Strict):
+    """A body in explicit form: what exam solutions write down."""
+
+    name: Optional[str] = Field(None, description="label in the report (default: link i)")
+    mass: Scalar = Field(0, description="mass m_i")
+    com: ExprT = Field(description="CoM position p_ci(q) in the base frame, 2 (planar) or 3 components")
+    angle: Optional[Scalar] = Field(None, description="planar: absolute orientation of the body in the plane (ω = d(angle)/dt about z)")
+    rotation: Optional[ExprT] = Field(None, description="spatial: rotation matrix ⁰R_i(q) of the body frame; inertia then in body frame")
+    omega: Optional[ExprT] = Field(None, description="spatial: angular velocity (linear in dq), in the frame of `inertia`")
+    inertia: ExprT = Field(0, description="barycentric inertia: scalar (about the plane normal), [Ixx, Iyy, Izz] or a 3x3 tensor")
+
+
+class DHRow(Strict):
+    a: Scalar = 0
+    alpha: Scalar = 0
+    d: Scalar = 0
+    theta: Scalar = 0
+
+
+class DHLink(Strict):
+    name: Optional[str] = None
+    mass: Scalar = Field(0, description="mass m_i")
+    com: ExprT = Field([0, 0, 0], description="CoM position in frame i (3 components)")
+    inertia: ExprT = Field(0, description="barycentric inertia in frame i: [Ixx, Iyy, Izz], 3x3, or scalar Izz")
+
+
+class DH(Strict):
+    convention: Literal["standard", "modified"] = Field("standard", description="standard (distal) or modified (Craig) DH")
+    table: list[DHRow] = Field(description="one row per joint: a, alpha, d, theta (joint variables q_i inside)")
+    links: list[DHLink] = Field(description="inertial data of each link, in its own DH frame")
+    base: Optional[ExprT] = Field(None, description="optional 4x4 transform from the world frame to frame 0")
+
+
+class Extra(Strict):
+    kinetic: list[Scalar] = Field([], description="added kinetic energy terms, quadratic in the velocities (motor rotors)")
+    potential: list[Scalar] = Field([], description="added potential energy terms (springs of elastic joints)")
+
+
+class Friction(Strict):
+    viscous: Optional[ExprT] = Field(None, description="viscous friction F_v: list (diagonal) or n x n matrix; adds F_v q̇")
+
+
+class GivenModel(Strict):
+    B: Optional[ExprT] = Field(None, description="inertia matrix B(q)")
+    U: Optional[Scalar] = Field(None, description="potential energy U(q)")
+    g: Optional[ExprT] = Field(None, description="gravity vector g(q)")
+    c: Optional[ExprT] = Field(None, description="Coriolis/centrifugal vector c(q, dq), if given instead of derived")
+
+
+class RobotSpec(Strict):
+    joints: list[Literal["R", "P"]] = Field(description="joint types in order; coordinates q1..qn")
+    coordinates: Optional[list[str]] = Field(
+        None, description="names of all generalized coordinates (default q1..qn); velocities d<name>, accelerations dd<name>")
+    gravity: Optional[ExprT] = Field(None, description="gravity acceleration vector g0 in the base frame, e.g. [0, -g0, 0]; U = -Σ m_i g0ᵀ p_ci")
+    links: Optional[list[Link]] = Field(None, description="explicit bodies")
+    dh: Optional[DH] = Field(None, description="bodies from a DH table")
+    extra: Optional[Extra] = None
+    friction: Optional[Friction] = None
+    input_map: Optional[ExprT] = Field(None, description="G(q): generalized forces = G u (default identity)")
+    inputs: Optional[list[str]] = Field(None, description="names of the inputs u (default u1..um)")
+    model: Optional[GivenModel] = Field(None, description="model given directly instead of (or besides) bodies")
+
+
+class SpecBase(Strict):
+    id: str = Field(description="unique id, e.g. 2004-03-25-ex1")
+    title: str = Field(description="one-line title")
+    source: Optional[Source] = None
+    topics: list[str] = Field([], description="topic tags")
+    statement: str = Field("", description="the problem text, Markdown with $...$ math")
+    symbols: dict[str, Union[str, SymbolInfo]] = Field(
+        {}, description="every parameter with its meaning; real and positive unless `sign` says otherwise")
+    values: dict[str, Scalar] = Field({}, description="numeric values of parameters, for numeric results")
+    robot: Optional[RobotSpec] = None
+    known: list[str] = Field([], description="quantities taken as known (kinematic data), vs. dynamic parameters")
+    expected: dict[str, Any] = Field({}, description="printed results for `robosolve verify` (see docs/spec.md)")
+    grading: Optional[dict[str, Any]] = Field(None, description="grading options (see docs/grading.md)")
+    notes: str = Field("", description="free notes: assumptions, reconstruction of lost figures, errata")
+
+
+@lru_cache(maxsize=1)
+def spec_model() -> type[BaseModel]:
+    """The Spec model with `asks` as the union of every registered ask kind's options."""
+    kinds = load_all()
+    models = tuple(k.options for k in kinds.values())
+    item = Annotated[Union[models], Field(discriminator="kind")] if len(models) > 1 else models[0]
+    return create_model("Spec", __base__=SpecBase,
+                        asks=(list[item], Field(description="what is asked, in order")))  # type: ignore[valid-type]
+
+
+def json_schema() -> dict[str, Any]:
+    """JSON Schema of the spec format."""
+    schema = spec_model().model_json_schema()
+    schema["title"] = "robosolve problem spec"
+    return schema
+
+
+# ---------------------------------------------------------------------------------------------------
+_RESERVED = set(exprmod.FUNCTIONS) | set(exprmod.CONSTANTS)
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+_ASSUME = {"positive": {"positive": True}, "nonnegative": {"nonnegative": True}, "real": {"real": True},
+           "nonzero": {"real": True, "nonzero": True}, "negative": {"negative": True}}
+
+
+def latex_of(name: str) -> str:
+    """LaTeX for a plain name: m2 -> m_{2}, I2xx -> I_{2xx}, theta1 -> \\theta_{1}, d_c2 -> d_{c2}."""
+    if "_" in name:
+        head, tail = name.split("_", 1)
+        return f"{latex_of(head)}_{{{tail.replace('_', ',')}}}"
+    m = re.fullmatch(r"([A-Za-z]+?)(\d.*)?", name)
+    head, tail = (m.group(1), m.group(2)) if m else (name, None)
+    if head in exprmod.GREEK:
+        head = "\\" + head
+    elif len(head) > 1 and not tail:
+        return sp.latex(sp.Symbol(name))
+    return f"{head}_{{{tail}}}" if tail else head
+
+
+def _pyd_message(err: dict[str, Any]) -> tuple[str, str | None]:
+    typ, loc = err["type"], err["loc"]
+    field = str(loc[-1]) if loc else "spec"
+    if typ == "missing":
+        return f"missing field '{field}'", f"add '{field}:' here (see docs/spec.md)"
+    if typ == "extra_forbidden":
+        return f"unknown field '{field}'", None
+    if typ in ("literal_error", "enum"):
+        return f"'{field}': {err['msg'].lower()}", None
+    if typ == "union_tag_invalid" or typ == "union_tag_not_found":
+        kinds = ", ".join(sorted(load_all()))
+        return "unknown or missing ask kind", f"use one of: {kinds}"
+    return f"'{field}': {err['msg']}", None
+
+
+class SpecLoader:
+    """Turns located YAML data into a Problem; every expression is parsed with positions for errors."""
+
+    def __init__(self, located: Located) -> None:
+        self.loc = located
+        self.file = located.file
+
+    # -- errors ------------------------------------------------------------------------------------
+    def fail(self, path: PathT, message: str, hint: str | None = None) -> UserError:
+        return UserError(message, self.loc.place(path), hint)
+
+    def get(self, path: PathT) -> Any:
+        node = self.loc.data
+        for k in path:
+            node = node[k]
+        return node
+
+    def parse_at(self, path: PathT, names: dict[str, sp.Expr] | None = None) -> Any:
+        """Parse the value at ``path`` (a string, a number or a YAML list of them)."""
+        names = self.names if names is None else names
+        value = self.get(path)
+        if isinstance(value, list):
+            return [self.parse_at(path + (i,), names) for i in range(len(value))]
+        try:
+            return exprmod.parse(value, names)
+        except ExprError as exc:
+            place, shift = self.loc.text_offset(path)
+            col = place.col + shift + exc.col - 1 if place.col and exc.col else place.col
+            raise UserError(exc.message, Place(place.file, place.line, col), exc.hint) from None
+
+    def matrix_at(self, path: PathT, shape: tuple[int, int] | None = None, what: str = "matrix") -> sp.Matrix:
+        val = self.parse_at(path)
+        shp = exprmod.shape_of(val)
+        try:
+            M = exprmod.to_matrix(val)
+        except ExprError:
+            raise self.fail(path, f"{what} has rows of different lengths", "write [[a, b], [c, d]]") from None
+        if len(shp) == 1:
+            M = sp.Matrix(val)
+        if shape and M.shape != shape:
+            raise self.fail(path, f"{what} must be {shape[0]}x{shape[1]}, got {M.shape[0]}x{M.shape[1]}")
+        return M
+
+    def vector_at(self, path: PathT, sizes: tuple[int, ...], what: str) -> sp.Matrix:
+        val = self.parse_at(path)
+        shp = exprmod.shape_of(val)
+        if len(shp) != 1 or shp[0] not in sizes:
+            want = " or ".join(str(s) for s in sizes)
+            raise self.fail(path, f"{what} must be a vector of {want} components, got shape {shp or 'scalar'}",
+                            "write [x, y, z]")
+        v = list(val) + [sp.Integer(0)] * (3 - len(val)) if 3 in sizes else list(val)
+        return sp.Matrix(v)
+
+    def scalar_at(self, path: PathT, what: str) -> sp.Expr:
+        val = self.parse_at(path)
+        if isinstance(val, list):
+            raise self.fail(path, f"{what} must be a single expression, got a list")
+        return val
+
+    # -- building ------------------------------------------------------------------------------------
+    def load(self) -> Problem:
+        data = self.loc.data
+        if not isinstance(data, dict):
+            raise self.fail((), "a spec must be a mapping (id:, title:, robot:, asks: ...)",
+                            "start from an example in problems/")
+        try:
+            spec = spec_model().model_validate(data)
+        except ValidationError as exc:
+            errors = exc.errors()
+            err = errors[0]
+            path = self._data_path(err["loc"])
+            msg, hint = _pyd_message(err)
+            if err["type"] == "extra_forbidden":
+                fields = self._fields_for(path[:-1])
+                close = difflib.get_close_matches(str(path[-1]), fields, n=1) if fields else []
+                hint = f"did you mean '{close[0]}'?" if close else (
+                    f"allowed fields: {', '.join(fields)}" if fields else "remove it")
+            more = f" (and {len(errors) - 1} more problem(s))" if len(errors) > 1 else ""
+            raise self.fail(path, msg + more, hint) from None
+        self.spec = spec
+        self._symbols(spec)
+        robot = self._robot(spec.robot) if spec.robot else None
+        values = {}
+        for name in spec.values:
+            if name not in self.symbols:
+                raise self.fail(("values", name), f"value for undeclared symbol '{name}'", "declare it under symbols:")
+            v = self.scalar_at(("values", name), "a value")
+            if v.free_symbols:
+                raise self.fail(("values", name), f"value of '{name}' must be a number", "write e.g. 0.5 or pi/4")
+            values[self.symbols[name]] = v
+        known = []
+        for i, k in enumerate(spec.known):
+            if k not in self.names:
+                raise self.fail(("known", i), f"unknown name '{k}' in known:", "declare it under symbols:")
+            known.append(self.names[k])
+        asks = [Ask(opt.kind, opt, AskContext(("asks", i), self.parse_at)) for i, opt in enumerate(spec.asks)]
+        prob = Problem(
+            id=spec.id, title=spec.title, statement=spec.statement,
+            source=spec.source.model_dump() if spec.source else None,
+            symbols=self.symbols, meanings=self.meanings, names=self.names, latex_names=self.latex_names,
+            values=values, known=known, robot=robot, asks=asks, expected=spec.expected, located=self.loc,
+            file=self.file, topics=spec.topics, notes=spec.notes, parse_at=self.parse_at)
+        return prob
+
+    def _data_path(self, loc: tuple[Any, ...]) -> PathT:
+        """Pydantic's loc without union tags: the path into the YAML data."""
+        node, path = self.loc.data, []
+        for k in loc:
+            if isinstance(node, dict) and k in node:
+                node, path = node[k], path + [k]
+            elif isinstance(node, list) and isinstance(k, int) and k < len(node):
+                node, path = node[k], path + [k]
+            elif isinstance(node, dict) and isinstance(k, str) and k not in node and k == loc[-1]:
+                path.append(k)
+        return tuple(path)
+
+    def _fields_for(self, path: PathT) -> list[str]:
+        model: Any = spec_model()
+        node = self.loc.data
+        for k in path:
+            node = node[k]
+            if isinstance(k, int):
+                continue
+            field = model.model_fields.get(k) if hasattr(model, "model_fields") else None
+            if field is None:
+                return []
+            model = _inner_model(field.annotation, node)
+        return list(model.model_fields) if hasattr(model, "model_fields") else []
+
+    def _symbols(self, spec: SpecBase) -> None:
+        robot = spec.robot
+        n = len(robot.joints) if robot else 0
+        coords = robot.coordinates if robot and robot.coordinates else [f"q{i + 1}" for i in range(n)]
+        if robot and len(coords) < n:
+            raise self.fail(("robot", "coordinates"), f"{len(coords)} coordinates for {n} joints",
+                            "list one name per joint, then any extra (motor) coordinates")
+        self.names: dict[str, sp.Expr] = {}
+        self.latex_names: dict[sp.Symbol, str] = {}
+        self.coords = []
+        for c in coords:
+            q, dq, ddq = sp.Symbol(c, real=True), sp.Symbol("d" + c, real=True), sp.Symbol("dd" + c, real=True)
+            self.coords.append((q, dq, ddq))
+            lx = latex_of(c)
+            self.latex_names.update({q: lx, dq: f"\\dot{{{lx.split('_')[0]}}}" + lx[len(lx.split('_')[0]):],
+                                     ddq: f"\\ddot{{{lx.split('_')[0]}}}" + lx[len(lx.split('_')[0]):]})
+            for s in (q, dq, ddq):
+                self.names[s.name] = s
+        self.symbols: dict[str, sp.Symbol] = {}
+        self.meanings: dict[str, str] = {}
+        for name, info in spec.symbols.items():
+            path = ("symbols", name)
+            if not _NAME.match(name):
+                raise self.fail(path, f"'{name}' is not a valid symbol name", "use letters, digits and _ (m1, I_2xx)")
+            if name in _RESERVED:
+                raise self.fail(path, f"'{name}' is a reserved name (function or constant)", "choose another name")
+            if name in self.names:
+                raise self.fail(path, f"'{name}' is a generalized coordinate/velocity, already defined",
+                                "remove it from symbols:")
+            meta = info if isinstance(info, SymbolInfo) else SymbolInfo(meaning=info)
+            s = sp.Symbol(name, **_ASSUME[meta.sign])
+            self.symbols[name] = s
+            self.names[name] = s
+            self.meanings[name] = meta.meaning
+            self.latex_names[s] = meta.latex or latex_of(name)
+        inputs = robot.inputs if robot and robot.inputs else []
+        for u in inputs:
+            s = sp.Symbol(u, real=True)
+            self.names.setdefault(u, s)
+            self.latex_names[s] = latex_of(u)
+
+    def _robot(self, r: RobotSpec) -> Robot:
+        q = [c[0] for c in self.coords]
+        dq = [c[1] for c in self.coords]
+        ddq = [c[2] for c in self.coords]
+        n = len(q)
+        P = ("robot",)
+        robot = Robot(q=q, dq=dq, ddq=ddq, joints=list(r.joints))
+        if r.gravity is not None:
+            robot.gravity = self.vector_at(P + ("gravity",), (2, 3), "gravity")
+        if r.links and r.dh:
+            raise self.fail(P + ("dh",), "give either links: (explicit) or dh:, not both")
+        if r.links:
+            robot.bodies = [self._explicit(P + ("links", i), lk, q, dq, i) for i, lk in enumerate(r.links)]
+        if r.dh:
+            robot.bodies = self._dh(P + ("dh",), r.dh, q, dq, len(r.joints))
+        if r.extra:
+            robot.kinetic_extra = [self.scalar_at(P + ("extra", "kinetic", i), "a kinetic term")
+                                   for i in range(len(r.extra.kinetic))]
+            robot.potential_extra = [self.scalar_at(P + ("extra", "potential", i), "a potential term")
+                                     for i in range(len(r.extra.potential))]
+        if r.friction and r.friction.viscous is not None:
+            path = P + ("friction", "viscous")
+            v = self.parse_at(path)
+            shp = exprmod.shape_of(v)
+            if shp == (n,):
+                robot.friction = sp.diag(*v)
+            elif shp == (n, n):
+                robot.friction = sp.Matrix(v)
+            elif shp == ():
+                robot.friction = v * sp.eye(n)
+            else:
+                raise self.fail(path, f"viscous friction must be a list of {n} or a {n}x{n} matrix, got shape {shp}")
+        if r.input_map is not None:
+            G = self.matrix_at(P + ("input_map",), None, "input_map")
+            if G.shape[0] != n:
+                raise self.fail(P + ("input_map",), f"input_map must have {n} rows (one per coordinate), got {G.shape[0]}")
+            robot.input_map = G
+        m = robot.input_map.shape[1] if robot.input_map is not None else n
+        names = r.inputs or [f"u{i + 1}" for i in range(m)]
+        if len(names) != m:
+            raise self.fail(P + ("inputs",), f"{len(names)} input names for {m} inputs")
+        robot.inputs = [sp.Symbol(u, real=True) for u in names]
+        for u in robot.inputs:
+            self.latex_names.setdefault(u, latex_of(u.name))
+        if r.model:
+            M = P + ("model",)
+            if r.model.B is not None:
+                robot.given_B = self.matrix_at(M + ("B",), (n, n), "B")
+                if (robot.given_B - robot.given_B.T).applyfunc(tidy) != sp.zeros(n, n):
+                    raise self.fail(M + ("B",), "B(q) must be symmetric")
+            if r.model.U is not None:
+                robot.given_U = self.scalar_at(M + ("U",), "U")
+            if r.model.g is not None:
+                robot.given_g = self.vector_at(M + ("g",), (n,), "g")
+            if r.model.c is not None:
+                robot.given_c = self.vector_at(M + ("c",), (n,), "c")
+        if not robot.bodies and robot.given_B is None and not robot.kinetic_extra:
+            raise self.fail(P, "the robot has no bodies and no model",
+                            "add links: (explicit), dh: (DH table) or model: {B: ...}")
+        return robot
+
+    def _inertia(self, path: PathT, what: str) -> sp.Matrix:
+        val = self.parse_at(path)
+        shp = exprmod.shape_of(val)
+        if shp == ():
+            return sp.diag(0, 0, val)
+        if shp == (3,):
+            return sp.diag(*val)
+        if shp == (3, 3):
+            M = sp.Matrix(val)
+            if M != M.T:
+                raise self.fail(path, f"{what} must be symmetric")
+            return M
+        raise self.fail(path, f"{what} must be a scalar, [Ixx, Iyy, Izz] or a 3x3 matrix, got shape {shp}")
+
+    def _explicit(self, path: PathT, lk: Link, q: list, dq: list, i: int) -> Body:
+        mass = self.scalar_at(path + ("mass",), "mass")
+        com = self.vector_at(path + ("com",), (2, 3), "com")
+        inertia = self._inertia(path + ("inertia",), "inertia")
+        given = [k for k in ("angle", "rotation", "omega") if getattr(lk, k) is not None]
+        if len(given) > 1:
+            raise self.fail(path + (given[1],), f"give only one of angle/rotation/omega (got {', '.join(given)})")
+        rotation, frame = None, "base"
+        if lk.angle is not None:
+            ang = self.scalar_at(path + ("angle",), "angle")
+            omega = sp.Matrix([0, 0, sum((sp.diff(ang, qk) * dqk for qk, dqk in zip(q, dq)), sp.Integer(0))])
+        elif lk.rotation is not None:
+            rotation = self.matrix_at(path + ("rotation",), (3, 3), "rotation")
+            omega = omega_from_rotation(rotation, q, dq, "link")
+            frame = "link"
+        elif lk.omega is not None:
+            omega = self.vector_at(path + ("omega",), (3,), "omega")
+            if any(sp.diff(omega, a, 2) != sp.zeros(3, 1) for a in dq) or omega.subs({a: 0 for a in dq}) != sp.zeros(3, 1):
+                raise self.fail(path + ("omega",), "omega must be linear in the velocities (dq1, dq2, ...)")
+            frame = "link"
+        else:
+            nz = inertia != sp.zeros(3, 3)
+            if nz:
+                raise self.fail(path + ("inertia",), "a body with inertia needs angle:, rotation: or omega:",
+                                "for a planar link give angle: (its absolute orientation, e.g. q1 + q2)")
+            omega = sp.zeros(3, 1)
+        return Body(lk.name or f"link {i + 1}", mass, com, omega, inertia, rotation, frame)
+
+    def _dh(self, path: PathT, dh: DH, q: list, dq: list, nj: int) -> list[Body]:
+        if len(dh.table) != nj:
+            raise self.fail(path + ("table",), f"DH table has {len(dh.table)} rows for {nj} joints")
+        if len(dh.links) != nj:
+            raise self.fail(path + ("links",), f"{len(dh.links)} DH links for {nj} joints")
+        rows = [tuple(self.scalar_at(path + ("table", i, k), k) for k in ("a", "alpha", "d", "theta"))
+                for i in range(nj)]
+        frames = dh_chain(rows, dh.convention)  # type: ignore[arg-type]
+        if dh.base is not None:
+            base = self.matrix_at(path + ("base",), (4, 4), "base")
+            frames = [(base * A).applyfunc(tidy) for A in frames]
+        bodies = []
+        for i, lk in enumerate(dh.links):
+            lp = path + ("links", i)
+            A = frames[i]
+            R, p = A[:3, :3], A[:3, 3]
+            r = self.vector_at(lp + ("com",), (3,), "com")
+            com = (p + R * r).applyfunc(tidy)
+            omega = omega_from_rotation(R, q, dq, "link")
+            bodies.append(Body(lk.name or f"link {i + 1}", self.scalar_at(lp + ("mass",), "mass"), com, omega,
+                               self._inertia(lp + ("inertia",), "inertia"), R, "link"))
+        return bodies
+
+
+def _inner_model(annotation: Any, node: Any) -> Any:
+    """The pydantic model inside Optional[...]/list[...] annotations (for 'did you mean' hints)."""
+    args = getattr(annotation, "__args__", None)
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for a in args or ():
+        m = _inner_model(a, node)
+        if m is not None and hasattr(m, "model_fields"):
+            if "kind" in m.model_fields and isinstance(node, dict):
+                kind_field = m.model_fields["kind"]
+                allowed = getattr(kind_field.annotation, "__args__", ())
+                if node.get("kind") not in allowed:
+                    continue
+            return m
+    return None
+
+
+def load_problem(path: str | Path) -> Problem:
+    """Load, validate and parse a spec file."""
+    return SpecLoader(load_file(path)).load()
+
+
+def load_problem_text(text: str, file: str = "<input>") -> Problem:
+    """Load a spec from text (tests, stdin)."""
+    return SpecLoader(load_text(text, file)).load()
