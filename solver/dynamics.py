@@ -16,7 +16,7 @@ from .errors import UserError
 from .registry import ask_kind
 from .results import Solution
 from .robot import Body, Robot
-from .simplify import is_zero, tidy, tidy_matrix
+from .simplify import is_zero, tidy, tidy_matrix, velocity_terms
 from .spec import Strict
 
 
@@ -158,6 +158,16 @@ def derive(robot: Robot) -> DynamicModel:
     return DynamicModel(energies, T_extra, T, B, C, c, S, skew, U_extra, U, g, Fv, G, u, lhs)
 
 
+def model_row(dm: DynamicModel, robot: Robot, i: int) -> list[sp.Expr]:
+    """Terms of the i-th equation: Σ_j b_ij q̈_j, then c_i, g_i and friction (for printing in this order)."""
+    terms = [dm.B[i, j] * a for j, a in enumerate(robot.ddq) if dm.B[i, j] != 0]
+    terms += velocity_terms(dm.c[i], robot.dq)
+    terms += [dm.g[i]] if dm.g[i] != 0 else []
+    if dm.Fv is not None:
+        terms += [dm.Fv[i, j] * robot.dq[j] for j in range(robot.n) if dm.Fv[i, j] != 0]
+    return terms
+
+
 # ------------------------------------------------------------------------------------------------
 class DynamicModelAsk(Strict):
     """Derive the Euler-Lagrange dynamic model."""
@@ -195,7 +205,14 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
         sol.add("U", dm.U, "scalar", label="U")
     sol.add("g", dm.g, "vector", label="g(q)")
     sol.add("model", dm.lhs, "vector", label="B(q)\\ddot q + c(q,\\dot q) + g(q)")
-    sol.step("model", dm=dm, show=options.show, robot=robot)
+    v = robot.dq
+    view = {
+        "vc": [[velocity_terms(x, v) for x in e.vc] for e in dm.bodies],
+        "v2": [velocity_terms(e.v2, v) for e in dm.bodies],
+        "T2": [velocity_terms(2 * e.T, v) for e in dm.bodies],
+        "rows": [model_row(dm, robot, i) for i in range(robot.n)],
+    }
+    sol.step("model", dm=dm, show=options.show, robot=robot, view=view)
     if options.at:
         state = {}
         for name in options.at:

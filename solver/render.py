@@ -2,12 +2,14 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 import json
 from pathlib import Path
 from typing import Any
 
 import jinja2
 import sympy as sp
+from sympy.printing.latex import LatexPrinter
 
 from .problem import Problem
 from .results import Result, Solution
@@ -24,11 +26,51 @@ def templates_dir() -> Path:
     raise FileNotFoundError("robosolve templates not found")
 
 
+class _Printer(LatexPrinter):
+    """LaTeX printer writing products as a teacher does: m_2 l_1 q_2 \\dot q_1 \\cos q_2 (parameters, coordinates,
+    velocities, accelerations, then functions)."""
+
+    def __init__(self, names: dict[sp.Symbol, str], rank: dict[sp.Symbol, int]) -> None:
+        super().__init__({"symbol_names": names, "fold_short_frac": False, "fold_func_brackets": True})
+        self.rank = rank
+
+    def _factor_key(self, f: sp.Expr) -> tuple:
+        base = f.as_base_exp()[0]
+        if f.is_number:
+            return (0, "")
+        if base.is_Symbol:
+            return (1 + self.rank.get(base, 0), base.name)
+        if isinstance(base, (sp.sin, sp.cos)):
+            return (6, str(f))
+        if isinstance(base, sp.Add):
+            return (1.5, str(f))
+        return (5, str(f))
+
+    def _print_Mul(self, expr: sp.Expr) -> str:
+        coeff, rest = expr.as_coeff_Mul()
+        factors = sp.Mul.make_args(rest)
+        if len(factors) < 2 or any(f.is_Pow and f.exp.is_negative for f in factors):
+            return super()._print_Mul(expr)
+        ordered = sorted(factors, key=self._factor_key)
+        body = sp.Mul(*ordered, evaluate=False)
+        old = self._settings["order"]
+        self._settings["order"] = "none"
+        try:
+            if coeff == 1:
+                return super()._print_Mul(body)
+            if coeff == -1:
+                return "- " + super()._print_Mul(body)
+            return super()._print_Mul(sp.Mul(coeff, body, evaluate=False))
+        finally:
+            self._settings["order"] = old
+
+
 class Latex:
     """sympy -> LaTeX with the problem's symbol names (q̇ as \\dot q, m2 as m_{2}, ...)."""
 
-    def __init__(self, names: dict[sp.Symbol, str]) -> None:
+    def __init__(self, names: dict[sp.Symbol, str], rank: dict[sp.Symbol, int] | None = None) -> None:
         self.names = names
+        self.printer = _Printer(names, rank or {})
 
     def __call__(self, value: Any) -> str:
         if isinstance(value, bool):
@@ -46,8 +88,55 @@ class Latex:
                 return number(value)
             if value.atoms(sp.Float):
                 value = value.xreplace({f: sp.Float(f, 4) for f in value.atoms(sp.Float)})
-            return sp.latex(value, symbol_names=self.names, fold_short_frac=False, mul_symbol=None)
+            return self.printer.doprint(value)
         return str(value)
+
+
+_TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "#": r"\#", "_": r"\_", "{": r"\{",
+                "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "$": r"\$"}
+
+
+def latex_text(text: str) -> str:
+    """Plain text made safe for LaTeX."""
+    return "".join(_TEX_SPECIAL.get(ch, ch) for ch in str(text))
+
+
+def md2tex(text: str) -> str:
+    """Markdown with $...$ math to LaTeX: math kept, **bold**/*italic*, '- ' lists, text escaped."""
+    out_lines, in_list = [], False
+    for line in str(text).strip().splitlines():
+        item = re.match(r"\s*[-*] (.*)", line)
+        if item and not in_list:
+            out_lines.append("\\begin{itemize}")
+            in_list = True
+        elif not item and in_list:
+            out_lines.append("\\end{itemize}")
+            in_list = False
+        body = item.group(1) if item else line
+        parts = re.split(r"(\$\$.*?\$\$|\$[^$]*\$)", body)
+        conv = []
+        for k, part in enumerate(parts):
+            if k % 2:
+                conv.append(part)
+            else:
+                t = latex_text(part)
+                t = re.sub(r"\*\*(.+?)\*\*", r"\\textbf{\1}", t)
+                t = re.sub(r"\*(.+?)\*", r"\\emph{\1}", t)
+                conv.append(t)
+        out_lines.append(("\\item " if item else "") + "".join(conv))
+    if in_list:
+        out_lines.append("\\end{itemize}")
+    return "\n".join(out_lines)
+
+
+def join_terms(parts: list[str]) -> str:
+    """LaTeX terms joined as a sum: 'a', '- b', 'c' -> 'a - b + c'."""
+    if not parts:
+        return "0"
+    out = parts[0]
+    for p in parts[1:]:
+        out += f" {p}" if p.lstrip().startswith("-") else f" + {p}"
+    return out
 
 
 def number(value: Any, digits: int = 4) -> str:
@@ -59,7 +148,17 @@ def number(value: Any, digits: int = 4) -> str:
     return f"{x:.{digits}g}"
 
 
-def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str]) -> jinja2.Environment:
+def ranks(problem: Problem) -> dict[sp.Symbol, int]:
+    """Printing rank of symbols: parameters 0, coordinates 1, velocities 2, accelerations 3."""
+    out: dict[sp.Symbol, int] = {}
+    if problem.robot:
+        for k, group in enumerate((problem.robot.q, problem.robot.dq, problem.robot.ddq), 1):
+            out.update({s: k for s in group})
+    return out
+
+
+def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
+         rank: dict[sp.Symbol, int] | None = None) -> jinja2.Environment:
     dirs = [str(p / fmt) for p in ([custom] if custom else []) + [templates_dir()]]
     opts: dict[str, Any] = dict(loader=jinja2.FileSystemLoader(dirs), undefined=jinja2.StrictUndefined,
                                 trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True)
@@ -67,9 +166,12 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str]) -> jinja2.E
         opts.update(block_start_string="<%", block_end_string="%>", variable_start_string="<<",
                     variable_end_string=">>", comment_start_string="<#", comment_end_string="#>")
     env = jinja2.Environment(**opts)
-    env.filters["tex"] = Latex(names)
+    env.filters["tex"] = Latex(names, rank)
     env.filters["num"] = number
+    env.filters["terms"] = lambda terms: join_terms([env.filters["tex"](t) for t in terms if t != 0])
     env.globals["sp"] = sp
+    env.filters["latex_text"] = latex_text
+    env.filters["md2tex"] = md2tex
     return env
 
 
@@ -78,7 +180,7 @@ def render(problem: Problem, solutions: list[Solution], fmt: str, fragment: bool
     """The report of ``problem`` in ``fmt`` (md | tex | json)."""
     if fmt == "json":
         return json.dumps(to_json(problem, solutions), indent=2, ensure_ascii=False) + "\n"
-    env = _env(fmt, template_dir, problem.latex_names)
+    env = _env(fmt, template_dir, problem.latex_names, ranks(problem))
     page = env.get_template(f"page.{fmt}.j2")
     return page.render(problem=problem, solutions=solutions, fragment=fragment, assets=assets or {},
                        symbols=[(problem.symbols[k], v) for k, v in problem.meanings.items()])
@@ -140,7 +242,7 @@ def _plain(obj: Any, latex: Latex) -> Any:
 
 def to_json(problem: Problem, solutions: list[Solution]) -> dict[str, Any]:
     """{"id", "title", "results": {NAME: {kind, expr, latex, value?}}, "steps": [...]}."""
-    latex = Latex(problem.latex_names)
+    latex = Latex(problem.latex_names, ranks(problem))
     results: dict[str, Any] = {}
     steps: list[Any] = []
     for sol in solutions:

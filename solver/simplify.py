@@ -186,3 +186,30 @@ def is_zero(expr: sp.Expr) -> bool | None:
 def symbols_sorted(symbols: Iterable[sp.Symbol]) -> list[sp.Symbol]:
     """Symbols in a stable order (by name)."""
     return sorted(symbols, key=lambda s: s.name)
+
+
+def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:
+    """``expr`` as terms coefficient·monomial of the velocities ``v``, highest degree first, each coefficient
+    tidied: ‖v_c‖² -> [(l1² + q2²) q̇1², 2 l1 q̇1 q̇2, q̇2²]."""
+    e = sp.expand(expr)
+    if e == 0:
+        return []
+    groups: dict[sp.Expr, list[sp.Expr]] = {}
+    vs = set(v)
+    for term in sp.Add.make_args(e):
+        mono, rest = [], []
+        for fac in sp.Mul.make_args(term):
+            (mono if fac.as_base_exp()[0] in vs else rest).append(fac)
+        groups.setdefault(sp.Mul(*mono), []).append(sp.Mul(*rest))
+
+    def key(m: sp.Expr) -> tuple:
+        degs = sp.Poly(m, *v).monoms()[0] if m != 1 else (0,) * len(v)
+        return (-sum(degs), [-d for d in degs])
+
+    out = [tidy(sp.Add(*groups[m])) * m for m in sorted(groups, key=key)]
+    return [t for t in out if t != 0]
+
+
+def collect_velocities(expr: sp.Expr, v: list[sp.Symbol]) -> sp.Expr:
+    """Sum of :func:`velocity_terms` (a sympy Add: the order is sympy's)."""
+    return sp.Add(*velocity_terms(expr, v))
