@@ -160,7 +160,15 @@ def latex_of(name: str) -> str:
     return f"{head}_{{{tail}}}" if tail else head
 
 
-def _pyd_message(err: dict[str, Any]) -> tuple[str, str | None]:
+def dotted(path: PathT) -> str:
+    """robot.links[1].com"""
+    out = ""
+    for k in path:
+        out += f"[{k}]" if isinstance(k, int) else (f".{k}" if out else str(k))
+    return out or "spec"
+
+
+def _pyd_message(err: dict[str, Any], path: PathT) -> tuple[str, str | None]:
     typ, loc = err["type"], err["loc"]
     field = str(loc[-1]) if loc else "spec"
     if typ == "missing":
@@ -168,11 +176,11 @@ def _pyd_message(err: dict[str, Any]) -> tuple[str, str | None]:
     if typ == "extra_forbidden":
         return f"unknown field '{field}'", None
     if typ in ("literal_error", "enum"):
-        return f"'{field}': {err['msg'].lower()}", None
+        return f"{dotted(path)}: {err['msg'][0].lower() + err['msg'][1:]}", None
     if typ == "union_tag_invalid" or typ == "union_tag_not_found":
         kinds = ", ".join(sorted(load_all()))
         return "unknown or missing ask kind", f"use one of: {kinds}"
-    return f"'{field}': {err['msg']}", None
+    return f"{dotted(path)}: {err['msg']}", None
 
 
 class SpecLoader:
@@ -195,7 +203,12 @@ class SpecLoader:
     def parse_at(self, path: PathT, names: dict[str, sp.Expr] | None = None) -> Any:
         """Parse the value at ``path`` (a string, a number or a YAML list of them)."""
         names = self.names if names is None else names
-        value = self.get(path)
+        try:
+            value = self.get(path)
+        except (KeyError, IndexError):
+            default = self._default(path)
+            return [exprmod.parse(v, names) for v in default] if isinstance(default, list) else \
+                exprmod.parse(default, names)
         if isinstance(value, list):
             return [self.parse_at(path + (i,), names) for i in range(len(value))]
         try:
@@ -204,6 +217,13 @@ class SpecLoader:
             place, shift = self.loc.text_offset(path)
             col = place.col + shift + exc.col - 1 if place.col and exc.col else place.col
             raise UserError(exc.message, Place(place.file, place.line, col), exc.hint) from None
+
+    def _default(self, path: PathT) -> Any:
+        """The model default of a field absent from the YAML (e.g. mass, inertia, DH a/alpha/d/theta)."""
+        defaults = {"mass": 0, "inertia": 0, "a": 0, "alpha": 0, "d": 0, "theta": 0, "com": [0, 0, 0]}
+        if path and path[-1] in defaults:
+            return defaults[path[-1]]
+        raise self.fail(path[:-1], f"missing field '{path[-1]}'")
 
     def matrix_at(self, path: PathT, shape: tuple[int, int] | None = None, what: str = "matrix") -> sp.Matrix:
         val = self.parse_at(path)
@@ -246,7 +266,7 @@ class SpecLoader:
             errors = exc.errors()
             err = errors[0]
             path = self._data_path(err["loc"])
-            msg, hint = _pyd_message(err)
+            msg, hint = _pyd_message(err, path)
             if err["type"] == "extra_forbidden":
                 fields = self._fields_for(path[:-1])
                 close = difflib.get_close_matches(str(path[-1]), fields, n=1) if fields else []

@@ -1,0 +1,46 @@
+import json
+import subprocess
+import sys
+
+from conftest import PROBLEMS, ROOT
+
+RP = str(PROBLEMS / "2004-03-25-ex1.yaml")
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "solver", *args], capture_output=True, text=True, cwd=ROOT,
+                          timeout=600)
+
+
+def test_solve_formats(tmp_path):
+    r = run("solve", RP)
+    assert r.returncode == 0 and "$$B(q) =" in r.stdout
+    r = run("solve", RP, "--format", "json")
+    assert r.returncode == 0 and "B" in json.loads(r.stdout)["results"]
+    out = tmp_path / "o" / "rp.tex"
+    r = run("solve", RP, "--format", "tex", "-o", str(out))
+    assert r.returncode == 0 and out.read_text().startswith("\\documentclass")
+
+
+def test_check_list_schema():
+    assert run("check", RP).stdout.strip().endswith("ok")
+    r = run("list", str(PROBLEMS))
+    assert r.returncode == 0 and "2004-03-25-ex1" in r.stdout and "dynamic_model" in r.stdout
+    assert "properties" in json.loads(run("schema").stdout)
+
+
+def test_user_errors_exit_2(tmp_path):
+    assert run("solve", str(tmp_path / "missing.yaml")).returncode == 2
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("id: x\ntitle: [unclosed\n")
+    r = run("check", str(bad))
+    assert r.returncode == 2 and "bad.yaml:" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_verify_exit_codes(tmp_path):
+    r = run("verify", RP)
+    assert r.returncode == 0 and "1/1 problems ok" in r.stdout
+    wrong = tmp_path / "wrong.yaml"
+    wrong.write_text(open(RP).read().replace("-m2*q2*dq1^2]", "m2*q2*dq1^2]"))
+    r = run("verify", str(wrong))
+    assert r.returncode == 1 and "FAIL" in r.stdout
