@@ -133,9 +133,12 @@ def _product_form(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
 
 def _nice(c: sp.Expr) -> sp.Expr:
     """A coefficient as a teacher writes it: factored when that is shorter, else expanded."""
-    if c.is_number or c.is_Symbol:
+    if c.is_number or c.is_Symbol or not c.is_Add:
         return c
-    f = sp.factor(c)
+    f = sp.factor_terms(c)
+    if len(c.args) <= 12:  # full factorization only where it stays cheap: (q̇1 + q̇2)(2q̇1 + q̇2)
+        g = sp.factor(f)
+        f = g if sp.count_ops(g) < sp.count_ops(f) else f
     return f if sp.count_ops(f) < sp.count_ops(c) else c
 
 
