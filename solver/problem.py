@@ -50,7 +50,3 @@ class Problem:
     topics: list[str] = field(default_factory=list)
     notes: str = ""
     parse_at: Callable[[PathT], Any] | None = None
-
-    def numeric(self, expr: Any) -> Any:
-        """``expr`` with the given parameter values substituted."""
-        return expr.subs(self.values) if self.values and hasattr(expr, "subs") else expr

@@ -47,19 +47,3 @@ class Robot:
     @property
     def n(self) -> int:
         return len(self.q)
-
-    def qv(self) -> sp.Matrix:
-        return sp.Matrix(self.q)
-
-    def dqv(self) -> sp.Matrix:
-        return sp.Matrix(self.dq)
-
-    def ddqv(self) -> sp.Matrix:
-        return sp.Matrix(self.ddq)
-
-    def time_derivative(self, expr: sp.Expr | sp.Matrix) -> sp.Expr | sp.Matrix:
-        """d/dt of a function of (q, q̇): Σ ∂/∂q_k q̇_k + ∂/∂q̇_k q̈_k."""
-        return sum((sp.diff(expr, qk) * dqk for qk, dqk in zip(self.q, self.dq)), sp.zeros(*expr.shape)
-                   if isinstance(expr, sp.MatrixBase) else sp.Integer(0)) + \
-            sum((sp.diff(expr, dqk) * ddqk for dqk, ddqk in zip(self.dq, self.ddq)),
-                sp.zeros(*expr.shape) if isinstance(expr, sp.MatrixBase) else sp.Integer(0))

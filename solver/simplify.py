@@ -15,7 +15,6 @@ Expressions outside this class (rational in trig functions, tan, atan2, ...) fal
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Iterable
 
 import sympy as sp
 
@@ -186,11 +185,6 @@ def is_zero(expr: sp.Expr) -> bool | None:
             return None
 
 
-def symbols_sorted(symbols: Iterable[sp.Symbol]) -> list[sp.Symbol]:
-    """Symbols in a stable order (by name)."""
-    return sorted(symbols, key=lambda s: s.name)
-
-
 def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:
     """``expr`` as terms coefficient·monomial of the velocities ``v``, highest degree first, each coefficient
     tidied: ‖v_c‖² -> [(l1² + q2²) q̇1², 2 l1 q̇1 q̇2, q̇2²]."""
@@ -211,8 +205,3 @@ def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:
 
     out = [tidy(sp.Add(*groups[m])) * m for m in sorted(groups, key=key)]
     return [t for t in out if t != 0]
-
-
-def collect_velocities(expr: sp.Expr, v: list[sp.Symbol]) -> sp.Expr:
-    """Sum of :func:`velocity_terms` (a sympy Add: the order is sympy's)."""
-    return sp.Add(*velocity_terms(expr, v))
