@@ -55,38 +55,17 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
 def check(specs: list[Path] = typer.Argument(..., help="spec files to validate")) -> None:
     """Validate specs without solving: 'ok' or a clear error (exit code 2)."""
     from .spec import load_problem
+    from .verify import parse_expected
     bad = 0
     for s in specs:
         try:
-            p = load_problem(s)
-            _check_expected(p)
+            parse_expected(load_problem(s))
             typer.echo(f"{s}: ok")
         except UserError as exc:
             typer.echo(str(exc), err=True)
             bad += 1
     if bad:
         raise typer.Exit(2)
-
-
-def _check_expected(problem) -> None:  # type: ignore[no-untyped-def]
-    """Parse every expected value (names must be known) without solving."""
-    from .verify import _abbreviations
-    exp = problem.expected
-    names = problem.names
-    if "where" in exp:
-        names, _ = _abbreviations(problem, ("expected", "where"), names)
-    for key, entry in exp.items():
-        if key == "where":
-            continue
-        fields = ["value", "corrected"] if isinstance(entry, dict) else [None]
-        for f in fields:
-            if f is None:
-                problem.parse_at(("expected", key), names)
-            elif f in entry:
-                lnames = names
-                if "where" in entry:
-                    lnames, _ = _abbreviations(problem, ("expected", key, "where"), names)
-                problem.parse_at(("expected", key, f), lnames)
 
 
 @app.command()

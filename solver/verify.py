@@ -80,15 +80,25 @@ def _to_value(parsed: Any, kind: str) -> Any:
     return parsed
 
 
-def check_problem(problem: Problem) -> Report:
-    """Solve ``problem`` and compare every expected value."""
-    rep = Report(problem.id, problem.file)
-    solutions = solve_problem(problem)
-    results = all_results(solutions)
+@dataclass
+class Expected:
+    """One expected entry, parsed (abbreviations expanded): the printed value and, for an erratum, the fix."""
+
+    key: str
+    line: int | None
+    printed: Any
+    corrected: Any = None
+    erratum: str | None = None
+    tol: dict[str, float] = field(default_factory=dict)
+
+
+def parse_expected(problem: Problem) -> list[Expected]:
+    """Every entry of ``expected:`` validated and parsed (no solving): what `check` and `verify` share."""
     exp = problem.expected
     names, subs = dict(problem.names), {}
     if "where" in exp:
         names, subs = _abbreviations(problem, ("expected", "where"), names)
+    out = []
     for key, entry in exp.items():
         if key == "where":
             continue
@@ -103,10 +113,6 @@ def check_problem(problem: Problem) -> Report:
             if "value" not in entry:
                 raise UserError(f"expected.{key} has no value:", problem.located.place(path), "add value: <printed>")
             vpath = path + ("value",)
-        if key not in results:
-            raise UserError(f"expected.{key}: no result of that name",
-                            problem.located.place(path), f"results of this problem: {', '.join(results)}")
-        r = results[key]
         lnames, lsubs = names, subs
         if "where" in entry:
             lnames, extra = _abbreviations(problem, path + ("where",), names)
@@ -116,17 +122,35 @@ def check_problem(problem: Problem) -> Report:
             tol["rel_tol"] = float(entry["tol"])
         if "abs_tol" in entry:
             tol["abs_tol"] = float(entry["abs_tol"])
-        printed = _to_value(_expand(problem.parse_at(vpath, lnames), lsubs), r.kind)
+        item = Expected(key, entry.get("line"), _expand(problem.parse_at(vpath, lnames), lsubs), tol=tol)
         if "erratum" in entry:
             if "corrected" not in entry:
                 raise UserError(f"expected.{key} has an erratum but no corrected: value",
                                 problem.located.place(path), "add corrected: <the right value>")
-            corrected = _to_value(_expand(problem.parse_at(path + ("corrected",), lnames), lsubs), r.kind)
-            v = equivalent(r.value, corrected, r.kind, **tol)
-            pv = equivalent(r.value, printed, r.kind, **tol)
-            rep.checks.append(Check(key, entry.get("line"), v, str(entry["erratum"]), pv.verdict == INCORRECT))
+            item.erratum = str(entry["erratum"])
+            item.corrected = _expand(problem.parse_at(path + ("corrected",), lnames), lsubs)
+        out.append(item)
+    return out
+
+
+def check_problem(problem: Problem) -> Report:
+    """Solve ``problem`` and compare every expected value."""
+    rep = Report(problem.id, problem.file)
+    expected = parse_expected(problem)
+    results = all_results(solve_problem(problem))
+    for e in expected:
+        if e.key not in results:
+            raise UserError(f"expected.{e.key}: no result of that name",
+                            problem.located.place(("expected", e.key)),
+                            f"results of this problem: {', '.join(results)}")
+        r = results[e.key]
+        printed = _to_value(e.printed, r.kind)
+        if e.erratum is not None:
+            v = equivalent(r.value, _to_value(e.corrected, r.kind), r.kind, **e.tol)
+            pv = equivalent(r.value, printed, r.kind, **e.tol)
+            rep.checks.append(Check(e.key, e.line, v, e.erratum, pv.verdict == INCORRECT))
         else:
-            rep.checks.append(Check(key, entry.get("line"), equivalent(r.value, printed, r.kind, **tol)))
+            rep.checks.append(Check(e.key, e.line, equivalent(r.value, printed, r.kind, **e.tol)))
     return rep
 
 
@@ -168,4 +192,4 @@ def describe(rep: Report) -> list[str]:
     return lines
 
 
-__all__ = ["check_problem", "verify_paths", "describe", "Report", "Check", "CORRECT"]
+__all__ = ["check_problem", "parse_expected", "Expected", "verify_paths", "describe", "Report", "Check", "CORRECT"]
