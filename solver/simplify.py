@@ -18,11 +18,9 @@ from functools import lru_cache
 
 import sympy as sp
 
+from .fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
+
 _TRIG = (sp.sin, sp.cos)
-
-
-class NotTrigPolynomial(Exception):
-    """The expression is not a polynomial in sin/cos of integer combinations of angles."""
 
 
 def angle_symbols(expr: sp.Expr) -> list[sp.Symbol]:
@@ -50,11 +48,9 @@ def _linear(arg: sp.Expr, angles: list[sp.Symbol]) -> tuple[tuple[int, ...], sp.
     return tuple(k), b
 
 
-def _fourier(expr: sp.Expr) -> sp.Expr:
-    """Canonical Fourier form of a trigonometric polynomial (see module doc)."""
-    angles = angle_symbols(expr)
-    if not angles:
-        return _nice(sp.expand(expr))
+def _laurent_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict[tuple[int, ...], tuple[sp.Expr, sp.Expr]]:
+    """{k: (a_k, b_k)} through z = e^{ix}: general (any constant offsets) but slower than
+    :func:`solver.fourier.fourier_coefficients`."""
     if expr.atoms(sp.tan, sp.cot, sp.sec, sp.csc, sp.atan2, sp.asin, sp.acos, sp.atan, sp.Abs, sp.sign):
         raise NotTrigPolynomial(expr)
     zs = [sp.Dummy(f"z_{x.name}") for x in angles]
@@ -85,34 +81,50 @@ def _fourier(expr: sp.Expr) -> sp.Expr:
             else:
                 rest.append(fac)
         coeffs.setdefault(tuple(k), []).append(sp.Mul(*rest))
-    out = []
-    mixed = any(v < 0 or v > 1 for k in coeffs for v in k if k and next((x for x in k if x), 0) > 0)
-    done: set[tuple[int, ...]] = set()
-    for k in sorted(coeffs, key=lambda t: (sum(abs(v) for v in t), [-abs(v) for v in t], t)):
-        if k in done:
+    out: dict[tuple[int, ...], tuple[sp.Expr, sp.Expr]] = {}
+    for k in coeffs:
+        if next((v for v in k if v), 1) < 0:
             continue
-        neg = tuple(-v for v in k)
-        done |= {k, neg}
         ck = sp.Add(*coeffs[k])
         if not any(k):
-            out.append(_nice(sp.expand(ck)))
+            out[k] = (sp.expand(ck), sp.Integer(0))
             continue
-        if next(v for v in k if v) < 0:
-            k, neg = neg, k
-            ck = sp.Add(*coeffs[k])
-        cn = sp.Add(*coeffs.get(neg, []))
-        a = sp.expand(ck + cn)
-        b = sp.expand(sp.I * (ck - cn))
+        cn = sp.Add(*coeffs.get(tuple(-v for v in k), []))
+        a, b = sp.expand(ck + cn), sp.expand(sp.I * (ck - cn))
         if a.has(sp.I) or b.has(sp.I):
             raise NotTrigPolynomial(expr)
+        out[k] = (a, b)
+    for k in coeffs:  # terms present only with negative k
+        neg = tuple(-v for v in k)
+        if next((v for v in k if v), 1) < 0 and neg not in out:
+            cn = sp.Add(*coeffs[k])
+            a, b = sp.expand(cn), sp.expand(-sp.I * cn)
+            if a.has(sp.I) or b.has(sp.I):
+                raise NotTrigPolynomial(expr)
+            out[neg] = (a, b)
+    return out
+
+
+def _fourier(expr: sp.Expr) -> sp.Expr:
+    """Canonical Fourier form of a trigonometric polynomial (see module doc)."""
+    angles = angle_symbols(expr)
+    try:
+        coeffs: dict = fourier_coefficients(expr, angles)
+        nice = nice_poly
+    except NotTrigPolynomial:
+        coeffs, nice = _laurent_coefficients(expr, angles), _nice
+    out = []
+    for k in sorted(coeffs, key=lambda t: (sum(abs(v) for v in t), [-abs(v) for v in t], t)):
+        a, b = coeffs[k]
         theta = sum((kj * x for kj, x in zip(k, angles)), sp.Integer(0))
-        if a != 0:
-            out.append(_nice(a) * sp.cos(theta))
-        if b != 0:
-            out.append(_nice(b) * sp.sin(theta))
+        if a:
+            out.append(nice(a) * sp.cos(theta))
+        if b:
+            out.append(nice(b) * sp.sin(theta))
     fourier = sp.Add(*out)
+    mixed = any(v < 0 or v > 1 for k in coeffs for v in k if any(k))
     if mixed:
-        product = _product_form(fourier, angles)
+        product = product_form(coeffs, angles) if nice is nice_poly else _product_form(fourier, angles)
         if sp.count_ops(product) < sp.count_ops(fourier):
             return product
     return fourier

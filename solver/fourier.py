@@ -1,0 +1,307 @@
+"""Exact arithmetic on trigonometric polynomials (the algebra behind :mod:`solver.simplify`).
+
+A trigonometric polynomial in the angles x = (x_1..x_m) is written uniquely as
+
+    f = Σ_k a_k cos(k·x) + b_k sin(k·x),   k ∈ Z^m with first non-zero entry > 0 (or k = 0, b_0 = 0),
+
+with a_k, b_k polynomials (rational coefficients) in the remaining symbols. Products follow the
+product-to-sum rules
+
+    c_a c_b = ½(c_{a-b} + c_{a+b}),  s_a s_b = ½(c_{a-b} - c_{a+b}),  s_a c_b = ½(s_{a+b} + s_{a-b}),
+
+so the canonical form of a sum of products is computed term by term on sparse polynomials (sympy's
+``PolyElement``) without ever building the expanded expression. Offsets that are multiples of π/2 are
+folded in (cos(x + π/2) = -sin x); anything else (other constants in arguments, tan, fractions, floats,
+radicals) raises :class:`NotTrigPolynomial` and the caller falls back to a slower general method.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import sympy as sp
+from sympy.polys.domains import QQ
+from sympy.polys.rings import PolyElement, PolyRing
+
+Key = tuple[tuple[int, ...], int]  # (k, 0 for cos | 1 for sin)
+TrigPoly = dict[Key, PolyElement]
+
+
+class NotTrigPolynomial(Exception):
+    """The expression is not a polynomial in sin/cos of integer combinations of angles."""
+
+
+@lru_cache(maxsize=256)
+def _ring(gens: tuple[sp.Symbol, ...]) -> PolyRing:
+    return PolyRing(gens, QQ)
+
+
+def _canon(k: tuple[int, ...], kind: int) -> tuple[Key, int] | None:
+    """Key with first non-zero entry of k positive, and the sign picked up (None: sin 0 = 0)."""
+    first = next((v for v in k if v), 0)
+    if first == 0:
+        return (((0,) * len(k), 0), 1) if kind == 0 else None
+    if first > 0:
+        return (k, kind), 1
+    return (tuple(-v for v in k), kind), (-1 if kind else 1)
+
+
+class _Algebra:
+    """Conversion of sympy expressions into :data:`TrigPoly` over one ring."""
+
+    def __init__(self, angles: list[sp.Symbol], gens: list[sp.Symbol]):
+        self.angles = angles
+        self.index = {a: i for i, a in enumerate(angles)}
+        self.R = _ring(tuple(gens))
+        self.gen = dict(zip(gens, self.R.gens))
+        self.zero_k = (0,) * len(angles)
+        self.memo: dict[sp.Expr, TrigPoly] = {}
+
+    def const(self, c: PolyElement) -> TrigPoly:
+        return {(self.zero_k, 0): c} if c else {}
+
+    def add_into(self, acc: TrigPoly, key: Key, c: PolyElement) -> None:
+        v = acc.get(key)
+        v = c if v is None else v + c
+        if v:
+            acc[key] = v
+        else:
+            acc.pop(key, None)
+
+    def mul(self, A: TrigPoly, B: TrigPoly) -> TrigPoly:
+        if len(A) > len(B):
+            A, B = B, A
+        out: TrigPoly = {}
+        half = self.R.ground_new(QQ(1, 2))
+        for (ka, ta), ca in A.items():
+            if not any(ka):  # constant: scale
+                for key, cb in B.items():
+                    self.add_into(out, key, ca * cb)
+                continue
+            for (kb, tb), cb in B.items():
+                c = ca * cb
+                if not any(kb):
+                    self.add_into(out, (ka, ta), c)
+                    continue
+                diff = tuple(a - b for a, b in zip(ka, kb))
+                summ = tuple(a + b for a, b in zip(ka, kb))
+                c = c * half
+                if ta == 0 and tb == 0:  # c_a c_b
+                    terms = ((diff, 0, 1), (summ, 0, 1))
+                elif ta == 1 and tb == 1:  # s_a s_b
+                    terms = ((diff, 0, 1), (summ, 0, -1))
+                elif ta == 1:  # s_a c_b
+                    terms = ((summ, 1, 1), (diff, 1, 1))
+                else:  # c_a s_b = ½(s_{a+b} - s_{a-b})
+                    terms = ((summ, 1, 1), (diff, 1, -1))
+                for k, kind, sign in terms:
+                    canon = _canon(k, kind)
+                    if canon is not None:
+                        key, s = canon
+                        self.add_into(out, key, c if s * sign > 0 else -c)
+        return out
+
+    def trig(self, f: sp.Expr) -> TrigPoly:
+        k = [0] * len(self.angles)
+        quarter = 0  # offset in units of π/2
+        for term, coeff in f.args[0].as_coefficients_dict().items():
+            if term in self.index and coeff.is_Integer:
+                k[self.index[term]] += int(coeff)
+            elif term is sp.pi and (2 * coeff).is_Integer:
+                quarter += int(2 * coeff)
+            else:
+                raise NotTrigPolynomial(f)
+        kind = 0 if isinstance(f, sp.cos) else 1
+        sign = 1
+        # shift by quarter·π/2: cos -> -sin -> -cos -> sin; sin -> cos -> -sin -> -cos
+        for _ in range(quarter % 4):
+            if kind == 0:
+                kind, sign = 1, -sign
+            else:
+                kind = 0
+        canon = _canon(tuple(k), kind)
+        if canon is None:
+            return {}
+        key, s = canon
+        return {key: self.R.one if s * sign > 0 else -self.R.one}
+
+    def conv(self, e: sp.Expr) -> TrigPoly:
+        hit = self.memo.get(e)
+        if hit is not None:
+            return hit
+        if e.is_Rational:
+            out = self.const(self.R.ground_new(QQ(int(e.p), int(e.q))))
+        elif e.is_Symbol:
+            if e not in self.gen:
+                raise NotTrigPolynomial(e)
+            out = self.const(self.gen[e])
+        elif e.is_Add:
+            out = {}
+            for a in e.args:
+                for key, c in self.conv(a).items():
+                    self.add_into(out, key, c)
+        elif e.is_Mul:
+            out = self.const(self.R.one)
+            for a in e.args:
+                out = self.mul(out, self.conv(a))
+        elif e.is_Pow:
+            base, ex = e.args
+            if not (ex.is_Integer and ex >= 0):
+                raise NotTrigPolynomial(e)
+            b = self.conv(base)
+            if len(b) == 1 and not any(next(iter(b))[0]):
+                out = self.const(next(iter(b.values())) ** int(ex))
+            else:
+                out, n = self.const(self.R.one), int(ex)
+                while n:
+                    if n & 1:
+                        out = self.mul(out, b)
+                    n >>= 1
+                    if n:
+                        b = self.mul(b, b)
+        elif isinstance(e, (sp.sin, sp.cos)):
+            out = self.trig(e)
+        else:
+            raise NotTrigPolynomial(e)
+        self.memo[e] = out
+        return out
+
+
+def fourier_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict[tuple[int, ...], tuple[PolyElement, PolyElement]]:
+    """{k: (a_k, b_k)} of ``expr`` as sparse polynomials, zero pairs omitted."""
+    gens = sorted(expr.free_symbols, key=lambda s: s.name)
+    alg = _Algebra(angles, gens)
+    tp = alg.conv(expr)
+    zero = alg.R.zero
+    out: dict[tuple[int, ...], tuple[PolyElement, PolyElement]] = {}
+    for (k, kind), c in tp.items():
+        a, b = out.get(k, (zero, zero))
+        out[k] = (c, b) if kind == 0 else (a, c)
+    return out
+
+
+def _cost(p: PolyElement) -> int:
+    """Operation count of ``p`` as printed (as sympy's count_ops): one per +/-, product and power."""
+    size = len(p) - 1
+    for monom, coeff in p.iterterms():
+        factors = sum(1 for e in monom if e) + (abs(coeff) != 1)
+        size += max(factors - 1, 0) + sum(1 for e in monom if e > 1) + (coeff < 0)
+    return size
+
+
+def _product_cost(factors: list[tuple[PolyElement, int]]) -> int:
+    """Operation count of Π f^e."""
+    parts = [(f, e) for f, e in factors if f != 1 and f != -1]
+    negate = any(f == -1 for f, _ in factors)
+    return max(len(parts) - 1, 0) + sum(_cost(f) + (e > 1) for f, e in parts) + negate
+
+
+def _factor_small(p: PolyElement) -> tuple[PolyElement, list[tuple[PolyElement, int]]]:
+    """Factorization of ``p`` computed in the ring of only the generators it uses (much faster)."""
+    used = [i for i in range(p.ring.ngens) if any(m[i] for m in p.itermonoms())]
+    small = _ring(tuple(p.ring.symbols[i] for i in used))
+    q = small.from_dict({tuple(m[i] for i in used): c for m, c in p.iterterms()})
+    content, factors = q.factor_list()
+    return content, factors
+
+
+def _flip(f: PolyElement) -> bool:
+    """Whether -f reads better than f: every term negative, or as many negative as positive terms and the
+    simplest term (lowest degree, then the latest generator by name: coordinates after parameters) negative:
+    q̇₂ - ℓ₁ q̇₃ and q₃ - d_c3 rather than their opposites."""
+    signs = [c < 0 for c in f.itercoeffs()]
+    if all(signs):
+        return True
+    if 2 * sum(signs) != len(signs):
+        return False
+    lead = min(f.itermonoms(), key=lambda m: (sum(m), tuple(-x for x in m[::-1])))
+    return f[lead] < 0
+
+
+def nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
+    """``p`` as a teacher writes it: content and monomial factor pulled out, and fully factored when that is
+    shorter and ``p`` has at most ``max_terms`` terms: 2 m₂ l₁ d₂ q̇₁ q̇₂ + m₂ l₁ d₂ q̇₂² -> m₂ l₁ d₂ q̇₂ (2 q̇₁ + q̇₂).
+    A minus sign is pulled out only when every term is negative."""
+    if len(p) <= 1:
+        return p.as_expr()
+    R = p.ring
+    mono = tuple(min(m[i] for m in p.itermonoms()) for i in range(R.ngens))
+    content, prim = p.primitive()
+    if content < 0:
+        content, prim = -content, -prim
+    if _flip(prim):
+        content, prim = -content, -prim
+    if any(mono):
+        prim = R.from_dict({tuple(a - b for a, b in zip(m, mono)): c for m, c in prim.iterterms()})
+    lead = R.from_dict({mono: content})
+    best = [(lead, 1), (prim, 1)]
+    p_cost = _cost(p) + (content < 0)  # an extracted minus sign is free: -g₀(q₂ - d₁) vs g₀ d₁ - g₀ q₂
+    if 2 < len(prim) <= max_terms:
+        c, factors = _factor_small(prim)
+        if len(factors) > 1 or any(e > 1 for _, e in factors):
+            sign = 1
+            for i, (f, e) in enumerate(factors):
+                if _flip(f):
+                    factors[i] = (-f, e)
+                    sign *= (-1) ** e
+            cand = [(lead * R.ground_new(c * sign), 1)] + factors
+            if _product_cost(cand) < _product_cost(best):
+                best = cand
+    if _product_cost(best) >= p_cost:
+        return p.as_expr()
+    number, rest = sp.Integer(1), []
+    for f, e in best:
+        x = f.as_expr()
+        if f.is_ground:
+            number *= x ** e
+        else:
+            rest.append(x ** e)
+    body = sp.Mul(*rest)
+    if number != 1 and body.is_Add:  # keep 2*(q3 - d) and -(a + b) factored: Mul(2, x + y) would distribute
+        return sp.Mul(number, body, evaluate=False)
+    return number * body
+
+
+def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]], angles: list[sp.Symbol]) -> sp.Expr:
+    """The same function written over monomials in cos/sin of single angles (c₂ s₂, c₁ c₂ s₃, ...), each
+    coefficient through :func:`nice_poly`; multiple angles by Chebyshev: cos(n x) = T_n(c), sin(n x) = s U_{n-1}(c)."""
+    R = next(iter(coeffs.values()))[0].ring
+    m = len(angles)
+    cs = [sp.Dummy(f"c{i}") for i in range(m)] + [sp.Dummy(f"s{i}") for i in range(m)]
+    R2 = _ring(tuple(R.symbols) + tuple(cs))
+    C, S = R2.gens[R.ngens:R.ngens + m], R2.gens[R.ngens + m:]
+    memo: dict[tuple[int, ...], tuple[PolyElement, PolyElement]] = {}
+
+    def single(i: int, n: int) -> tuple[PolyElement, PolyElement]:
+        t0, t1, u0, u1 = R2.one, C[i], R2.zero, R2.one  # T_0, T_1, U_{-1}, U_0
+        for _ in range(abs(n) - 1):
+            t0, t1 = t1, 2 * C[i] * t1 - t0
+            u0, u1 = u1, 2 * C[i] * u1 - u0
+        cos_n, sin_n = (t1, S[i] * u1) if n else (R2.one, R2.zero)
+        return cos_n, (sin_n if n >= 0 else -sin_n)
+
+    def cos_sin(k: tuple[int, ...]) -> tuple[PolyElement, PolyElement]:
+        if k in memo:
+            return memo[k]
+        i = next((j for j, v in enumerate(k) if v), None)
+        if i is None:
+            out = (R2.one, R2.zero)
+        else:
+            ca, sa = single(i, k[i])
+            cb, sb = cos_sin(tuple(0 if j == i else v for j, v in enumerate(k)))
+            out = (ca * cb - sa * sb, sa * cb + ca * sb)
+        memo[k] = out
+        return out
+
+    def lift(p: PolyElement) -> PolyElement:
+        return R2.from_dict({mono + (0,) * (2 * m): c for mono, c in p.iterterms()})
+
+    total = R2.zero
+    for k, (a, b) in coeffs.items():
+        ck, sk = cos_sin(k)
+        total += lift(a) * ck + lift(b) * sk
+    groups: dict[tuple[int, ...], dict] = {}
+    for mono, c in total.iterterms():
+        groups.setdefault(mono[R.ngens:], {})[mono[:R.ngens] + (0,) * (2 * m)] = c
+    trig = [sp.cos(x) for x in angles] + [sp.sin(x) for x in angles]
+    return sp.Add(*[nice_poly(R2.from_dict(g)) * sp.Mul(*[f ** e for f, e in zip(trig, key)])
+                    for key, g in groups.items()])
