@@ -33,12 +33,17 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
           fragment: bool = typer.Option(False, help="LaTeX body only, no preamble"),
           templates: Optional[Path] = typer.Option(None, help="directory with your own md/ and tex/ templates")) -> None:
     """Solve a problem and print the step-by-step solution."""
+    from .figures import write_figures
     from .render import render
     from .solve import solve_problem
     from .spec import load_problem
     try:
         problem = load_problem(spec)
         solutions = solve_problem(problem)
+        figures = []
+        if output and format is not Fmt.json:
+            output.parent.mkdir(parents=True, exist_ok=True)
+            figures = write_figures(solutions, output, format.value)
         text = render(problem, solutions, format.value, fragment=fragment, template_dir=templates)
     except UserError as exc:
         _fail(exc)
@@ -46,7 +51,7 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
     if output:
         output.parent.mkdir(parents=True, exist_ok=True)
         output.write_text(text, encoding="utf-8")
-        typer.echo(f"wrote {output}", err=True)
+        typer.echo(f"wrote {output}" + (f" and {len(figures)} figure(s) beside it" if figures else ""), err=True)
     else:
         sys.stdout.write(text)
 

@@ -18,6 +18,7 @@ from .results import Solution
 from .robot import Body, Robot
 from .simplify import is_zero, tidy, tidy_matrix, velocity_terms
 from .spec import Strict
+from .sweep import coordinate_figure
 
 
 @dataclass
@@ -178,6 +179,9 @@ class DynamicModelAsk(Strict):
         ["energies", "B", "christoffel", "c", "S", "g", "model"], description="which parts to explain in the report")
     at: Optional[dict[str, Union[str, int, float]]] = Field(
         None, description="a state (q, dq, ddq values) where B, c, g and the model are also evaluated numerically")
+    plots: bool = Field(True, description="figures of g(q) and B(q) along each coordinate (written with -o)")
+    ranges: dict[str, tuple[float, float]] = Field(
+        {}, description="plot range per coordinate, e.g. {q2: [0, 0.5]}; default [-pi, pi] (R), [-1, 1] (P)")
 
 
 @ask_kind("dynamic_model", DynamicModelAsk, "Euler-Lagrange dynamic model: T, U, B, Christoffel, c, S, g")
@@ -226,4 +230,41 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
         for k, v in num.items():
             sol.add(f"{k}_at", v, label=f"{k}\\big|_{{*}}")
         sol.step("at", state=state, values=problem.values, num=num)
+    if options.plots:
+        add_figures(sol, dm, problem, options, ctx)
     return sol
+
+
+def add_figures(sol: Solution, dm: DynamicModel, problem, options: DynamicModelAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """g_i(q) and the configuration-dependent entries b_ij(q), each along the coordinates they depend on."""
+    robot: Robot = problem.robot
+    by_name = {s.name: s for s in robot.q}
+    ranges = {}
+    for name, (lo, hi) in options.ranges.items():
+        if name not in by_name:
+            raise UserError(f"'{name}' in ranges: is not a coordinate", problem.located.place(ctx.path + ("ranges",)),
+                            "use " + ", ".join(by_name))
+        if not lo < hi:
+            raise UserError(f"empty plot range for {name}: [{lo}, {hi}]",
+                            problem.located.place(ctx.path + ("ranges", name)), "write [low, high] with low < high")
+        ranges[by_name[name]] = (float(lo), float(hi))
+    reference = {}
+    for name in options.at or {}:
+        v = problem.names.get(name)
+        if v in by_name.values():
+            value = ctx.expr("at", name)
+            if getattr(value, "is_number", False):
+                reference[v] = float(value)
+    n = robot.n
+    gravity = [(f"$g_{{{i + 1}}}$", dm.g[i]) for i in range(n) if dm.g[i] != 0]
+    inertia = [(f"$b_{{{i + 1}{j + 1}}}$", dm.B[i, j]) for i in range(n) for j in range(i, n)
+               if dm.B[i, j].free_symbols & set(robot.q)]
+    names = problem.latex_names
+    for fig in (
+        coordinate_figure("gravity", "Gravity terms $g_i(q)$ along each coordinate they depend on.", gravity,
+                          robot, problem.values, reference, ranges, names) if gravity else None,
+        coordinate_figure("inertia", "Configuration-dependent entries $b_{ij}(q)$ of the inertia matrix.", inertia,
+                          robot, problem.values, reference, ranges, names) if inertia else None,
+    ):
+        if fig is not None:
+            sol.figures.append(fig)

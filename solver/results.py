@@ -27,6 +27,31 @@ class Step:
 
 
 @dataclass
+class Curve:
+    label: str  # LaTeX
+    x: list[float]
+    y: list[float]
+
+
+@dataclass
+class Panel:
+    xlabel: str  # LaTeX
+    ylabel: str
+    curves: list[Curve]
+    x_is_angle: bool = False  # ticks at multiples of π/2
+
+
+@dataclass
+class Figure:
+    """Numbers to plot (the renderer draws them): one or more side-by-side panels."""
+
+    name: str
+    caption: str
+    panels: list[Panel]
+    path: str = ""  # set when the renderer writes the image file
+
+
+@dataclass
 class Solution:
     """The answer to one ask: its results (by name) and the steps that explain them."""
 
@@ -34,6 +59,7 @@ class Solution:
     results: dict[str, Result] = field(default_factory=dict)
     steps: list[Step] = field(default_factory=list)
     title: str = ""
+    figures: list[Figure] = field(default_factory=list)
 
     def add(self, name: str, value: Any, kind: str | None = None, label: str = "") -> Any:
         self.results[name] = Result(name, value, kind or kind_of(value), label)

@@ -1,4 +1,5 @@
 import json
+import math
 import shutil
 import subprocess
 import sys
@@ -53,12 +54,39 @@ def test_latex_is_complete_document_and_fragment(solved):
 @pytest.mark.skipif(not shutil.which("pdflatex"), reason="pdflatex not installed")
 @pytest.mark.parametrize("name", ["2004-03-25-ex1", "2016-06-06-ex1", "2016-09-12-ex1"])
 def test_latex_compiles(tmp_path, name):
+    from solver.figures import write_figures
     p = load_problem(PROBLEMS / f"{name}.yaml")
-    (tmp_path / "r.tex").write_text(render(p, solve_problem(p), "tex"))
+    sols = solve_problem(p)
+    assert write_figures(sols, tmp_path / "r.tex", "tex")  # compiled with its figures
+    (tmp_path / "r.tex").write_text(render(p, sols, "tex"))
     r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "r.tex"], cwd=tmp_path,
                        capture_output=True, text=True, timeout=180)
     assert r.returncode == 0, r.stdout[-2000:]
     assert (tmp_path / "r.pdf").stat().st_size > 1000
+
+
+def test_figures_hold_the_sampled_formulas(solved):
+    """The gravity figure plots g_i(q_j) with the other coordinates at 0 and missing parameters at 1."""
+    problem, sols = solved
+    fig = next(f for f in sols[0].figures if f.name == "gravity")
+    panel_q1, panel_q2 = fig.panels  # g depends on q1 and on q2
+    g1 = next(c for c in panel_q1.curves if c.label == "$g_{1}$")
+    # g1 = g0 m2 q2 cos q1 + g0 (d1 m1 + l1 m2) sin q1 with q2 = 0 and every parameter 1: 2 sin q1
+    assert panel_q1.x_is_angle and all(abs(y - 2 * math.sin(x)) < 1e-12 for x, y in zip(g1.x, g1.y))
+    g1_q2 = next(c for c in panel_q2.curves if c.label == "$g_{1}$")
+    assert all(abs(y - x) < 1e-12 for x, y in zip(g1_q2.x, g1_q2.y))  # q1 = 0: g0 m2 q2
+    assert "set to 1" in fig.caption
+
+
+def test_figures_drawn_beside_output(solved, tmp_path):
+    from solver.figures import write_figures
+    problem, sols = solved
+    files = write_figures(sols, tmp_path / "x.tex", "tex")
+    assert [f.name for f in files] == ["x-1-gravity.pdf", "x-1-inertia.pdf"]
+    tex = render(problem, sols, "tex")
+    assert "\\includegraphics[width=1.0\\linewidth]{x-1-gravity.pdf}" in tex
+    for f in sols[0].figures:
+        f.path = ""  # the module-scoped fixture is shared
 
 
 def test_custom_templates_dir(solved, tmp_path):
