@@ -96,6 +96,60 @@ def verify(paths: list[Path] = typer.Argument(..., help="spec files or directori
 
 
 @app.command()
+def grade(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
+          submissions: Path = typer.Argument(..., help="a submission file (YAML/JSON) or a directory of them"),
+          out: Optional[Path] = typer.Option(None, "--out", "-o", help="write summary.csv and per-student feedback here"),
+          gradescope: bool = typer.Option(False, help="also write Gradescope results.json"),
+          jobs: int = typer.Option(0, "--jobs", "-j", help="worker processes (0: one per core)")) -> None:
+    """Grade submitted answers: feedback on stdout for one file; a class with --out."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from .gradebook import feedback_markdown, grade_files, submission_files, write_outputs
+    from .grading import prepare
+    from .spec import load_problem
+    try:
+        problem = load_problem(spec)
+        ref = prepare(problem)
+    except UserError as exc:
+        _fail(exc)
+        return
+    if not submissions.exists():
+        _fail(UserError(f"no such file or directory: {submissions}", None, "give a submission file or a directory"))
+    files = submission_files(submissions)
+    if not files:
+        _fail(UserError(f"no submissions (*.yaml, *.yml, *.json) in {submissions}", None, "check the directory"))
+    if len(files) == 1 and not submissions.is_dir():
+        reports = grade_files(ref, files, 1)
+    else:
+        with Progress(TextColumn("grading"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
+                      transient=True) as bar:
+            task = bar.add_task("grading", total=len(files))
+            reports = grade_files(ref, files, jobs, progress=lambda r: bar.advance(task))
+    if out:
+        written = write_outputs(problem, ref, reports, out, gradescope)
+        typer.echo(f"graded {len(reports)} submission(s); wrote {len(written)} files under {out}/ "
+                   f"(summary.csv)", err=True)
+    if not out or len(reports) == 1:
+        for r in reports:
+            sys.stdout.write(feedback_markdown(problem, r))
+    elif out:
+        for r in reports:
+            typer.echo(f"{r['student']:<30} {r['total']:g}/{r['max']:g}")
+
+
+@app.command("answer-template")
+def answer_template_(spec: Path = typer.Argument(..., help="problem spec (YAML)")) -> None:
+    """Print the blank answer sheet (YAML) students fill in."""
+    from .gradebook import answer_template
+    from .grading import prepare
+    from .spec import load_problem
+    try:
+        sys.stdout.write(answer_template(prepare(load_problem(spec))))
+    except UserError as exc:
+        _fail(exc)
+
+
+@app.command()
 def schema() -> None:
     """Print the JSON Schema of the spec format (for editor completion)."""
     from .spec import json_schema

@@ -1,19 +1,28 @@
 """Mathematical equivalence of answers: exact where possible, never a silent false verdict.
 
-Scalars: the canonical Fourier form of a - b (exact for trigonometric polynomials, see :mod:`solver.simplify`);
-otherwise a - b evaluated with 30 digits at random rational points (angles and parameters), where a verdict is
-given only if every point agrees. Matrices entry by entry, lists item by item, sets of configurations up to order
-and to 2π in the angles.
+Scalars, in order:
+
+1. exact randomized zero-testing of d = a - b: every parameter gets a random rational value and every angle x a
+   random rational t = tan(x/2), so that cos x = (1 - t²)/(1 + t²) and sin x = 2t/(1 + t²) are rational and trig
+   identities hold exactly; d is evaluated in exact rational arithmetic (sin/cos of k·x through (cos + i sin)^k).
+   A non-zero value proves a ≢ b; zero at several independent points means a ≡ b (Schwartz-Zippel: a non-zero
+   rational function vanishes at a random point of a large grid with negligible probability);
+2. where (1) does not apply (radicals, exp, angles that also appear outside sin/cos, other constants): the
+   canonical Fourier form of :mod:`solver.simplify`, then 30-digit evaluation at random points;
+3. otherwise ``undecided``, never a guess.
+
+Matrices entry by entry, lists item by item, sets of configurations up to order and to 2π in the angles.
 """
 from __future__ import annotations
 
 import random
+from fractions import Fraction
 from dataclasses import dataclass, field
 from typing import Any
 
 import sympy as sp
 
-from .simplify import is_zero
+from .simplify import angle_symbols, is_zero
 
 CORRECT, INCORRECT, UNDECIDED = "correct", "incorrect", "undecided"
 
@@ -55,6 +64,109 @@ def numeric_zero(expr: sp.Expr, trials: int = 6, seed: int = 12345) -> bool | No
     return True if seen else None
 
 
+class NotRational(Exception):
+    """The expression cannot be evaluated exactly in rational arithmetic."""
+
+
+Complex = tuple[Fraction, Fraction]
+
+
+def _cmul(a: Complex, b: Complex) -> Complex:
+    return (a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0])
+
+
+def _cpow(z: Complex, k: int) -> Complex:
+    if k < 0:
+        n = z[0] * z[0] + z[1] * z[1]
+        z, k = (z[0] / n, -z[1] / n), -k
+    out: Complex = (Fraction(1), Fraction(0))
+    while k:
+        if k & 1:
+            out = _cmul(out, z)
+        z, k = _cmul(z, z), k >> 1
+    return out
+
+
+class RationalPoint:
+    """Exact evaluation at one point: parameters -> rationals, angles -> e^{ix} from t = tan(x/2)."""
+
+    def __init__(self, params: dict[sp.Symbol, Fraction], angles: dict[sp.Symbol, Fraction]) -> None:
+        self.params = params
+        self.unit = {x: (Fraction(1) - t * t) / (1 + t * t) for x, t in angles.items()}
+        self.unit_c = {x: (self.unit[x], 2 * t / (1 + t * t)) for x, t in angles.items()}
+        self.memo: dict[sp.Expr, Fraction] = {}
+
+    def phase(self, arg: sp.Expr) -> Complex:
+        """e^{i·arg} for arg = Σ k_j x_j + r·π with integer k_j and 2r integer."""
+        z: Complex = (Fraction(1), Fraction(0))
+        for term, coeff in arg.as_coefficients_dict().items():
+            if term in self.unit_c and coeff.is_Integer:
+                z = _cmul(z, _cpow(self.unit_c[term], int(coeff)))
+            elif term is sp.pi and (2 * coeff).is_Integer:
+                z = _cmul(z, _cpow((Fraction(0), Fraction(1)), int(2 * coeff) % 4))
+            else:
+                raise NotRational(arg)
+        return z
+
+    def value(self, e: sp.Expr) -> Fraction:
+        hit = self.memo.get(e)
+        if hit is not None:
+            return hit
+        if e.is_Rational:
+            out = Fraction(int(e.p), int(e.q))
+        elif e.is_Symbol:
+            if e not in self.params:
+                raise NotRational(e)
+            out = self.params[e]
+        elif e.is_Add:
+            out = sum((self.value(a) for a in e.args), Fraction(0))
+        elif e.is_Mul:
+            out = Fraction(1)
+            for a in e.args:
+                out *= self.value(a)
+        elif e.is_Pow and e.exp.is_Integer:
+            if abs(int(e.exp)) > 1000:
+                raise NotRational(e)
+            out = self.value(e.base) ** int(e.exp)
+        elif isinstance(e, (sp.sin, sp.cos, sp.tan, sp.cot)):
+            c, s = self.phase(e.args[0])
+            out = {sp.sin: s, sp.cos: c}.get(type(e)) if isinstance(e, (sp.sin, sp.cos)) else \
+                (s / c if isinstance(e, sp.tan) else c / s)
+        else:
+            raise NotRational(e)
+        self.memo[e] = out
+        return out
+
+
+def _random_rational(rng: random.Random, positive: bool) -> Fraction:
+    v = Fraction(rng.randint(1, 10**6), rng.randint(1, 10**4) * 97 + 1)
+    return v if positive or rng.random() < 0.5 else -v
+
+
+def exact_zero(expr: sp.Expr, trials: int = 3, seed: int = 2024) -> bool | None:
+    """Randomized exact zero test (see module doc): True (zero at every point), False (a point where it is
+    provably non-zero), None (not evaluable in rational arithmetic)."""
+    angles = set(angle_symbols(expr))
+    params = expr.free_symbols - angles
+    rng = random.Random(seed)
+    done = 0
+    for _ in range(trials * 3):
+        point = RationalPoint({s: _random_rational(rng, bool(s.is_positive or s.is_nonnegative)) for s in params},
+                              {x: _random_rational(rng, False) for x in angles})
+        try:
+            v = point.value(expr)
+        except ZeroDivisionError:
+            continue  # a pole of the expression: try another point
+        except NotRational:
+            return None
+        if v != 0:
+            return False
+        done += 1
+        if done == trials:
+            return True
+    return None
+
+
 def scalar_equiv(a: sp.Expr, b: sp.Expr, rel_tol: float | None = None, abs_tol: float = 0.0) -> Verdict:
     """Is a ≡ b? Numbers compare within tolerances when given; expressions exactly or by 30-digit sampling."""
     a, b = sp.sympify(a), sp.sympify(b)
@@ -63,6 +175,10 @@ def scalar_equiv(a: sp.Expr, b: sp.Expr, rel_tol: float | None = None, abs_tol: 
         ok = abs(da - db) <= max(abs_tol, (rel_tol or 0.0) * abs(db))
         return Verdict(CORRECT if ok else INCORRECT, "" if ok else f"{da.real:.6g} vs {db.real:.6g}")
     diff = a - b
+    if not diff.atoms(sp.Float):
+        z0 = exact_zero(diff)
+        if z0 is not None:
+            return Verdict(CORRECT if z0 else INCORRECT)
     z = is_zero(diff)
     if z is True:
         return Verdict(CORRECT)

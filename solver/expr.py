@@ -252,6 +252,10 @@ class Parser:
             return CONSTANTS[t.text]
         if t.text in FUNCTIONS:
             raise self.error(f"{t.text} is a function: write {t.text}(...)", t)
+        parts = split_product(t.text, self.names)
+        if parts:
+            raise self.error(f"unknown name {t.text!r}: a product without '*'?", t,
+                             f"products need '*': write {'*'.join(parts)}")
         close = difflib.get_close_matches(t.text, list(self.names) + list(CONSTANTS), n=3)
         hint = f"did you mean {' or '.join(close)}?" if close else "declare it under symbols: (with its meaning)"
         if not close and re.fullmatch(r"[A-Za-z]+\d*[A-Za-z]+\d*", t.text):
@@ -275,6 +279,22 @@ class Parser:
         if right == 0:
             raise self.error("division by zero", op)
         return left / right
+
+
+def split_product(text: str, names: Mapping[str, sp.Expr]) -> list[str] | None:
+    """``text`` as a concatenation of two or more known names (m2l1 -> [m2, l1]), or None."""
+    if len(text) > 40:
+        return None
+    known = set(names) | set(CONSTANTS)
+    best: dict[int, list[str]] = {0: []}
+    for i in range(len(text)):
+        if i not in best:
+            continue
+        for j in range(i + 1, len(text) + 1):
+            if text[i:j] in known and j not in best:
+                best[j] = best[i] + [text[i:j]]
+    out = best.get(len(text))
+    return out if out and len(out) > 1 else None
 
 
 def _scale(lst: list, k: sp.Expr) -> list:

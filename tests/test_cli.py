@@ -50,3 +50,17 @@ def test_verify_exit_codes(tmp_path):
     wrong.write_text(open(RP).read().replace("-m2*q2*dq1^2]", "m2*q2*dq1^2]"))
     r = run("verify", str(wrong))
     assert r.returncode == 1 and "FAIL" in r.stdout
+
+
+def test_grade_and_answer_template(tmp_path):
+    subs = ROOT / "examples" / "submissions" / "2004-03-25-ex1"
+    r = run("grade", RP, str(subs / "bob.yaml"))
+    assert r.returncode == 0 and "**Score: 8 / 12**" in r.stdout and "| `g` | incorrect | 1 / 2 |" in r.stdout
+    out = tmp_path / "res"
+    r = run("grade", RP, str(subs), "--out", str(out), "--gradescope", "-j", "2")
+    assert r.returncode == 0, r.stderr
+    assert (out / "summary.csv").read_text().count("\n") == 5  # header + 4 students
+    assert json.loads((out / "gradescope" / "alice" / "results.json").read_text())["score"] == 12
+    r = run("answer-template", RP)
+    assert r.returncode == 0 and '\nB: ""' in r.stdout and "4 points" in r.stdout
+    assert run("grade", RP, str(tmp_path / "nothing")).returncode == 2
