@@ -149,6 +149,41 @@ def answer_template_(spec: Path = typer.Argument(..., help="problem spec (YAML)"
         _fail(exc)
 
 
+class HandoutKind(str, Enum):
+    exam = "exam"
+    solutions = "solutions"
+    key = "key"
+
+
+class HandoutFmt(str, Enum):
+    pdf = "pdf"
+    tex = "tex"
+    md = "md"
+    html = "html"
+
+
+@app.command()
+def handout(sources: list[Path] = typer.Argument(..., help="an exam file (exams/*.yaml) or problem specs"),
+            kind: HandoutKind = typer.Option(HandoutKind.exam, "--kind", "-k", help="exam, solutions or key"),
+            output: Path = typer.Option(..., "--output", "-o", help="the file to write (.pdf, .tex, .md, .html)"),
+            format: Optional[HandoutFmt] = typer.Option(None, "--format", "-f",
+                                                        help="pdf, tex, md or html (default: from -o's suffix)"),
+            templates: Optional[Path] = typer.Option(None, help="directory with your own latex/, md/, html/ templates"),
+            timing: bool = typer.Option(False, help="print the time of the solve and LaTeX phases")) -> None:
+    """Publish a handout: the exam sheet, the solutions or the answer key (PDF via LaTeX, or tex/md/html)."""
+    from .handout import build, load_sources
+    fmt = format.value if format else {".tex": "tex", ".md": "md", ".html": "html"}.get(output.suffix, "pdf")
+    try:
+        result = build(load_sources(sources), kind.value, fmt, output, templates)
+    except UserError as exc:
+        _fail(exc)
+        return
+    typer.echo(f"wrote {output}" + (f" (+{len(result['files']) - 1} figure files)" if len(result["files"]) > 1 else ""),
+               err=True)
+    if timing:
+        typer.echo(f"solve {result['solve']:.2f} s, LaTeX {result['latex']:.2f} s", err=True)
+
+
 @app.command()
 def schema() -> None:
     """Print the JSON Schema of the spec format (for editor completion)."""

@@ -129,6 +129,48 @@ def md2tex(text: str) -> str:
     return "\n".join(out_lines)
 
 
+def md2html(text: str) -> str:
+    """The Markdown of robosolve's templates to HTML (headings, paragraphs, lists, tables, images, **bold**,
+    *italic*), math ($...$, $$...$$) left for MathJax, everything else HTML-escaped."""
+    import html as _html
+
+    def inline(t: str) -> str:
+        parts = re.split(r"(\$\$.*?\$\$|\$[^$]*\$)", t)
+        out = []
+        for k, part in enumerate(parts):
+            if k % 2:
+                out.append(_html.escape(part, quote=False))
+                continue
+            p = _html.escape(part, quote=False)
+            p = re.sub(r"!\[([^\]]*)\]\(([^)\s]+)\)", r'<img alt="\1" src="\2">', p)
+            p = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", p)
+            p = re.sub(r"(?<![\w*])\*(?!\s)(.+?)(?<!\s)\*(?![\w*])", r"<em>\1</em>", p)
+            p = re.sub(r"`([^`]+)`", r"<code>\1</code>", p)
+            out.append(p)
+        return "".join(out)
+
+    blocks = re.split(r"\n\s*\n", str(text).strip())
+    html_out = []
+    for block in blocks:
+        lines = block.splitlines()
+        head = re.match(r"(#{1,6}) (.*)", block)
+        if head and len(lines) == 1:
+            n = len(head.group(1))
+            html_out.append(f"<h{n}>{inline(head.group(2))}</h{n}>")
+        elif all(re.match(r"\s*[-*] ", ln) for ln in lines):
+            items = "".join("<li>" + inline(re.sub(r"^\s*[-*] ", "", ln)) + "</li>" for ln in lines)
+            html_out.append(f"<ul>{items}</ul>")
+        elif all(ln.strip().startswith("|") for ln in lines) and len(lines) >= 2:
+            rows = [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in lines]
+            body = [r for r in rows if not all(re.fullmatch(r":?-+:?", c) for c in r)]
+            cells = ["<tr>" + "".join(f"<{'th' if i == 0 else 'td'}>{inline(c)}</{'th' if i == 0 else 'td'}>"
+                                      for c in r) + "</tr>" for i, r in enumerate(body)]
+            html_out.append("<table>" + "".join(cells) + "</table>")
+        else:
+            html_out.append(f"<p>{inline(block)}</p>")
+    return "\n".join(html_out)
+
+
 def join_terms(parts: list[str]) -> str:
     """LaTeX terms joined as a sum: 'a', '- b', 'c' -> 'a - b + c'."""
     if not parts:
@@ -184,6 +226,18 @@ def render(problem: Problem, solutions: list[Solution], fmt: str, fragment: bool
     page = env.get_template(f"page.{fmt}.j2")
     return page.render(problem=problem, solutions=solutions, fragment=fragment, assets=assets or {},
                        symbols=[(problem.symbols[k], v) for k, v in problem.meanings.items()])
+
+
+def render_template(problem: Problem, name: str, fmt: str, template_dir: Path | None = None, **ctx: Any) -> str:
+    """Render template ``name`` (of format ``fmt``) with ``problem``'s symbol printing, e.g. the solutions
+    part of a handout."""
+    env = _env(fmt, template_dir, problem.latex_names, ranks(problem))
+    return env.get_template(name).render(problem=problem, **ctx)
+
+
+def latex_printer(problem: Problem) -> Latex:
+    """The LaTeX printer of ``problem``'s symbols (as used in its reports and JSON)."""
+    return Latex(problem.latex_names, ranks(problem))
 
 
 # ------------------------------------------------------------------------------------------------- JSON

@@ -1,0 +1,274 @@
+"""Handouts: the exam sheet, the solutions and the answer key of an exam file or of a list of problems.
+
+An exam file (``exams/*.yaml``, documented in docs/spec.md)::
+
+    course: Robotics II
+    title: Written exam
+    date: 2004-03-25
+    duration: 2 hours
+    instructions: Markdown text
+    problems:
+      - problem: 2004-03-25-ex1      # an id of the library, or a path relative to the exam file
+        points: 12                   # default: the problem's grading points, else 10
+        values: {m: 2}               # optional variant: numeric values replacing the problem's
+
+Kinds: ``exam`` (statements, points, blank space), ``solutions`` (statements + step-by-step solutions + plots),
+``key`` (final answers of the graded items with their points). Formats: pdf (LaTeX compiled with latexmk or
+pdflatex), tex, md, html (MathJax).
+"""
+from __future__ import annotations
+
+import datetime as dt
+import re
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Optional, Union
+
+import jinja2
+import sympy as sp
+from pydantic import Field, ValidationError
+
+from .errors import Place, UserError
+from .figures import write_figures
+from .grading import Reference, grading_spec, prepare
+from .problem import Problem
+from .render import latex_printer, latex_text, md2html, md2tex, render_template, templates_dir
+from .spec import Strict, load_problem
+from .yamlpos import Located, load_file
+
+KINDS = ("exam", "solutions", "key")
+LATEX_PACKAGES = "latexmk texlive-latex-recommended texlive-latex-extra"
+
+
+class ExamProblem(Strict):
+    problem: str = Field(description="a problem id of the library (problems/<id>.yaml) or a path to a spec")
+    points: Optional[float] = Field(None, ge=0, description="points (default: the problem's grading points, else 10)")
+    values: dict[str, Union[int, float, str]] = Field({}, description="variant: numeric values replacing the problem's")
+
+
+class ExamSpec(Strict):
+    course: str = Field("", description="course name, e.g. Robotics II")
+    title: str = Field("Written exam", description="title of the handout")
+    date: Optional[Union[str, dt.date]] = Field(None, description="date of the exam")
+    duration: str = Field("", description="e.g. 2 hours")
+    instructions: str = Field("", description="Markdown text printed under the title of the exam sheet")
+    problems: list[ExamProblem] = Field(min_length=1, description="the exercises, in order")
+
+
+@dataclass
+class Part:
+    """One exercise of a handout."""
+
+    problem: Problem
+    points: float
+    variant: dict[str, Any] = field(default_factory=dict)
+    ref: Reference | None = None
+
+
+@dataclass
+class Handout:
+    exam: ExamSpec
+    parts: list[Part]
+    source: str
+
+
+# ------------------------------------------------------------------------------------------ loading
+def _find_problem(name: str, base: Path, place: Place) -> Path:
+    cands = [base / name] if name.endswith((".yaml", ".yml")) else [
+        base / f"{name}.yaml", base.parent / "problems" / f"{name}.yaml", Path("problems") / f"{name}.yaml",
+        Path(__file__).resolve().parent.parent / "problems" / f"{name}.yaml"]
+    for c in cands:
+        if c.is_file():
+            return c
+    raise UserError(f"problem '{name}' not found", place,
+                    "give a problem id of problems/ (e.g. 2004-03-25-ex1) or a path to a .yaml spec")
+
+
+def _apply_variant(problem: Problem, values: dict[str, Any], located: Located, index: int) -> dict[str, Any]:
+    shown = {}
+    for name, raw in values.items():
+        place = located.place(("problems", index, "values", name))
+        sym = problem.symbols.get(name)
+        if sym is None:
+            raise UserError(f"'{name}' is not a parameter of {problem.id}", place,
+                            "parameters: " + ", ".join(problem.symbols))
+        try:
+            value = sp.Rational(str(raw)) if not isinstance(raw, str) else sp.Rational(raw)
+        except (TypeError, ValueError):
+            raise UserError(f"value of '{name}' must be a number", place, "write e.g. 0.5") from None
+        problem.values[sym] = value
+        shown[name] = raw  # printed as the teacher wrote it (0.25, not 1/4)
+    return shown
+
+
+def load_exam(path: Path) -> Handout:
+    """Read an exam file and the problems it names (errors at the exam file's lines)."""
+    loc = load_file(path)
+    try:
+        exam = ExamSpec.model_validate(loc.data if isinstance(loc.data, dict) else {})
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        p = tuple(err["loc"])
+        raise UserError(f"{'.'.join(str(x) for x in p) or 'exam'}: {err['msg']}", loc.place(p),
+                        "see docs/spec.md, section 'Exam files'") from None
+    parts = []
+    for i, ep in enumerate(exam.problems):
+        problem = load_problem(_find_problem(ep.problem, path.parent, loc.place(("problems", i, "problem"))))
+        variant = _apply_variant(problem, ep.values, loc, i)
+        parts.append(Part(problem, ep.points if ep.points is not None else -1.0, variant))
+    return Handout(exam, parts, str(path))
+
+
+def load_sources(paths: list[Path]) -> Handout:
+    """An exam file, or an ad-hoc selection of problem specs."""
+    exams = [p for p in paths if _is_exam(p)]
+    if exams:
+        if len(paths) > 1:
+            raise UserError("give one exam file, or problem specs only", Place(str(exams[0])),
+                            "list the problems inside the exam file")
+        return load_exam(exams[0])
+    parts = [Part(load_problem(p), -1.0) for p in paths]
+    return Handout(ExamSpec(title="Exercises", problems=[ExamProblem(problem=str(p)) for p in paths]), parts,
+                   ", ".join(str(p) for p in paths))
+
+
+def _is_exam(path: Path) -> bool:
+    try:
+        data = load_file(path).data
+    except UserError:
+        return False
+    return isinstance(data, dict) and "problems" in data and "robot" not in data and "asks" not in data
+
+
+# ------------------------------------------------------------------------------------------ building
+def _latex_env(template_dir: Path | None) -> jinja2.Environment:
+    dirs = [str(p / "latex") for p in ([template_dir] if template_dir else []) + [templates_dir()]]
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(dirs), undefined=jinja2.StrictUndefined,
+                             trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
+                             block_start_string="<%", block_end_string="%>", variable_start_string="<<",
+                             variable_end_string=">>", comment_start_string="<#", comment_end_string="#>")
+    env.filters.update(latex_text=latex_text, md2tex=md2tex, points=lambda x: f"{x:g}")
+    return env
+
+
+def _web_env(fmt: str, template_dir: Path | None) -> jinja2.Environment:
+    dirs = [str(p / fmt) for p in ([template_dir] if template_dir else []) + [templates_dir()]]
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(dirs), undefined=jinja2.StrictUndefined,
+                             trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
+                             autoescape=fmt == "html")
+    env.filters.update(points=lambda x: f"{x:g}", md2html=md2html)
+    return env
+
+
+def _key_items(part: Part, fmt: str) -> list[dict[str, Any]]:
+    assert part.ref is not None
+    latex = latex_printer(part.problem)
+    out = []
+    for name, item in part.ref.items.items():
+        r = part.ref.results[name]
+        out.append({"name": name, "title": item.title or "", "label": r.label or name,
+                    "latex": latex(r.value), "points": item.points})
+    return out
+
+
+def build(handout: Handout, kind: str, fmt: str, output: Path, template_dir: Path | None = None) -> dict[str, Any]:
+    """Write the handout to ``output`` (pdf | tex | md | html). Returns {"files": [...], "solve": s, "latex": s}."""
+    import time
+    if kind not in KINDS:
+        raise UserError(f"unknown handout kind '{kind}'", None, "use --kind exam, solutions or key")
+    from .solve import solve_problem
+    t0 = time.perf_counter()
+    solved = []
+    for part in handout.parts:
+        sols = solve_problem(part.problem) if kind != "exam" else []
+        if kind == "key":
+            part.ref = prepare(part.problem)
+        if part.points < 0:
+            items = grading_spec(part.problem).items
+            part.points = sum(i.points for i in items.values()) if items else 10.0
+        solved.append(sols)
+    t_solve = time.perf_counter() - t0
+    output.parent.mkdir(parents=True, exist_ok=True)
+    stem = output.stem
+    tex_fmt = fmt in ("pdf", "tex")
+    work = Path(tempfile.mkdtemp(prefix="robosolve-")) if fmt == "pdf" else output.parent
+    files: list[Path] = []
+    bodies = []
+    for k, (part, sols) in enumerate(zip(handout.parts, solved), 1):
+        if kind == "solutions":
+            for fig in write_figures(sols, work / f"{stem}-p{k}.x", "tex" if tex_fmt else "md"):
+                files.append(fig)
+        body = ""
+        if kind == "solutions":
+            body = render_template(part.problem, "solution.tex.j2" if tex_fmt else "solution.md.j2",
+                                   "tex" if tex_fmt else "md", template_dir, solutions=sols, level=2, fragment=True)
+        bodies.append({"problem": part.problem, "points": part.points, "variant": part.variant, "solution": body,
+                       "key": _key_items(part, fmt) if kind == "key" else []})
+    ctx = {"exam": handout.exam, "parts": bodies, "kind": kind, "total": sum(b["points"] for b in bodies)}
+    if tex_fmt:
+        text = _latex_env(template_dir).get_template("handout.tex.j2").render(**ctx)
+        tex_path = (output if fmt == "tex" else work / f"{stem}.tex")
+        tex_path.write_text(text, encoding="utf-8")
+        if fmt == "tex":
+            return {"files": [tex_path, *files], "solve": t_solve, "latex": 0.0}
+        t1 = time.perf_counter()
+        pdf = compile_latex(tex_path, output)
+        shutil.rmtree(work, ignore_errors=True)
+        return {"files": [pdf], "solve": t_solve, "latex": time.perf_counter() - t1}
+    env = _web_env(fmt, template_dir)
+    md = _web_env("md", template_dir).get_template("handout.md.j2").render(**ctx)
+    text = md if fmt == "md" else env.get_template("handout.html.j2").render(body=md2html(md), **ctx)
+    output.write_text(text, encoding="utf-8")
+    return {"files": [output, *files], "solve": t_solve, "latex": 0.0}
+
+
+# ------------------------------------------------------------------------------------------ LaTeX
+def latex_tool() -> list[str] | None:
+    """The compiler command: latexmk (preferred) or pdflatex; None when neither is installed."""
+    if shutil.which("latexmk"):
+        return ["latexmk", "-pdf", "-interaction=nonstopmode", "-halt-on-error", "-file-line-error"]
+    if shutil.which("pdflatex"):
+        return ["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "-file-line-error"]
+    return None
+
+
+def compile_latex(tex: Path, output: Path, timeout: float = 300) -> Path:
+    """Compile ``tex`` (in its directory) and copy the PDF to ``output``. Without LaTeX the .tex (and its
+    figures) are kept beside ``output`` and a UserError says what to install."""
+    tool = latex_tool()
+    if tool is None:
+        kept = output.with_suffix(".tex")
+        for f in tex.parent.iterdir():
+            if f.is_file() and f.suffix in (".tex", ".pdf", ".png"):
+                shutil.copy2(f, output.parent / (kept.name if f == tex else f.name))
+        raise UserError(f"LaTeX is not installed: wrote {kept} (compile it later) but no PDF",
+                        None, f"install it with: sudo apt-get install {LATEX_PACKAGES}   (or use --format tex|md|html)")
+    runs = 1 if tool[0] == "latexmk" else 2
+    for _ in range(runs):
+        try:
+            r = subprocess.run([*tool, tex.name], cwd=tex.parent, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise UserError(f"LaTeX did not finish within {timeout:.0f} s", Place(str(tex)), None) from None
+        if r.returncode != 0:
+            log = tex.with_suffix(".log")
+            raise UserError("LaTeX failed:\n" + log_excerpt(log.read_text(errors="replace") if log.exists()
+                                                            else r.stdout),
+                            Place(str(tex)), "fix the template or the text shown above (--format tex keeps the .tex)")
+    pdf = tex.with_suffix(".pdf")
+    shutil.copy2(pdf, output)
+    return output
+
+
+def log_excerpt(log: str, context: int = 4, limit: int = 30) -> str:
+    """The error lines of a LaTeX log ('! ...' or 'file:line: ...') with a few lines of context."""
+    lines = log.splitlines()
+    picked: list[str] = []
+    for i, line in enumerate(lines):
+        if line.startswith("!") or re.match(r"^[^:\s]+\.tex:\d+: ", line):
+            picked += lines[i:i + context + 1] + ["..."]
+        if len(picked) >= limit:
+            break
+    return "\n".join(picked[:limit]) if picked else "\n".join(lines[-limit:])
