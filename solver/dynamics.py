@@ -124,6 +124,20 @@ def gravity_vector(U: sp.Expr, q: list[sp.Symbol]) -> sp.Matrix:
     return sp.Matrix([tidy(sp.diff(U, qk)) for qk in q])
 
 
+def has_model(robot: Robot) -> bool:
+    """Whether the robot carries mass: bodies, a given inertia matrix or added kinetic energy."""
+    return bool(robot.bodies) or robot.given_B is not None or bool(robot.kinetic_extra)
+
+
+def require_model(problem) -> Robot:  # type: ignore[no-untyped-def]
+    """The problem's robot, or a spec error when a dynamics ask has no masses to work with."""
+    robot = problem.robot
+    if robot is None or not has_model(robot):
+        raise UserError("this ask needs the robot's dynamics, but the robot has no bodies and no model",
+                        problem.located.place(("robot",)), "add links: (explicit), dh: (DH table) or model: {B: ...}")
+    return robot
+
+
 def derive(robot: Robot) -> DynamicModel:
     """The full Lagrangian model of ``robot``."""
     n, q, dq = robot.n, robot.q, robot.dq
@@ -187,7 +201,7 @@ class DynamicModelAsk(Strict):
 @ask_kind("dynamic_model", DynamicModelAsk, "Euler-Lagrange dynamic model: T, U, B, Christoffel, c, S, g")
 def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: T, U, B, christoffel, c, S, g, model (+ T<i>, U<i>, pc<i>, vc<i>, w<i> per body, skew)."""
-    robot: Robot = problem.robot
+    robot = require_model(problem)
     dm = derive(robot)
     sol = Solution("dynamic_model", title=options.title or "Dynamic model")
     for i, e in enumerate(dm.bodies, 1):

@@ -12,7 +12,7 @@ from typing import Literal, Optional
 import sympy as sp
 from pydantic import Field
 
-from .dynamics import derive
+from .dynamics import derive, require_model
 from .registry import ask_kind
 from .results import Solution
 from .simplify import angle_symbols, tidy
@@ -74,7 +74,7 @@ def equilibria(g: sp.Matrix, q: list[sp.Symbol]) -> tuple[list[sp.Matrix], list[
 @ask_kind("equilibria", EquilibriaAsk, "unforced equilibrium configurations: g(q) = 0")
 def solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: equilibria (set of configurations), n_equilibria."""
-    robot = problem.robot
+    robot = require_model(problem)
     dm = derive(robot)
     configs, conditions, every = equilibria(dm.g, robot.q)
     sol = Solution("equilibria", title=options.title or "Equilibrium configurations")

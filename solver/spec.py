@@ -421,10 +421,7 @@ class SpecLoader:
                 robot.given_g = self.vector_at(M + ("g",), (n,), "g")
             if r.model.c is not None:
                 robot.given_c = self.vector_at(M + ("c",), (n,), "c")
-        if not robot.bodies and robot.given_B is None and not robot.kinetic_extra:
-            raise self.fail(P, "the robot has no bodies and no model",
-                            "add links: (explicit), dh: (DH table) or model: {B: ...}")
-        return robot
+        return robot  # a robot without bodies or model is fine for kinematics; dynamics asks check it
 
     def _inertia(self, path: PathT, what: str) -> sp.Matrix:
         val = self.parse_at(path)

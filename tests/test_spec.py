@@ -106,3 +106,30 @@ def test_point_mass_without_inertia(write):
     p = load_problem(write("id: p\ntitle: point mass\nsymbols: {m: mass}\nrobot:\n  joints: [P]\n"
                            "  links:\n    - mass: m\n      com: [q1, 0]\nasks:\n  - kind: dynamic_model\n"))
     assert p.robot.bodies[0].inertia.is_zero_matrix
+
+
+def test_kinematics_only_robot(write):
+    """joints alone describe a robot for kinematics; a dynamics ask on it is a spec error at robot:."""
+    text = """id: k
+title: K
+symbols: {l: link length}
+robot:
+  joints: [R, R]
+asks:
+  - kind: redundancy
+    task: "[l*cos(q1) + l*cos(q1 + q2)]"
+    at: {q1: 0, q2: pi/2}
+    velocity: [1]
+"""
+    from solver.solve import all_results, solve_problem
+    res = all_results(solve_problem(load_problem(write(text))))
+    assert res["qdot_ps"].value.shape == (2, 1)
+    msg = error_of_solve(write, text.replace("kind: redundancy", "kind: dynamic_model").split("    task:")[0])
+    assert "no bodies and no model" in msg and "spec.yaml:5:" in msg
+
+
+def error_of_solve(write, text):
+    from solver.solve import solve_problem
+    with pytest.raises(UserError) as exc:
+        solve_problem(load_problem(write(text)))
+    return str(exc.value)
