@@ -310,6 +310,9 @@ def _same(a: Any, b: Any) -> bool:
             return a.shape == b.shape and all(scalar_equiv(x, y).ok for x, y in zip(a, b))
         if isinstance(a, list) or isinstance(b, list):
             return False
+        if getattr(a, "is_number", False) and getattr(b, "is_number", False):  # numbers: 1e-3 relative
+            fa, fb = complex(sp.N(a)), complex(sp.N(b))
+            return abs(fa - fb) <= 1e-3 * max(abs(fb), 1e-12)
         return scalar_equiv(a, b).ok
     except (TypeError, ValueError, sp.ShapeError):
         return False

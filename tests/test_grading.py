@@ -190,3 +190,41 @@ def test_answer_template_round_trip(ref, tmp_path):
     (tmp_path / "blank.yaml").write_text(text)
     rep = grade(ref, load_submission(tmp_path / "blank.yaml"))  # a blank sheet: every item missing, no crash
     assert all(i.verdict == MISSING for i in rep.items)
+
+
+def test_redundancy_items_numbers_within_tolerance():
+    """grade works for the redundancy ask: numeric vectors with tolerance, booleans, symbolic Jacobians."""
+    r = prepare(load_problem(PROBLEMS / "2019-04-29-midterm-ex5.yaml"))
+    r.items = {"qdot_ps": ItemSpec(points=2), "singular": ItemSpec(), "J": ItemSpec(), "rank": ItemSpec()}
+    good = {"qdot_ps": "[0.1179, -0.7071]", "singular": "0", "rank": 1,
+            "J": "$\\begin{bmatrix} 0 & -\\frac{l_1 l_2 \\sin q_2}{\\sqrt{l_1^2 + l_2^2 + 2 l_1 l_2 \\cos q_2}} "
+                 "\\end{bmatrix}$"}
+    it = items(grade(r, sub(good)))
+    assert all(i.verdict == CORRECT for i in it.values()), {k: i.feedback for k, i in it.items()}
+    it = items(grade(r, sub({"qdot_ps": "[0.1179, 0.7071]", "singular": "1", "rank": 2})))
+    assert it["qdot_ps"].score == 1 and "2: sign flipped" in it["qdot_ps"].feedback
+    assert it["singular"].verdict == INCORRECT and it["rank"].verdict == INCORRECT
+    r.items = {"qdot_ps": ItemSpec(sigfigs=2)}
+    assert items(grade(r, sub({"qdot_ps": "[0.12, -0.71]"})))["qdot_ps"].verdict == CORRECT
+
+
+_syms = {n: _REF.problem.names[n] for n in ("q1", "q2", "m2", "l1", "d1", "g0")}
+_atoms = st.sampled_from([_syms["m2"], _syms["l1"], _syms["q2"], sp.Integer(2), sp.cos(_syms["q1"]),
+                          sp.sin(_syms["q2"]), sp.cos(_syms["q1"] + _syms["q2"]), sp.sin(_syms["q1"]) ** 2])
+_valid = st.recursive(_atoms, lambda e: st.one_of(st.builds(sp.Add, e, e), st.builds(sp.Mul, e, e),
+                                                   st.builds(lambda x, y: x - y, e, e)), max_leaves=7)
+
+
+@settings(max_examples=60, deadline=None)
+@given(_valid)
+def test_fuzz_grader_with_random_valid_answers(e):
+    """g answered as the reference plus a random expression e (written out by sympy, re-read by the parser):
+    'correct' exactly when e vanishes identically (decided independently by float sampling)."""
+    import random as _r
+    g = _REF.results["g"].value
+    answer = f"[{g[0] + e}, {g[1]}]"
+    it = items(grade(_REF, sub({"g": answer})))
+    rng = _r.Random(0)
+    f = sp.lambdify(list(_syms.values()), e)
+    vanishes = all(abs(f(*[rng.uniform(0.3, 2.0) for _ in _syms])) < 1e-9 for _ in range(5))
+    assert it["g"].verdict == (CORRECT if vanishes else INCORRECT), (e, it["g"].feedback)
