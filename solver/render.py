@@ -181,6 +181,37 @@ def join_terms(parts: list[str]) -> str:
     return out
 
 
+def visible_length(tex: str) -> int:
+    """Rough printed width of a LaTeX formula in characters (commands and braces do not print)."""
+    t = re.sub(r"\\(left|right|,|;|!|quad|qquad)", "", tex)
+    t = re.sub(r"\\(sin|cos|tan|cot|exp|log|ln)\b", "xxx", t)
+    t = re.sub(r"\\[A-Za-z]+", "x", t)
+    return len(re.sub(r"[{}^_\s]", "", t))
+
+
+def display(parts: list[str], rhs: str = "", width: int = 70) -> str:
+    """A displayed sum 'parts = rhs' that breaks into lines (multline*) when wider than ``width`` characters."""
+    lines: list[list[str]] = [[]]
+    size = 0
+    for p in parts:
+        w = visible_length(p) + 3
+        if lines[-1] and size + w > width:
+            lines.append([])
+            size = 0
+        lines[-1].append(p)
+        size += w
+    tail = f" = {rhs}" if rhs else ""
+    if len(lines) == 1:
+        return f"\\[{join_terms(parts)}{tail}\\]"
+    body = []
+    for k, ln in enumerate(lines):
+        text = join_terms(ln)
+        if k and not text.lstrip().startswith("-"):
+            text = "+ " + text
+        body.append(text)
+    return "\\begin{multline*}\n" + " \\\\\n".join(body) + tail + "\n\\end{multline*}"
+
+
 def number(value: Any, digits: int = 4) -> str:
     """A number with ``digits`` significant figures."""
     try:
@@ -211,6 +242,7 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
     env.filters["tex"] = Latex(names, rank)
     env.filters["num"] = number
     env.filters["terms"] = lambda terms: join_terms([env.filters["tex"](t) for t in terms if t != 0])
+    env.filters["display"] = lambda terms, rhs="": display([env.filters["tex"](t) for t in terms if t != 0], rhs)
     env.globals["sp"] = sp
     env.filters["latex_text"] = latex_text
     env.filters["md2tex"] = md2tex

@@ -228,3 +228,12 @@ def test_fuzz_grader_with_random_valid_answers(e):
     f = sp.lambdify(list(_syms.values()), e)
     vanishes = all(abs(f(*[rng.uniform(0.3, 2.0) for _ in _syms])) < 1e-9 for _ in range(5))
     assert it["g"].verdict == (CORRECT if vanishes else INCORRECT), (e, it["g"].feedback)
+
+
+def test_degrees_for_radians_and_time_limit():
+    from solver.grading import diagnose
+    assert diagnose(sp.Integer(90), sp.pi / 2) == ["degrees and radians mixed up"]
+    r = prepare(load_problem(PROBLEMS / "2004-03-25-ex1.yaml"))
+    r.spec.time_limit = 1e-6  # every item runs out of time: left for manual review, never guessed
+    it = items(grade(r, sub({"B": "[[1, 2], [3, 4]]"})))
+    assert it["B"].verdict == "undecided" and "manual review" in it["B"].feedback[0]

@@ -99,3 +99,13 @@ def test_equilibria_section():
     p = load_problem(PROBLEMS / "2016-09-12-ex1.yaml")
     md = render(p, solve_problem(p), "md")
     assert "**4** equilibria" in md
+
+
+def test_long_equations_break_into_lines():
+    from solver.render import display, visible_length
+    assert visible_length(r"\dot{q}_{1}^{2} \sin{q_{2}}") == len("xq12xxxq2")  # q̇₁² sin q₂
+    short = display(["a", "- b"], "u_{1}")
+    assert short == r"\[a - b = u_{1}\]"
+    long = display([f"m_{{{k}}} \\dot{{q}}_{{1}} \\cos{{q_{{2}}}}" for k in range(12)], "u_{1}", width=40)
+    assert long.startswith("\\begin{multline*}") and long.count("\\\\\n") >= 2 and long.endswith("\\end{multline*}")
+    assert "\n+ m_{" in long and long.rstrip("\\end{multline*}").rstrip().endswith("= u_{1}")
