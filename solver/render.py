@@ -5,7 +5,7 @@ import dataclasses
 import re
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import jinja2
 import sympy as sp
@@ -189,10 +189,12 @@ def visible_length(tex: str) -> int:
     return len(re.sub(r"[{}^_\s]", "", t))
 
 
-def display(parts: list[str], rhs: str = "", width: int = 70) -> str:
-    """A displayed sum 'parts = rhs' that breaks into lines (multline*) when wider than ``width`` characters."""
+def display(parts: list[str], rhs: str = "", width: int = 70, lhs: str = "", wrap: tuple[str, str] = ("", ""),
+            punct: str = "") -> str:
+    """A displayed ``lhs = wrap[0] Σ parts wrap[1] = rhs`` that breaks into lines (multline*) at the + and - of
+    the sum when wider than ``width`` characters (``wrap`` must then be breakable, e.g. \\Big( ... \\Big))."""
     lines: list[list[str]] = [[]]
-    size = 0
+    size = visible_length(lhs) + visible_length(wrap[0])
     for p in parts:
         w = visible_length(p) + 3
         if lines[-1] and size + w > width:
@@ -200,16 +202,69 @@ def display(parts: list[str], rhs: str = "", width: int = 70) -> str:
             size = 0
         lines[-1].append(p)
         size += w
-    tail = f" = {rhs}" if rhs else ""
+    head = f"{lhs} = " if lhs else ""
+    tail = (f" = {rhs}" if rhs else "") + punct
     if len(lines) == 1:
-        return f"\\[{join_terms(parts)}{tail}\\]"
+        return f"\\[{head}{wrap[0]}{join_terms(parts)}{wrap[1]}{tail}\\]"
     body = []
     for k, ln in enumerate(lines):
         text = join_terms(ln)
         if k and not text.lstrip().startswith("-"):
             text = "+ " + text
         body.append(text)
+    body[0] = head + wrap[0] + body[0]
+    body[-1] += wrap[1]
     return "\\begin{multline*}\n" + " \\\\\n".join(body) + tail + "\n\\end{multline*}"
+
+
+def top_level_terms(tex: str) -> list[str]:
+    """Split a printed LaTeX sum at its top-level + and - signs: 'a + b \\left(c - d\\right) - e' ->
+    ['a', 'b \\left(c - d\\right)', '- e']."""
+    parts, depth, start, i = [], 0, 0, 0
+    while i < len(tex):
+        if tex.startswith("\\left", i) or tex[i] == "{":
+            depth += 1
+        elif tex.startswith("\\right", i) or tex[i] == "}":
+            depth -= 1
+        elif depth == 0 and tex[i] in "+-" and i > 0 and tex[i - 1] == " " and tex[i + 1:i + 2] == " ":
+            parts.append(tex[start:i].strip())
+            start = i + (1 if tex[i] == "+" else 0)
+        i += 1
+    parts.append(tex[start:].strip())
+    return [p for p in parts if p]
+
+
+def equation(value: Any, lhs: str, entry: str, tex: Callable[[Any], str], punct: str = "",
+             width: int = 70) -> str:
+    """A displayed ``lhs = value``; a matrix or vector too wide for the page is written entry by entry
+    (``entry``_{ij} = ..., zero entries and the lower triangle of a symmetric matrix left out), each long entry
+    broken into lines."""
+    if not isinstance(value, sp.MatrixBase):
+        return _broken(lhs, tex(value), punct, width)
+    cells = [[tex(value[i, j]) for j in range(value.cols)] for i in range(value.rows)]
+    widest = max(sum(visible_length(c) + 6 for c in row) for row in cells)  # + column separation
+    if widest <= width:
+        return f"\\[{lhs} = {tex(value)}{punct}\\]"
+    symmetric = value.rows == value.cols and value == value.T
+    out = [f"\\[{lhs} = \\begin{{bmatrix}} {entry}_{{{'ij' if value.cols > 1 else 'i'}}} \\end{{bmatrix}}, "
+           "\\quad\\text{with}\\]"]
+    for i in range(value.rows):
+        for j in range(value.cols):
+            if value[i, j] == 0 or (symmetric and j < i):
+                continue
+            idx = f"{i + 1}{j + 1}" if value.cols > 1 else f"{i + 1}"
+            out.append(_broken(f"{entry}_{{{idx}}}", cells[i][j], "", width))
+    zeros = [f"{entry}_{{{i + 1}{j + 1}}}" if value.cols > 1 else f"{entry}_{{{i + 1}}}"
+             for i in range(value.rows) for j in range(value.cols) if value[i, j] == 0 and not (symmetric and j < i)]
+    if zeros:
+        out.append("and $" + " = ".join(zeros) + " = 0$" + (punct or "."))
+    elif punct:
+        out[-1] = out[-1].replace("\\]", f"{punct}\\]") if out[-1].endswith("\\]") else out[-1]
+    return "\n".join(out)
+
+
+def _broken(lhs: str, text: str, punct: str, width: int) -> str:
+    return display(top_level_terms(text), "", width, lhs=lhs, punct=punct)
 
 
 def number(value: Any, digits: int = 4) -> str:
@@ -242,7 +297,11 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
     env.filters["tex"] = Latex(names, rank)
     env.filters["num"] = number
     env.filters["terms"] = lambda terms: join_terms([env.filters["tex"](t) for t in terms if t != 0])
-    env.filters["display"] = lambda terms, rhs="": display([env.filters["tex"](t) for t in terms if t != 0], rhs)
+    env.filters["display"] = lambda terms, rhs="", lhs="", wrap=("", ""), punct="": display(
+        [env.filters["tex"](t) for t in terms if t != 0], rhs, lhs=lhs, wrap=tuple(wrap), punct=punct)
+    env.filters["width"] = visible_length
+    env.filters["equation"] = lambda value, lhs, entry, punct="": equation(value, lhs, entry, env.filters["tex"],
+                                                                          punct)
     env.globals["sp"] = sp
     env.filters["latex_text"] = latex_text
     env.filters["md2tex"] = md2tex
