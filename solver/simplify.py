@@ -117,6 +117,10 @@ def _fourier(expr: sp.Expr) -> sp.Expr:
     for k in sorted(coeffs, key=lambda t: (sum(abs(v) for v in t), [-abs(v) for v in t], t)):
         a, b = coeffs[k]
         theta = sum((kj * x for kj, x in zip(k, angles)), sp.Integer(0))
+        phased = _with_phase(a, b, theta) if nice is _nice and a and b else None
+        if phased is not None:
+            out.append(phased)
+            continue
         if a:
             out.append(nice(a) * sp.cos(theta))
         if b:
@@ -128,6 +132,22 @@ def _fourier(expr: sp.Expr) -> sp.Expr:
         if sp.count_ops(product) < sp.count_ops(fourier):
             return product
     return fourier
+
+
+def _with_phase(a: sp.Expr, b: sp.Expr, theta: sp.Expr) -> sp.Expr | None:
+    """a cos θ + b sin θ as one shifted sinusoid when a/b is a number and the phase a rational multiple of π:
+    (√2/2)(cos q - sin q) -> cos(q + π/4). Used only for expressions written with such offsets."""
+    rho = sp.simplify(a / b)
+    if not rho.is_number or not rho.is_real:
+        return None
+    amp = sp.radsimp(sp.simplify(b * sp.sqrt(rho**2 + 1)))
+    best = None
+    for fn, phase in ((sp.cos, sp.atan2(-1, rho)), (sp.sin, sp.atan2(rho, 1))):
+        if (phase / sp.pi).is_Rational and (best is None or abs(phase) < abs(best[1])):
+            best = (fn, phase)
+    if best is None:
+        return None
+    return _nice(amp) * best[0](theta + best[1])
 
 
 def _product_form(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:

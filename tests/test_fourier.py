@@ -79,3 +79,9 @@ def test_product_form_over_single_angles() -> None:
     p = product_form(coeffs, [q2])
     assert p.has(sp.sin(q2) * sp.cos(q2)) and not p.has(sp.sin(2 * q2)) and same_function(p, e)
     assert tidy(e) == p  # chosen because it is shorter
+
+
+def test_constant_offsets_keep_their_phase() -> None:
+    assert tidy(sp.cos(q1 + sp.pi / 4)) == sp.cos(q1 + sp.pi / 4)
+    assert tidy(3 * sp.sin(q1 - sp.pi / 6)) == 3 * sp.sin(q1 - sp.pi / 6)
+    assert tidy(sp.sin(q1) + sp.cos(q1)) == sp.sin(q1) + sp.cos(q1)  # no phase invented where none was written
