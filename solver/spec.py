@@ -92,6 +92,11 @@ class GivenModel(Strict):
     c: Optional[ExprT] = Field(None, description="Coriolis/centrifugal vector c(q, dq), if given instead of derived")
 
 
+class InputName(Strict):
+    name: str = Field(description="the input's name in expressions, e.g. utheta1")
+    latex: Optional[str] = Field(None, description="how it prints in LaTeX, e.g. u_{\\theta,1}")
+
+
 class RobotSpec(Strict):
     joints: list[Literal["R", "P"]] = Field(description="joint types in order; coordinates q1..qn")
     coordinates: Optional[list[str]] = Field(
@@ -102,7 +107,8 @@ class RobotSpec(Strict):
     extra: Optional[Extra] = None
     friction: Optional[Friction] = None
     input_map: Optional[ExprT] = Field(None, description="G(q): generalized forces = G u (default identity)")
-    inputs: Optional[list[str]] = Field(None, description="names of the inputs u (default u1..um)")
+    inputs: Optional[list[Union[str, InputName]]] = Field(
+        None, description="names of the inputs u (default u1..um); {name: ..., latex: ...} to choose how one prints")
     model: Optional[GivenModel] = Field(None, description="model given directly instead of (or besides) bodies")
 
 
@@ -361,9 +367,10 @@ class SpecLoader:
             self.latex_names[s] = meta.latex or latex_of(name)
         inputs = robot.inputs if robot and robot.inputs else []
         for u in inputs:
-            s = sp.Symbol(u, real=True)
-            self.names.setdefault(u, s)
-            self.latex_names[s] = latex_of(u)
+            name, tex = (u, None) if isinstance(u, str) else (u.name, u.latex)
+            s = sp.Symbol(name, real=True)
+            self.names.setdefault(name, s)
+            self.latex_names[s] = tex or latex_of(name)
 
     def _robot(self, r: RobotSpec) -> Robot:
         q = [c[0] for c in self.coords]
@@ -403,7 +410,7 @@ class SpecLoader:
                 raise self.fail(P + ("input_map",), f"input_map must have {n} rows (one per coordinate), got {G.shape[0]}")
             robot.input_map = G
         m = robot.input_map.shape[1] if robot.input_map is not None else n
-        names = r.inputs or [f"u{i + 1}" for i in range(m)]
+        names = [u if isinstance(u, str) else u.name for u in r.inputs] if r.inputs else [f"u{i + 1}" for i in range(m)]
         if len(names) != m:
             raise self.fail(P + ("inputs",), f"{len(names)} input names for {m} inputs")
         robot.inputs = [sp.Symbol(u, real=True) for u in names]
