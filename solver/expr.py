@@ -109,7 +109,10 @@ class Parser:
             t = self.tok
             self.i += 1
             return t
-        found = "end of text" if self.tok.kind == "end" else repr(self.tok.text)
+        t = self.tok
+        if op in ")]," and (t.kind in ("name", "num") or (t.kind == "op" and t.text in "([")):
+            raise self.error(f"missing operator before {t.text!r}", t, "write products with '*', e.g. m2*l1 or 2*q1")
+        found = "end of text" if t.kind == "end" else repr(t.text)
         raise self.error(f"expected {op!r}, found {found}", hint="check that brackets are balanced")
 
     def at_op(self, *ops: str) -> bool:

@@ -199,7 +199,10 @@ def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict,
         value = parse_answer(raw, names, latex)
     except ExprError as exc:
         out.verdict = INVALID
-        msg = exc.message + (f" (at column {exc.col})" if exc.col else "")
+        msg = exc.message
+        if exc.col and exc.text and len(exc.text) <= 2000:
+            before = exc.text[max(0, exc.col - 25):exc.col - 1]
+            msg += f" (column {exc.col}: ...{before}⟨here⟩{exc.text[exc.col - 1:exc.col + 9]})"
         out.feedback.append(f"could not read the answer: {msg}" + (f"; {exc.hint}" if exc.hint else ""))
         return out
     value = _expand(value, subs)
