@@ -36,6 +36,7 @@ from .spec import Strict
 from .submission import Submission, answer_names, latex_spellings, parse_answer
 
 INVALID, MISSING = "invalid", "missing"
+_BOOLS = {"true": True, "yes": True, "false": False, "no": False}
 
 
 class ItemSpec(Strict):
@@ -185,6 +186,9 @@ def grade(ref: Reference, sub: Submission) -> Report:
                              [f"not decided within {ref.spec.time_limit:g} s: left for manual review"])
         except RecursionError:
             res = ItemResult(name, INVALID, 0.0, item.points, ["answer nested too deeply"])
+        except Exception as exc:  # noqa: BLE001 - a sympy failure on an odd answer: a human decides
+            res = ItemResult(name, UNDECIDED, 0.0, item.points,
+                             [f"could not be checked automatically ({exc.__class__.__name__}): manual review"])
         report.items.append(res)
     return report
 
@@ -195,6 +199,9 @@ def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict,
     if raw is None or (isinstance(raw, str) and not raw.strip()):
         out.feedback.append("no answer given")
         return out
+    r = ref.results[name]
+    if r.kind == "bool" and (isinstance(raw, bool) or str(raw).strip().lower() in _BOOLS):
+        raw = int(raw if isinstance(raw, bool) else _BOOLS[str(raw).strip().lower()])
     try:
         value = parse_answer(raw, names, latex)
     except ExprError as exc:
@@ -207,7 +214,6 @@ def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict,
         return out
     value = _expand(value, subs)
     out.read_as = _show(value)
-    r = ref.results[name]
     judge = {"matrix": _judge_matrix, "vector": _judge_matrix, "list": _judge_list, "set": _judge_set,
              "number": _judge_number, "bool": _judge_bool}.get(r.kind, _judge_scalar)
     judge(ref, name, item, r, value, out)
@@ -242,7 +248,8 @@ def _judge_scalar(ref: Reference, name: str, item: ItemSpec, r: Result, value: A
         out.feedback.append(f"a scalar is expected, got a list of shape {shape_of(value)}")
         return
     v = scalar_equiv(value, r.value)
-    if v.verdict != CORRECT and name == "U" and item.accept == "property" and ref.problem.robot is not None:
+    potential = name == "U" or (name[:1] == "U" and name[1:].isdigit())
+    if v.verdict != CORRECT and potential and item.accept == "property" and ref.problem.robot is not None:
         d = value - r.value
         if all(scalar_equiv(sp.diff(d, q), 0).ok for q in ref.problem.robot.q):
             v = Verdict(CORRECT)

@@ -215,8 +215,10 @@ def build(handout: Handout, kind: str, fmt: str, output: Path, template_dir: Pat
         if fmt == "tex":
             return {"files": [tex_path, *files], "solve": t_solve, "latex": 0.0}
         t1 = time.perf_counter()
-        pdf = compile_latex(tex_path, output)
-        shutil.rmtree(work, ignore_errors=True)
+        try:
+            pdf = compile_latex(tex_path, output)
+        finally:
+            shutil.rmtree(work, ignore_errors=True)
         return {"files": [pdf], "solve": t_solve, "latex": time.perf_counter() - t1}
     env = _web_env(fmt, template_dir)
     md = _web_env("md", template_dir).get_template("handout.md.j2").render(**ctx)

@@ -204,6 +204,8 @@ def test_redundancy_items_numbers_within_tolerance():
     it = items(grade(r, sub({"qdot_ps": "[0.1179, 0.7071]", "singular": "1", "rank": 2})))
     assert it["qdot_ps"].score == 1 and "2: sign flipped" in it["qdot_ps"].feedback
     assert it["singular"].verdict == INCORRECT and it["rank"].verdict == INCORRECT
+    assert items(grade(r, sub({"singular": False})))["singular"].verdict == CORRECT  # YAML false
+    assert items(grade(r, sub({"singular": "yes"})))["singular"].verdict == INCORRECT
     r.items = {"qdot_ps": ItemSpec(sigfigs=2)}
     assert items(grade(r, sub({"qdot_ps": "[0.12, -0.71]"})))["qdot_ps"].verdict == CORRECT
 
