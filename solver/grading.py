@@ -180,7 +180,7 @@ def grade(ref: Reference, sub: Submission) -> Report:
     for name, item in ref.items.items():
         try:
             with time_limit(ref.spec.time_limit):
-                res = grade_item(ref, name, item, sub.answers.get(name), names, subs, latex)
+                res = grade_item(ref, name, item, sub.answers.get(name), names, subs, latex, sub.answers)
         except ItemTimeout:
             res = ItemResult(name, UNDECIDED, 0.0, item.points,
                              [f"not decided within {ref.spec.time_limit:g} s: left for manual review"])
@@ -194,8 +194,20 @@ def grade(ref: Reference, sub: Submission) -> Report:
 
 
 def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict, subs: dict,
-               latex: dict) -> ItemResult:
+               latex: dict, answers: dict[str, Any] | None = None) -> ItemResult:
     out = ItemResult(name, MISSING, 0.0, item.points)
+
+    def partner(n: str) -> Any:
+        """The other half of a (Y, a) answer, parsed; None when absent or unreadable."""
+        other = {"Y": "a", "a": "Y"}[n]
+        raw_other = (answers or {}).get(other)
+        if raw_other in (None, ""):
+            return None
+        try:
+            return _expand(parse_answer(raw_other, names, latex), subs)
+        except ExprError:
+            return None
+
     if raw is None or (isinstance(raw, str) and not raw.strip()):
         out.feedback.append("no answer given")
         return out
@@ -214,6 +226,10 @@ def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict,
         return out
     value = _expand(value, subs)
     out.read_as = _show(value)
+    if name in ("Y", "a") and item.accept == "property" and {"Y", "a"} <= set(ref.results) \
+            and _judge_parametrization(ref, name, item, value, partner(name), out):
+        out.score = round(out.score, 4)
+        return out
     judge = {"matrix": _judge_matrix, "vector": _judge_matrix, "list": _judge_list, "set": _judge_set,
              "number": _judge_number, "bool": _judge_bool}.get(r.kind, _judge_scalar)
     judge(ref, name, item, r, value, out)
@@ -326,6 +342,57 @@ def _same(a: Any, b: Any) -> bool:
         return scalar_equiv(a, b).ok
     except (TypeError, ValueError, sp.ShapeError):
         return False
+
+
+# -- linear parametrization ---------------------------------------------------------------------------------
+def _judge_parametrization(ref: Reference, name: str, item: ItemSpec, value: Any, other: Any,
+                           out: ItemResult) -> bool:
+    """(Y, a) accepted by property: Y a ≡ the model, a free of the state, Y free of the dynamic parameters, and
+    dim a minimal. Returns False (compare with the reference instead) when the other half is missing."""
+    if other is None:
+        return False
+    Y_raw, a_raw = (value, other) if name == "Y" else (other, value)
+    problem, robot = ref.problem, ref.problem.robot
+    try:
+        Y = sp.Matrix(Y_raw) if isinstance(Y_raw, list) else sp.Matrix([[Y_raw]])
+        a = sp.Matrix(a_raw) if isinstance(a_raw, list) else sp.Matrix([a_raw])
+    except (ValueError, TypeError, sp.ShapeError):
+        return False
+    if a.cols != 1 and a.rows == 1:
+        a = a.T
+    Y_ref, a_ref = ref.results["Y"].value, ref.results["a"].value
+    if Y.shape == (Y_ref.rows * Y_ref.cols, 1) and Y_ref.rows == 1:
+        Y = Y.T
+    if Y.rows != Y_ref.rows or Y.cols != a.rows:
+        out.verdict = INCORRECT
+        out.feedback.append(f"Y is {Y.rows}x{Y.cols} and a has {a.rows} entries: Y a is not defined or has the "
+                            f"wrong size (the model has {Y_ref.rows} equations)")
+        return True
+    state = set(robot.q) | set(robot.dq) | set(robot.ddq) if robot else set()
+    dynamic = set(problem.symbols.values()) - set(problem.known)
+    if any(x.free_symbols & state for x in a):
+        out.verdict = INCORRECT
+        out.feedback.append("the coefficients a must not depend on q, q̇, q̈")
+        return True
+    if any(x.free_symbols & dynamic for x in Y):
+        out.verdict = INCORRECT
+        out.feedback.append("Y must not contain dynamic parameters (masses, inertias, CoM positions): move them to a")
+        return True
+    model = Y_ref * a_ref
+    if not all(scalar_equiv(x, y).ok for x, y in zip(Y * a, model)):
+        out.verdict = INCORRECT
+        wrong = [str(i + 1) for i, (x, y) in enumerate(zip(Y * a, model)) if not scalar_equiv(x, y).ok]
+        out.feedback.append("Y a differs from the dynamic model in equation(s) " + ", ".join(wrong))
+        return True
+    p = a_ref.rows
+    if a.rows > p:
+        out.verdict = INCORRECT
+        out.score = item.points / 2 if item.partial else 0.0
+        out.feedback.append(f"Y a = model holds, but with {a.rows} coefficients: {p} are enough (not minimal)")
+        return True
+    out.verdict, out.score = CORRECT, item.points
+    out.feedback.append(f"valid minimal parametrization: Y a = model with {a.rows} coefficients")
+    return True
 
 
 # -- matrices and vectors -----------------------------------------------------------------------------------

@@ -239,3 +239,33 @@ def test_degrees_for_radians_and_time_limit():
     r.spec.time_limit = 1e-6  # every item runs out of time: left for manual review, never guessed
     it = items(grade(r, sub({"B": "[[1, 2], [3, 4]]"})))
     assert it["B"].verdict == "undecided" and "manual review" in it["B"].feedback[0]
+
+
+def test_linear_parametrization_by_property():
+    """(Y, a): any grouping with Y a = model, a free of the state, Y free of dynamic parameters, dim a minimal."""
+    from solver.results import Result
+    r = prepare(load_problem(PROBLEMS / "2004-03-25-ex1.yaml"))
+    n = r.problem.names
+    q1, q2, dq1, dq2, ddq1, ddq2 = (n[k] for k in ("q1", "q2", "dq1", "dq2", "ddq1", "ddq2"))
+    l1, g0 = n["l1"], n["g0"]
+    a = sp.Matrix([n["I1"] + n["I2"] + n["m1"] * n["d1"] ** 2, n["m2"], n["m1"] * n["d1"]])
+    Y = sp.Matrix([[ddq1, (l1**2 + q2**2) * ddq1 + l1 * ddq2 + 2 * q2 * dq1 * dq2 + g0 * q2 * sp.cos(q1)
+                    + g0 * l1 * sp.sin(q1), g0 * sp.sin(q1)],
+                   [0, l1 * ddq1 + ddq2 - q2 * dq1**2 + g0 * sp.sin(q1), 0]])
+    r.results["Y"], r.results["a"] = Result("Y", Y, "matrix"), Result("a", a, "vector")
+    r.items = {"Y": ItemSpec(points=2), "a": ItemSpec(points=1)}
+    printed = {  # the printed grouping: a1 also holds m2 l1^2, a3 = m1 d1 + m2 l1
+        "a": "[I1 + I2 + m1*d1^2 + m2*l1^2, m2, m1*d1 + m2*l1]",
+        "Y": "[[ddq1, q2^2*ddq1 + l1*ddq2 + 2*q2*dq1*dq2 + g0*q2*cos(q1), g0*sin(q1)],"
+             " [0, l1*ddq1 + ddq2 - q2*dq1^2 + g0*sin(q1), 0]]"}
+    it = items(grade(r, sub(printed)))
+    assert it["Y"].verdict == CORRECT and it["a"].verdict == CORRECT, (it["Y"].feedback, it["a"].feedback)
+    split = {"a": "[I1 + I2 + m1*d1^2 + m2*l1^2, m2, m1*d1, m2*l1]",  # valid but one coefficient too many
+             "Y": "[[ddq1, q2^2*ddq1 + l1*ddq2 + 2*q2*dq1*dq2 + g0*q2*cos(q1), g0*sin(q1), g0*sin(q1)],"
+                  " [0, l1*ddq1 + ddq2 - q2*dq1^2 + g0*sin(q1), 0, 0]]"}
+    it = items(grade(r, sub(split)))
+    assert it["Y"].score == 1 and "not minimal" in it["Y"].feedback[0]
+    cheat = {"a": "[1]", "Y": str([[str(x)] for x in (Y * a)]).replace("'", "")}
+    assert "must not contain dynamic parameters" in items(grade(r, sub(cheat)))["Y"].feedback[0]
+    wrong = dict(printed, a="[I1 + I2 + m1*d1^2 + m2*l1^2, m2, m1*d1 - m2*l1]")
+    assert "differs from the dynamic model in equation(s) 1" in items(grade(r, sub(wrong)))["a"].feedback[0]
