@@ -384,7 +384,8 @@ def _judge_parametrization(ref: Reference, name: str, item: ItemSpec, value: Any
         wrong = [str(i + 1) for i, (x, y) in enumerate(zip(Y * a, model)) if not scalar_equiv(x, y).ok]
         out.feedback.append("Y a differs from the dynamic model in equation(s) " + ", ".join(wrong))
         return True
-    p = a_ref.rows
+    p_min = ref.results.get("p_min")
+    p = int(p_min.value) if p_min is not None and getattr(p_min.value, "is_Integer", False) else a_ref.rows
     if a.rows > p:
         out.verdict = INCORRECT
         out.score = item.points / 2 if item.partial else 0.0
