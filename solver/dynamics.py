@@ -13,7 +13,7 @@ import sympy as sp
 from pydantic import Field
 
 from .errors import UserError
-from .registry import ask_kind
+from .registry import PropertyVerdict, ask_kind, property_check
 from .results import Solution
 from .robot import Body, Robot
 from .simplify import is_zero, tidy, tidy_matrix, velocity_terms
@@ -282,3 +282,44 @@ def add_figures(sol: Solution, dm: DynamicModel, problem, options: DynamicModelA
     ):
         if fig is not None:
             sol.figures.append(fig)
+
+
+# ------------------------------------------------------------------------------------------------ grading
+@property_check("S")
+def check_factorization(problem, results, name, S, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """Any S with S q̇ ≡ c; full credit only with Ḃ - 2S skew-symmetric when ``options.require_skew``."""
+    from .equivalence import scalar_equiv
+    robot, c, B = problem.robot, results.get("c"), results.get("B")
+    if robot is None or c is None or not isinstance(S, list):
+        return None
+    try:
+        S = sp.Matrix(S)
+    except (ValueError, TypeError):
+        return None
+    n = robot.n
+    if S.shape != (n, n):
+        return None
+    if not all(scalar_equiv(x, y).ok for x, y in zip(S * sp.Matrix(robot.dq), c.value)):
+        return PropertyVerdict(False, 0.0, ["S q̇ differs from c(q, q̇): not a valid factorization"], final=False)
+    skew = None
+    if B is not None:
+        N = sum((B.value.diff(q) * v for q, v in zip(robot.q, robot.dq)), sp.zeros(n, n)) - 2 * S
+        skew = all(scalar_equiv(x, 0).ok for x in (N + N.T))
+    if skew or not getattr(options, "require_skew", True):
+        return PropertyVerdict(True, 1.0, ["valid factorization: S q̇ = c" + (", Ḃ - 2S skew-symmetric" if skew else "")])
+    return PropertyVerdict(False, 0.5, ["S q̇ = c holds, but Ḃ - 2S is not skew-symmetric "
+                                        "(build S from the Christoffel symbols)"])
+
+
+@property_check("U", *[f"U{i}" for i in range(1, 13)])
+def check_potential(problem, results, name, U, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """A potential energy is defined up to an additive constant: ∂(U - U_ref)/∂q ≡ 0."""
+    from .equivalence import scalar_equiv
+    ref = results.get(name)
+    if ref is None or problem.robot is None or isinstance(U, list):
+        return None
+    d = U - ref.value
+    if scalar_equiv(d, 0).ok or not all(scalar_equiv(sp.diff(d, q), 0).ok for q in problem.robot.q):
+        return None  # equal, or really different: the reference comparison says so
+    return PropertyVerdict(True, 1.0, ["equal to the reference up to an additive constant "
+                                       "(fine for a potential energy)"])

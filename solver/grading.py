@@ -29,6 +29,7 @@ from .equivalence import CORRECT, INCORRECT, UNDECIDED, Verdict, scalar_equiv, s
 from .errors import ExprError, UserError
 from .expr import shape_of
 from .problem import Problem
+from .registry import PROPERTY_CHECKS, load_all
 from .results import Result
 from .simplify import tidy
 from .solve import all_results, solve_problem
@@ -120,6 +121,7 @@ def prepare(problem: Problem) -> Reference:
     """Solve ``problem`` once and fix the items to grade."""
     from .verify import parse_expected
     spec = grading_spec(problem)
+    load_all()  # every solver module registers its ask kinds and property checks
     results = all_results(solve_problem(problem))
     expected = parse_expected(problem)
     if spec.items is not None:
@@ -197,9 +199,8 @@ def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict,
                latex: dict, answers: dict[str, Any] | None = None) -> ItemResult:
     out = ItemResult(name, MISSING, 0.0, item.points)
 
-    def partner(n: str) -> Any:
-        """The other half of a (Y, a) answer, parsed; None when absent or unreadable."""
-        other = {"Y": "a", "a": "Y"}[n]
+    def partner(other: str) -> Any:
+        """Another item's answer, parsed (property checks of pairs such as (Y, a)); None if absent/unreadable."""
         raw_other = (answers or {}).get(other)
         if raw_other in (None, ""):
             return None
@@ -226,10 +227,15 @@ def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict,
         return out
     value = _expand(value, subs)
     out.read_as = _show(value)
-    if name in ("Y", "a") and item.accept == "property" and {"Y", "a"} <= set(ref.results) \
-            and _judge_parametrization(ref, name, item, value, partner(name), out):
-        out.score = round(out.score, 4)
-        return out
+    check = PROPERTY_CHECKS.get(name) if item.accept == "property" else None
+    pv = check(ref.problem, ref.results, name, value, partner, item) if check else None
+    if pv is not None:
+        out.verdict = CORRECT if pv.correct else INCORRECT
+        out.score = round(item.points * (pv.fraction if (pv.correct or item.partial) else 0.0), 4)
+        out.feedback += pv.feedback
+        if pv.final:
+            return out
+        out.feedback.append("compared with the reference solution:")  # wrong by property: name the entries
     judge = {"matrix": _judge_matrix, "vector": _judge_matrix, "list": _judge_list, "set": _judge_set,
              "number": _judge_number, "bool": _judge_bool}.get(r.kind, _judge_scalar)
     judge(ref, name, item, r, value, out)
@@ -264,12 +270,6 @@ def _judge_scalar(ref: Reference, name: str, item: ItemSpec, r: Result, value: A
         out.feedback.append(f"a scalar is expected, got a list of shape {shape_of(value)}")
         return
     v = scalar_equiv(value, r.value)
-    potential = name == "U" or (name[:1] == "U" and name[1:].isdigit())
-    if v.verdict != CORRECT and potential and item.accept == "property" and ref.problem.robot is not None:
-        d = value - r.value
-        if all(scalar_equiv(sp.diff(d, q), 0).ok for q in ref.problem.robot.q):
-            v = Verdict(CORRECT)
-            out.feedback.append("equal to the reference up to an additive constant (fine for a potential energy)")
     _finish_scalar(ref, name, item, r.value, value, v, out)
 
 
@@ -344,58 +344,6 @@ def _same(a: Any, b: Any) -> bool:
         return False
 
 
-# -- linear parametrization ---------------------------------------------------------------------------------
-def _judge_parametrization(ref: Reference, name: str, item: ItemSpec, value: Any, other: Any,
-                           out: ItemResult) -> bool:
-    """(Y, a) accepted by property: Y a ≡ the model, a free of the state, Y free of the dynamic parameters, and
-    dim a minimal. Returns False (compare with the reference instead) when the other half is missing."""
-    if other is None:
-        return False
-    Y_raw, a_raw = (value, other) if name == "Y" else (other, value)
-    problem, robot = ref.problem, ref.problem.robot
-    try:
-        Y = sp.Matrix(Y_raw) if isinstance(Y_raw, list) else sp.Matrix([[Y_raw]])
-        a = sp.Matrix(a_raw) if isinstance(a_raw, list) else sp.Matrix([a_raw])
-    except (ValueError, TypeError, sp.ShapeError):
-        return False
-    if a.cols != 1 and a.rows == 1:
-        a = a.T
-    Y_ref, a_ref = ref.results["Y"].value, ref.results["a"].value
-    if Y.shape == (Y_ref.rows * Y_ref.cols, 1) and Y_ref.rows == 1:
-        Y = Y.T
-    if Y.rows != Y_ref.rows or Y.cols != a.rows:
-        out.verdict = INCORRECT
-        out.feedback.append(f"Y is {Y.rows}x{Y.cols} and a has {a.rows} entries: Y a is not defined or has the "
-                            f"wrong size (the model has {Y_ref.rows} equations)")
-        return True
-    state = set(robot.q) | set(robot.dq) | set(robot.ddq) if robot else set()
-    dynamic = set(problem.symbols.values()) - set(problem.known)
-    if any(x.free_symbols & state for x in a):
-        out.verdict = INCORRECT
-        out.feedback.append("the coefficients a must not depend on q, q̇, q̈")
-        return True
-    if any(x.free_symbols & dynamic for x in Y):
-        out.verdict = INCORRECT
-        out.feedback.append("Y must not contain dynamic parameters (masses, inertias, CoM positions): move them to a")
-        return True
-    model = Y_ref * a_ref
-    if not all(scalar_equiv(x, y).ok for x, y in zip(Y * a, model)):
-        out.verdict = INCORRECT
-        wrong = [str(i + 1) for i, (x, y) in enumerate(zip(Y * a, model)) if not scalar_equiv(x, y).ok]
-        out.feedback.append("Y a differs from the dynamic model in equation(s) " + ", ".join(wrong))
-        return True
-    p_min = ref.results.get("p_min")
-    p = int(p_min.value) if p_min is not None and getattr(p_min.value, "is_Integer", False) else a_ref.rows
-    if a.rows > p:
-        out.verdict = INCORRECT
-        out.score = item.points / 2 if item.partial else 0.0
-        out.feedback.append(f"Y a = model holds, but with {a.rows} coefficients: {p} are enough (not minimal)")
-        return True
-    out.verdict, out.score = CORRECT, item.points
-    out.feedback.append(f"valid minimal parametrization: Y a = model with {a.rows} coefficients")
-    return True
-
-
 # -- matrices and vectors -----------------------------------------------------------------------------------
 def _as_matrix(value: Any, want: sp.Matrix) -> sp.Matrix | None:
     shape = shape_of(value)
@@ -419,8 +367,6 @@ def _judge_matrix(ref: Reference, name: str, item: ItemSpec, r: Result, value: A
         shape = "x".join(str(s) for s in (got.shape if got is not None else shape_of(value))) or "scalar"
         out.verdict = INCORRECT
         out.feedback.append(f"wrong shape: {shape}, expected {want.shape[0]}x{want.shape[1]}")
-        return
-    if name == "S" and item.accept == "property" and _judge_factorization(ref, item, got, out):
         return
     wrong, undecided, good = [], [], 0
     for i in range(want.shape[0]):
@@ -452,31 +398,6 @@ def _judge_matrix(ref: Reference, name: str, item: ItemSpec, r: Result, value: A
                     out.feedback.append(f"{label(i, j)}: {why[0]}")
     if undecided:
         out.feedback.append("entries " + ", ".join(label(*e) for e in undecided) + " undecided: manual review")
-
-
-def _judge_factorization(ref: Reference, item: ItemSpec, S: sp.Matrix, out: ItemResult) -> bool:
-    """S accepted by property: S q̇ ≡ c (and Ḃ - 2S skew when required). False: fall back to the reference."""
-    robot = ref.problem.robot
-    c, B = ref.results.get("c"), ref.results.get("B")
-    if robot is None or c is None:
-        return False
-    dq = sp.Matrix(robot.dq)
-    if not all(scalar_equiv(x, y).ok for x, y in zip(S * dq, c.value)):
-        out.feedback.append("S q̇ differs from c(q, q̇): not a valid factorization")
-        return False
-    skew = None
-    if B is not None:
-        Bdot = sum((B.value.diff(q) * v for q, v in zip(robot.q, robot.dq)), sp.zeros(*B.value.shape))
-        N = Bdot - 2 * S
-        skew = all(scalar_equiv(x, 0).ok for x in (N + N.T))
-    if skew or not item.require_skew:
-        out.verdict, out.score = CORRECT, item.points
-        out.feedback.append("valid factorization: S q̇ = c" + (", Ḃ - 2S skew-symmetric" if skew else ""))
-    else:
-        out.verdict = INCORRECT
-        out.score = item.points / 2 if item.partial else 0.0
-        out.feedback.append("S q̇ = c holds, but Ḃ - 2S is not skew-symmetric (build S from the Christoffel symbols)")
-    return True
 
 
 # -- lists, sets, numbers ----------------------------------------------------------------------------------

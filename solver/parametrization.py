@@ -42,7 +42,7 @@ from .dynamics import derive, require_model
 from .equivalence import equivalent
 from .errors import UserError
 from .expr import shape_of
-from .registry import ask_kind
+from .registry import PropertyVerdict, ask_kind, property_check
 from .results import Solution
 from .simplify import is_zero, tidy
 from .spec import Strict
@@ -697,3 +697,47 @@ def solve_linear_parametrization(problem, options: LinearParametrizationAsk, ctx
              column_relations=[r.xreplace(sub_y) for r in par.column_relations], lhs=PARTS[options.part],
              minimal_set=minimal_set, sym_tex=sp.latex(sp.Symbol(sym)))
     return sol
+
+
+# ------------------------------------------------------------------------------------------------ grading
+@property_check("Y", "a")
+def check_parametrization(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """(Y, a) answered together: Y a ≡ the reference Y a, a free of q, q̇, q̈, Y free of the dynamic parameters
+    (symbols not in known:), and no more coefficients than the minimum; any grouping is accepted."""
+    from .equivalence import scalar_equiv
+    if not {"Y", "a"} <= set(results):
+        return None
+    partner = other("a" if name == "Y" else "Y")
+    if partner is None:
+        return None
+    Y_raw, a_raw = (value, partner) if name == "Y" else (partner, value)
+    try:
+        Y = sp.Matrix(Y_raw) if isinstance(Y_raw, list) else sp.Matrix([[Y_raw]])
+        a = sp.Matrix(a_raw) if isinstance(a_raw, list) else sp.Matrix([a_raw])
+    except (ValueError, TypeError, sp.ShapeError):
+        return None
+    if a.cols != 1 and a.rows == 1:
+        a = a.T
+    Y_ref, a_ref = results["Y"].value, results["a"].value
+    if Y_ref.rows == 1 and Y.shape == (Y_ref.cols, 1):
+        Y = Y.T
+    if Y.rows != Y_ref.rows or Y.cols != a.rows:
+        return PropertyVerdict(False, 0.0, [f"Y is {Y.rows}x{Y.cols} and a has {a.rows} entries: Y a is not defined "
+                                            f"or has the wrong size (the model has {Y_ref.rows} equations)"])
+    robot = problem.robot
+    state = set(robot.q) | set(robot.dq) | set(robot.ddq) if robot else set()
+    dynamic = set(problem.symbols.values()) - set(problem.known)
+    if any(x.free_symbols & state for x in a):
+        return PropertyVerdict(False, 0.0, ["the coefficients a must not depend on q, q̇, q̈"])
+    if any(x.free_symbols & dynamic for x in Y):
+        return PropertyVerdict(False, 0.0, ["Y must not contain dynamic parameters (masses, inertias, CoM "
+                                            "positions): move them to a"])
+    wrong = [str(i + 1) for i, (x, y) in enumerate(zip(Y * a, Y_ref * a_ref)) if not scalar_equiv(x, y).ok]
+    if wrong:
+        return PropertyVerdict(False, 0.0, ["Y a differs from the dynamic model in equation(s) " + ", ".join(wrong)])
+    p_min = results.get("p_min")
+    p = int(p_min.value) if p_min is not None and getattr(p_min.value, "is_Integer", False) else a_ref.rows
+    if a.rows > p:
+        return PropertyVerdict(False, 0.5, [f"Y a = model holds, but with {a.rows} coefficients: {p} are enough "
+                                            "(not minimal)"])
+    return PropertyVerdict(True, 1.0, [f"valid minimal parametrization: Y a = model with {a.rows} coefficients"])

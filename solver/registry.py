@@ -38,6 +38,34 @@ def ask_kind(name: str, options: type[BaseModel], summary: str) -> Callable:
     return wrap
 
 
+@dataclass
+class PropertyVerdict:
+    """What a property check says of an answer: ``fraction`` of the points, and why."""
+
+    correct: bool
+    fraction: float
+    feedback: list[str]
+    final: bool = True  # False: also compare with the reference (to name wrong entries, give partial credit)
+
+
+PropertyCheck = Callable[..., "PropertyVerdict | None"]
+PROPERTY_CHECKS: dict[str, PropertyCheck] = {}
+
+
+def property_check(*names: str) -> Callable:
+    """Decorator registering ``check(problem, results, name, value, other, options) -> PropertyVerdict | None`` for
+    results that are right but not unique (S, U, (Y, a), ...). ``value`` is the parsed answer, ``other(n)`` the
+    parsed answer of another item (or None), ``options`` the item's grading options. None: not applicable, the
+    grader compares with the reference instead."""
+
+    def wrap(fn: Callable) -> Callable:
+        for n in names:
+            PROPERTY_CHECKS[n] = fn
+        return fn
+
+    return wrap
+
+
 _LOADED = False
 
 

@@ -22,7 +22,7 @@ def test_solve_formats(tmp_path):
     assert r.returncode == 0 and out.read_text().startswith("\\documentclass")
     figures = sorted(p.name for p in out.parent.glob("rp-*.pdf"))  # plots beside the report, included by it
     assert figures == ["rp-1-gravity.pdf", "rp-1-inertia.pdf"]
-    assert all(f"\\includegraphics[width=" in out.read_text() and name in out.read_text() for name in figures)
+    assert all("\\includegraphics[width=" in out.read_text() and name in out.read_text() for name in figures)
     md = tmp_path / "o" / "rp.md"
     assert run("solve", RP, "-o", str(md)).returncode == 0
     assert "](rp-1-gravity.png)" in md.read_text() and (md.parent / "rp-1-gravity.png").stat().st_size > 5000

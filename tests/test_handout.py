@@ -1,7 +1,6 @@
 """Handouts: exam sheets without solutions, solutions with results, keys matching `solve --format json`."""
 from __future__ import annotations
 
-import json
 import os
 import re
 import shutil

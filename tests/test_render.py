@@ -2,7 +2,6 @@ import json
 import math
 import shutil
 import subprocess
-import sys
 
 import pytest
 import sympy as sp
