@@ -115,3 +115,11 @@ def test_log_excerpt():
     log = "\n".join(["noise"] * 500 + ["./x.tex:3: Undefined control sequence.", "l.3 \\foo", ""] + ["more"] * 100)
     ex = log_excerpt(log)
     assert "x.tex:3: Undefined control sequence." in ex and len(ex.splitlines()) < 10
+
+
+@pytest.mark.skipif(not HAS_LATEX, reason="LaTeX/poppler not installed")
+def test_every_statement_on_a_two_exercise_exam_sheet(tmp_path):
+    hand = load_sources([ROOT / "exams" / "2020-07-15-remote.yaml"])
+    text = pdf_text(build(hand, "exam", "pdf", tmp_path / "e.pdf")["files"][0])
+    assert all(words(p.problem.statement) in text for p in hand.parts) and "30 points" in text
+    assert "Solution" not in text and "Pseudoinverse" not in text and "Inertia matrix" not in text
