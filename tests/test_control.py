@@ -1,0 +1,242 @@
+"""The `control_law` ask: computed torque gives exactly ë + K_D ė + K_P e = 0 (2R, RP), its tracking error decays
+in simulation, PD + gravity compensation has (q_d, 0) as equilibrium, the property check on u, spec errors
+(underactuated input map), the report (Markdown, LaTeX) and the encoded exam problem."""
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from solver.control import check_control_law
+from solver.dynamics import derive
+from solver.errors import UserError
+from solver.render import render
+from solver.solve import all_results, solve_problem
+from solver.spec import load_problem, load_problem_text
+from solver.verify import check_problem
+
+from conftest import PROBLEMS
+
+R2 = """
+id: t2r
+title: planar 2R in a vertical plane
+symbols: {m1: m1, m2: m2, d1: d1, d2: d2, l1: l1, I1: I1, I2: I2, g0: g0}
+values: {m1: 2, m2: 1.5, d1: 0.25, d2: 0.2, l1: 0.5, I1: 0.05, I2: 0.03, g0: 9.81}
+robot:
+  joints: [R, R]
+  gravity: [0, -g0, 0]
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [l1*cos(q1) + d2*cos(q1 + q2), l1*sin(q1) + d2*sin(q1 + q2)], angle: q1 + q2, inertia: I2}
+asks:
+"""
+
+RP = """
+id: trp
+title: planar RP (2004-03-25)
+symbols: {m1: m1, m2: m2, d1: d1, l1: l1, I1: I1, I2: I2, g0: g0}
+robot:
+  joints: [R, P]
+  gravity: [g0, 0, 0]
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [l1*cos(q1) - q2*sin(q1), l1*sin(q1) + q2*cos(q1)], angle: q1, inertia: I2}
+asks:
+"""
+
+CT = "  - kind: control_law\n    law: computed_torque\n"
+PD = "  - kind: control_law\n    law: pd_gravity\n"
+
+
+def solved(text):
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    return p, sols, all_results(sols)
+
+
+def names(p, *ns):
+    return [p.names[n] for n in ns]
+
+
+def closed_loop_accel(p, u, at=None):
+    """q̈ from B q̈ + c + g = u, solved exactly (at a state, if given)."""
+    dm = derive(p.robot)
+    B, rhs = dm.B, u - dm.c - dm.g
+    if at:
+        B, rhs = B.xreplace(at), rhs.xreplace(at)
+    return B.LUsolve(rhs).applyfunc(sp.simplify)
+
+
+@pytest.mark.parametrize("head", [R2, RP], ids=["2R", "RP"])
+def test_computed_torque_closed_loop_is_linear_and_decoupled(head):
+    p, _, res = solved(head + CT)
+    r = p.robot
+    qdd = closed_loop_accel(p, res["u"].value)
+    for i in range(r.n):
+        k = i + 1
+        qd, dqd, ddqd, kp, kd = names(p, f"qd{k}", f"dqd{k}", f"ddqd{k}", f"kp{k}", f"kd{k}")
+        e, de, dde = qd - r.q[i], dqd - r.dq[i], ddqd - qdd[i]
+        assert sp.simplify(dde + kd * de + kp * e) == 0
+        # the closed_loop result is ë + K_D ė + K_P e with ë = q̈_d − q̈
+        cl = res["closed_loop"].value[i]
+        assert sp.expand(cl - (ddqd - r.ddq[i] + kd * de + kp * e)) == 0
+    assert res["closed_loop_check"].value is True
+
+
+def test_computed_torque_tracking_error_decays_in_simulation():
+    from scipy.integrate import solve_ivp
+    p, _, res = solved(R2 + CT)
+    r, dm = p.robot, derive(p.robot)
+    t = sp.Symbol("t")
+    traj = [0.5 * sp.sin(t), 1.0 + 0.3 * sp.cos(2 * t)]
+    des = {}
+    for i, x in enumerate(traj):
+        k = i + 1
+        qd, dqd, ddqd, kp, kd = names(p, f"qd{k}", f"dqd{k}", f"ddqd{k}", f"kp{k}", f"kd{k}")
+        des.update({qd: x, dqd: sp.diff(x, t), ddqd: sp.diff(x, t, 2), kp: 25, kd: 10})
+    u = res["u"].value.xreplace(des).xreplace(p.values)
+    B = dm.B.xreplace(p.values)
+    n = (dm.c + dm.g).xreplace(p.values)
+    state = list(r.q) + list(r.dq)
+    f_u = sp.lambdify([t] + state, u, "numpy")
+    f_B = sp.lambdify(state, B, "numpy")
+    f_n = sp.lambdify(state, n, "numpy")
+    f_qd = sp.lambdify(t, sp.Matrix(traj), "numpy")
+
+    def rhs(tt, x):
+        qdd = np.linalg.solve(np.array(f_B(*x), float), (np.array(f_u(tt, *x), float) - np.array(f_n(*x), float)).ravel())
+        return np.concatenate([x[2:], qdd])
+
+    x0 = [1.0, -0.5, 0.0, 0.0]
+    sol = solve_ivp(rhs, (0, 3), x0, rtol=1e-9, atol=1e-11, dense_output=True)
+    assert sol.success
+    err = lambda tt: np.linalg.norm(sol.sol(tt)[:2] - np.array(f_qd(tt), float).ravel())
+    e0, e3 = err(0.0), err(3.0)
+    assert e0 > 0.5
+    assert e3 < 1e-3 * e0
+    # the error follows ë + 10 ė + 25 e = 0: e(t) = e0 (1 + 5t) exp(-5t) for a start at rest with q̇_d(0) ≠ 0
+    assert err(1.0) < 0.5 * e0
+
+
+@pytest.mark.parametrize("head", [R2, RP], ids=["2R", "RP"])
+def test_pd_gravity_equilibrium_at_qd(head):
+    p, _, res = solved(head + PD)
+    r = p.robot
+    qd = names(p, *[f"qd{i + 1}" for i in range(r.n)])
+    at = {**dict(zip(r.q, qd)), **{v: 0 for v in r.dq}}
+    qdd = closed_loop_accel(p, res["u"].value, at)
+    assert all(x == 0 for x in qdd)
+    assert res["equilibrium_check"].value is True and res["closed_loop_check"].value is True
+    # not an equilibrium elsewhere (a displaced configuration accelerates)
+    off = {**{a: b + 1 for a, b in zip(r.q, qd)}, **{v: 0 for v in r.dq}}
+    assert any(x != 0 for x in closed_loop_accel(p, res["u"].value, off))
+
+
+def test_regulation_with_given_gains_and_qd():
+    p, _, res = solved(R2.replace("g0: g0}", "g0: g0, qa: {meaning: a, sign: real}, qb: {meaning: b, sign: real}}")
+                       + CT + "    regulation: true\n    kp: 100\n    kd: [20, 10]\n    qd: [qa, qb]\n")
+    qa, qb = names(p, "qa", "qb")
+    r = p.robot
+    cl = res["closed_loop"].value
+    assert sp.expand(cl[0] - (-r.ddq[0] - 20 * r.dq[0] + 100 * (qa - r.q[0]))) == 0
+    assert sp.expand(cl[1] - (-r.ddq[1] - 10 * r.dq[1] + 100 * (qb - r.q[1]))) == 0
+    assert "kp1" not in p.names and "dqd1" not in p.names
+
+
+def test_created_names_avoid_the_problems_symbols():
+    p, _, res = solved(R2.replace("g0: g0}", "g0: g0, kp1: {meaning: a spring, sign: real}}") + CT)
+    assert "kp1c" in p.names and p.names["kp1"] in p.symbols.values()
+    assert res["u"].value.free_symbols & {p.names["kp1c"]}
+    assert not res["u"].value.free_symbols & {p.symbols["kp1"]}
+
+
+def test_property_check_accepts_rewritten_u_and_rejects_missing_c():
+    p, sols, res = solved(RP + CT)
+    dm = derive(p.robot)
+    u = res["u"].value
+    expanded = [sp.expand(sp.expand_trig(x)) for x in u]
+    v = check_control_law(p, res, "u", expanded, lambda n: None, None)
+    assert v is not None and v.correct and v.fraction == 1.0
+    wrong = [x - c for x, c in zip(u, dm.c)]
+    v = check_control_law(p, res, "u", wrong, lambda n: None, None)
+    assert v is not None and not v.correct and v.fraction == 0.0 and not v.final
+    text = " ".join(v.feedback)
+    assert "equation(s) 1, 2 fail" in text and "Coriolis/centrifugal term c(q, q̇) is missing" in text
+    # only the gravity of joint 2 wrong: only... both closed-loop equations are coupled through B
+    wrong2 = [u[0], u[1] + 1]
+    v = check_control_law(p, res, "u", wrong2, lambda n: None, None)
+    assert not v.correct and "fail" in v.feedback[0]
+    # wrong size
+    v = check_control_law(p, res, "u", [u[0]], lambda n: None, None)
+    assert not v.correct
+    # pd_gravity: reference comparison (None)
+    p2, _, res2 = solved(RP + PD)
+    assert check_control_law(p2, res2, "u", list(res2["u"].value), lambda n: None, None) is None
+
+
+def test_property_check_through_the_grader():
+    from solver.grading import grade, prepare
+    from solver.submission import Submission
+    p = load_problem(PROBLEMS / "2007-04-19-ex2.yaml")
+    ref = prepare(p)
+    u = ref.results["u"].value
+    c = derive(p.robot).c
+    good = Submission("ann", "ann.yaml", {"u": [sp.sstr(sp.expand(x)) for x in u]})
+    bad = Submission("bob", "bob.yaml", {"u": [sp.sstr(sp.expand(x - ci)) for x, ci in zip(u, c)]})
+    item = lambda rep: next(i for i in rep.items if i.name == "u")
+    ok, ko = item(grade(ref, good)), item(grade(ref, bad))
+    assert ok.score == ok.max_score > 0, ok.feedback
+    assert ko.score == 0 and any("Coriolis" in f for f in ko.feedback), ko.feedback
+
+
+def test_underactuated_input_map_is_a_spec_error():
+    text = RP.replace("asks:", "  input_map: [[1], [0]]\nasks:") + CT
+    with pytest.raises(UserError) as ei:
+        solved(text)
+    assert "square input map" in str(ei.value) and "underactuated" in str(ei.value)
+
+
+def test_invertible_input_map():
+    text = RP.replace("asks:", "  input_map: [[1, 1], [0, 2]]\nasks:") + CT
+    p, _, res = solved(text)
+    G = sp.Matrix([[1, 1], [0, 2]])
+    dm = derive(p.robot)
+    qdd = dm.B.LUsolve(G * res["u"].value - dm.c - dm.g).applyfunc(sp.simplify)
+    r = p.robot
+    for i in range(2):
+        k = i + 1
+        qd, dqd, ddqd, kp, kd = names(p, f"qd{k}", f"dqd{k}", f"ddqd{k}", f"kp{k}", f"kd{k}")
+        assert sp.simplify(qdd[i] - (ddqd + kd * (dqd - r.dq[i]) + kp * (qd - r.q[i]))) == 0
+    assert res["closed_loop_check"].value is True
+
+
+def test_unknown_law_is_rejected():
+    with pytest.raises(UserError):
+        load_problem_text(RP + "  - kind: control_law\n    law: sliding_mode\n")
+
+
+def test_markdown_report():
+    p, sols, _ = solved(RP + CT + PD)
+    md = render(p, sols, "md")
+    assert "Control law: computed torque" in md and "PD with gravity compensation" in md
+    assert "\\ddot e_{1} + k_{D,1}" in md and "globally asymptotically stable" in md
+    assert "verified exactly" in md
+
+
+@pytest.mark.skipif(shutil.which("pdflatex") is None, reason="pdflatex not installed")
+def test_latex_report_compiles(tmp_path):
+    p, sols, _ = solved(RP + CT + PD)
+    out = tmp_path / "cl.tex"
+    out.write_text(render(p, sols, "tex"))
+    run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", out.name], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stdout[-2000:]
+
+
+def test_encoded_exam_problem_verifies():
+    p = load_problem(PROBLEMS / "2007-04-19-ex2.yaml")
+    rep = check_problem(p)
+    assert rep.ok, [(c.name, c.verdict) for c in rep.checks if not c.verdict.ok]
+    keys = {c.name for c in rep.checks}
+    assert {"u", "closed_loop", "closed_loop_check"} <= keys
