@@ -18,35 +18,15 @@ from solver.solve import all_results, solve_problem
 from solver.spec import load_problem, load_problem_text
 from solver.verify import check_problem
 
-from conftest import PROBLEMS
+from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT
 
 HEAD_2R = """
 id: t2r
 title: planar 2R in a vertical plane
 symbols: {m1: m1, m2: m2, d1: d1, d2: d2, l1: l1, I1: I1, I2: I2, g0: g0, fv1: fv1, fv2: fv2}
-robot:
-  joints: [R, R]
-  gravity: [0, -g0, 0]
-  links:
-    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
-    - {mass: m2, com: [l1*cos(q1) + d2*cos(q1 + q2), l1*sin(q1) + d2*sin(q1 + q2)], angle: q1 + q2, inertia: I2}
-{friction}known: [l1, g0]
-asks:
-"""
+""" + R2_ROBOT + "{friction}known: [l1, g0]\nasks:\n"
 
-RP = """
-id: trp
-title: planar RP (2004-03-25)
-symbols: {m1: m1, m2: m2, d1: d1, l1: l1, I1: I1, I2: I2, g0: g0}
-robot:
-  joints: [R, P]
-  gravity: [g0, 0, 0]
-  links:
-    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
-    - {mass: m2, com: [l1*cos(q1) - q2*sin(q1), l1*sin(q1) + q2*cos(q1)], angle: q1, inertia: I2}
-known: [l1, g0]
-asks:
-"""
+RP = RP_ROBOT + "known: [l1, g0]\nasks:\n"
 
 SPATIAL_3R = """
 id: t3r
