@@ -57,13 +57,18 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
 
 
 @app.command()
-def check(specs: list[Path] = typer.Argument(..., help="spec files to validate")) -> None:
-    """Validate specs without solving: 'ok' or a clear error (exit code 2)."""
+def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam files) to validate")) -> None:
+    """Validate specs or exam files without solving: 'ok' or a clear error (exit code 2)."""
+    from .handout import is_exam_file, load_exam
     from .spec import load_problem
     from .verify import parse_expected
     bad = 0
     for s in specs:
         try:
+            if is_exam_file(s):
+                exam = load_exam(s)
+                typer.echo(f"{s}: ok (exam file, {len(exam.parts)} problem(s))")
+                continue
             parse_expected(load_problem(s))
             typer.echo(f"{s}: ok")
         except UserError as exc:

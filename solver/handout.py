@@ -124,7 +124,7 @@ def load_exam(path: Path) -> Handout:
 
 def load_sources(paths: list[Path]) -> Handout:
     """An exam file, or an ad-hoc selection of problem specs."""
-    exams = [p for p in paths if _is_exam(p)]
+    exams = [p for p in paths if is_exam_file(p)]
     if exams:
         if len(paths) > 1:
             raise UserError("give one exam file, or problem specs only", Place(str(exams[0])),
@@ -135,7 +135,8 @@ def load_sources(paths: list[Path]) -> Handout:
                    ", ".join(str(p) for p in paths))
 
 
-def _is_exam(path: Path) -> bool:
+def is_exam_file(path: Path) -> bool:
+    """An exam file (problems: list, no robot/asks), as opposed to a problem spec."""
     try:
         data = load_file(path).data
     except UserError:

@@ -64,3 +64,12 @@ def test_grade_and_answer_template(tmp_path):
     r = run("answer-template", RP)
     assert r.returncode == 0 and '\nB: ""' in r.stdout and "4 points" in r.stdout
     assert run("grade", RP, str(tmp_path / "nothing")).returncode == 2
+
+
+def test_check_exam_files(tmp_path):
+    r = run("check", str(ROOT / "exams" / "2020-07-15-remote.yaml"))
+    assert r.returncode == 0 and "ok (exam file, 2 problem(s))" in r.stdout
+    bad = tmp_path / "e.yaml"
+    bad.write_text("title: X\nproblems:\n  - problem: nope\n")
+    r = run("check", str(bad))
+    assert r.returncode == 2 and "e.yaml:3:14: error: problem 'nope' not found" in r.stderr
