@@ -154,7 +154,11 @@ def md2html(text: str) -> str:
     for block in blocks:
         lines = block.splitlines()
         head = re.match(r"(#{1,6}) (.*)", block)
-        if head and len(lines) == 1:
+        image = re.fullmatch(r"!\[(.*)\]\(([^)\s]+)\)", block.strip(), re.S)
+        if image:  # a figure on its own line (its caption may hold math, so before the math split)
+            alt = _html.escape(image.group(1).replace("$", ""), quote=True)
+            html_out.append(f'<p><img alt="{alt}" src="{_html.escape(image.group(2), quote=True)}"></p>')
+        elif head and len(lines) == 1:
             n = len(head.group(1))
             html_out.append(f"<h{n}>{inline(head.group(2))}</h{n}>")
         elif all(re.match(r"\s*[-*] ", ln) for ln in lines):

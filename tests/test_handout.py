@@ -69,6 +69,8 @@ def test_markdown_and_html(tmp_path):
     md = build(load_sources([EXAM]), "solutions", "md", tmp_path / "s.md")["files"][0].read_text()
     assert md.startswith("# Written exam: solutions") and "## Exercise 1 (12 points)" in md and "$$B(q) =" in md
     assert "![" in md and (tmp_path / "s-p1-1-gravity.png").exists()
+    sol = build(load_sources([EXAM]), "solutions", "html", tmp_path / "s.html")["files"][0].read_text()
+    assert '<img alt="Gravity terms g_i(q)' in sol and 'src="s-p1-1-gravity.png"' in sol
     html = build(load_sources([EXAM]), "key", "html", tmp_path / "k.html")["files"][0].read_text()
     assert "mathjax" in html.lower() and "<table>" in html and "<h2>Exercise 1 (12 points)</h2>" in html
 
