@@ -27,7 +27,8 @@ from .spec import Strict
 
 ExprT = Union[str, int, float, list[Any]]
 LAWS = {"computed_torque": "computed torque (feedback linearization in joint space)",
-        "pd_gravity": "PD with gravity compensation"}
+        "pd_gravity": "PD with gravity compensation",
+        "adaptive": "adaptive control (Slotine-Li)"}
 
 
 class ControlLawAsk(Strict):
@@ -35,15 +36,21 @@ class ControlLawAsk(Strict):
 
     kind: Literal["control_law"]
     title: Optional[str] = Field(None, description="heading of this part in the report")
-    law: Literal["computed_torque", "pd_gravity"] = Field(
+    law: Literal["computed_torque", "pd_gravity", "adaptive"] = Field(
         "computed_torque", description="computed_torque: u = B(q)(ddq_d + K_D de + K_P e) + c + g (+ F_v dq); "
-                                       "pd_gravity: u = K_P e - K_D dq + g(q) (constant q_d)")
+                                       "pd_gravity: u = K_P e - K_D dq + g(q) (constant q_d); "
+                                       "adaptive (Slotine-Li): u = Y(q, dq, dq_r, ddq_r) ahat + K_D s, "
+                                       "dahat = Gamma Y^T s, s = dq_r - dq, dq_r = dq_d + Lambda e")
     kp: Optional[ExprT] = Field(None, description="proportional gains: one expression (same for every joint) or a "
                                                   "list of n (diagonal of K_P); default kp1..kpn")
     kd: Optional[ExprT] = Field(None, description="derivative gains, as kp; default kd1..kdn")
     qd: Optional[ExprT] = Field(None, description="a constant desired configuration (list of n expressions); "
                                                   "default qd1..qdn")
-    regulation: bool = Field(False, description="computed_torque only: constant q_d (dq_d = ddq_d = 0)")
+    regulation: bool = Field(False, description="computed_torque, adaptive: constant q_d (dq_d = ddq_d = 0)")
+    lam: Optional[ExprT] = Field(None, alias="lambda",
+                                 description="adaptive: Lambda, as kp (diagonal); default lambda1..lambdan")
+    gamma: Optional[ExprT] = Field(None, description="adaptive: Gamma, one expression or a list of p (diagonal of "
+                                                     "the adaptation gain); default gamma1..gammap")
 
 
 def _fresh(problem, base: str) -> str:  # type: ignore[no-untyped-def]
@@ -71,21 +78,27 @@ def _sub_tex(tex: str, sub: str) -> str:
     return f"{head}_{{{sub}{',' if tail and sub else ''}{tail}}}" if (tail or sub) else head
 
 
+GAINS = {"kp": ("kp", "kp", "k_{{P,{i}}}", "K_P"), "kd": ("kd", "kd", "k_{{D,{i}}}", "K_D"),
+         "lam": ("lambda", "lambda", "\\lambda_{{{i}}}", "Lambda"), "gamma": ("gamma", "gamma", "\\gamma_{{{i}}}", "Gamma")}
+
+
 def _gains(problem, options: ControlLawAsk, ctx, key: str, n: int, pos: bool) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
-    q = problem.robot.q
+    """The diagonal of a gain matrix: n positive symbols (default) or the ask's value (one or n expressions)."""
+    yaml_key, base, tex, label = GAINS[key]
     if getattr(options, key) is None:
         syms = []
-        for i, qi in enumerate(q):
-            s = sp.Symbol(_fresh(problem, f"{key}{i + 1}"), positive=True)
+        for i in range(n):
+            s = sp.Symbol(_fresh(problem, f"{base}{i + 1}"), positive=True)
             problem.names.setdefault(s.name, s)
-            problem.latex_names.setdefault(s, f"k_{{{key[1].upper()},{i + 1}}}")
+            problem.latex_names.setdefault(s, tex.format(i=i + 1))
             syms.append(s)
         return syms
-    val = ctx.expr(key)
+    val = ctx.expr(yaml_key)
     vals = val if isinstance(val, list) else [val] * n
     if len(vals) != n or any(isinstance(v, list) for v in vals):
-        raise UserError(f"{key} must be one expression or a list of {n} (the diagonal of K_{key[1].upper()})",
-                        problem.located.place(ctx.path + (key,)), f"write e.g. {key}: 100 or {key}: [100, 50]")
+        raise UserError(f"{yaml_key} must be one expression or a list of {n} (the diagonal of {label})",
+                        problem.located.place(ctx.path + (yaml_key,)),
+                        f"write e.g. {yaml_key}: 100 or {yaml_key}: [{', '.join(['100'] * n)}]")
     return [sp.sympify(v) for v in vals]
 
 
@@ -134,6 +147,9 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
     n = robot.n
     law = options.law
     Ginv = _input_inverse(problem, dm, ctx, law)
+    if law != "adaptive" and (options.lam is not None or options.gamma is not None):
+        raise UserError("lambda: and gamma: are gains of law: adaptive", problem.located.place(ctx.path + ("law",)),
+                        "write law: adaptive, or remove them")
     q, dq, ddq = sp.Matrix(robot.q), sp.Matrix(robot.dq), sp.Matrix(robot.ddq)
     regulation = law == "pd_gravity" or options.regulation
     if options.qd is not None:
@@ -155,6 +171,11 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
                                  "\\dot " + _sub_tex(problem.latex_names.get(s, s.name), "d")) for s in robot.q])
         ddqd = sp.Matrix([_symbol(problem, "dd" + _qname(s.name, "d"),
                                   "\\ddot " + _sub_tex(problem.latex_names.get(s, s.name), "d")) for s in robot.q])
+    if law == "adaptive":
+        if options.kp is not None:
+            raise UserError("law: adaptive has no K_P (K_D s = K_D (de + Lambda e) is the PD action, K_P = K_D Lambda)",
+                            problem.located.place(ctx.path + ("kp",)), "give lambda: and kd: instead")
+        return _solve_adaptive(problem, options, ctx, robot, dm, Ginv, qd, dqd, ddqd, regulation)
     kp = _gains(problem, options, ctx, "kp", n, True)
     kd = _gains(problem, options, ctx, "kd", n, True)
     K = {"qd": qd, "dqd": dqd, "ddqd": ddqd, "kp": kp, "kd": kd}
@@ -190,6 +211,117 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
              regulation=regulation, e=e, friction=dm.Fv is not None)
     sol.step("closed_loop", law=law, closed=closed, ok=ok, eq_ok=eq_ok, kp=kp, kd=kd, n=n, friction=dm.Fv is not None,
              skew=dm.skew)
+    return sol
+
+
+# ------------------------------------------------------------------------------------------------ adaptive
+def model_parametrization(problem, robot, dm):  # type: ignore[no-untyped-def]
+    """The linear parametrization Y(q, q̇, q̈) a of the model used by the problem: that of its
+    ``linear_parametrization`` ask (part: model) with its ``coefficients:`` if given, else computed the same way."""
+    from .parametrization import ParamError, compute_auto, compute_given, model_vector
+    vec = model_vector(dm, robot, "model")
+    known = list(problem.known)
+    dyn = [s for s in problem.symbols.values() if s not in set(known)]
+    ask = next((a for a in problem.asks if a.kind == "linear_parametrization"
+                and getattr(a.options, "part", "model") == "model"), None)
+    coeffs = None
+    if ask is not None and ask.options.coefficients is not None:
+        val = ask.ctx.expr("coefficients")
+        coeffs = [sp.sympify(v) for v in (val if isinstance(val, list) else [val])]
+    try:
+        par = compute_given(vec, robot, dyn, coeffs, known) if coeffs is not None else compute_auto(vec, robot, dyn)
+    except ParamError as exc:
+        where = ask.ctx.path + ("coefficients",) if coeffs is not None else ()
+        raise UserError("adaptive control needs a linear parametrization of the model: " + exc.message,
+                        problem.located.place(where) if where else None, exc.hint) from None
+    return par, ask
+
+
+def reference_regressor(Y: sp.Matrix, robot, dqr: list, ddqr: list) -> sp.Matrix:  # type: ignore[no-untyped-def]
+    """Y(q, q̇, q̇_r, q̈_r) from Y(q, q̇, q̈), column by column (each column is a model term B_j q̈ + c_j + g_j + F_j q̇,
+    with c_j a quadratic form in q̇ with symmetric Christoffel matrices):
+    B_j q̈ -> B_j q̈_r, F_j q̇ -> F_j q̇_r, c_j(q̇) = q̇ᵀ C_j q̇ -> q̇ᵀ C_j q̇_r = ½ (∂c_j/∂q̇) q̇_r (the S of the
+    Christoffel factorization), g_j unchanged. So Y_r a = B q̈_r + S q̇_r + g (+ F_v q̇_r)."""
+    dq, ddq = list(robot.dq), list(robot.ddq)
+    zero_v = {v: 0 for v in dq + ddq}
+    out = sp.zeros(Y.rows, Y.cols)
+    for k in range(Y.rows):
+        for j in range(Y.cols):
+            y = sp.expand(Y[k, j])
+            yg = y.xreplace(zero_v)
+            yb = sum((sp.diff(y, a).xreplace(zero_v) * ar for a, ar in zip(ddq, ddqr)), sp.Integer(0))
+            yv = sp.expand(y.xreplace({a: 0 for a in ddq}) - yg)
+            lin = [sp.diff(yv, v).xreplace(zero_v) for v in dq]
+            yf = sum((c * vr for c, vr in zip(lin, dqr)), sp.Integer(0))
+            yc = sp.expand(yv - sum((c * v for c, v in zip(lin, dq)), sp.Integer(0)))
+            ys = sum((sp.diff(yc, v) * vr for v, vr in zip(dq, dqr)), sp.Integer(0)) / 2
+            out[k, j] = tidy(sp.expand(yb + ys + yg + yf))
+    return out
+
+
+def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, dqd, ddqd,  # type: ignore[no-untyped-def]
+                    regulation: bool) -> Solution:
+    """Slotine-Li: results u, Y_r, a_adapt (the coefficients a), dqr, ddqr, s, a_hat_dot, Yr_check, closed_loop, closed_loop_check."""
+    n = robot.n
+    if dm.S is None:
+        raise UserError("law: adaptive needs the factorization S(q, dq) (Christoffel symbols), not available with a "
+                        "given c(q, dq)", problem.located.place(ctx.path + ("law",)))
+    q, dq, ddq = sp.Matrix(robot.q), sp.Matrix(robot.dq), sp.Matrix(robot.ddq)
+    par, pask = model_parametrization(problem, robot, dm)
+    p = par.p
+    lam = _gains(problem, options, ctx, "lam", n, True)
+    kd = _gains(problem, options, ctx, "kd", n, True)
+    gam = _gains(problem, options, ctx, "gamma", p, True)
+    Lam, KD, Gam = sp.diag(*lam), sp.diag(*kd), sp.diag(*gam)
+
+    def tex_of(s: sp.Symbol) -> str:
+        return problem.latex_names.get(s, s.name)
+
+    dqr = [_symbol(problem, "d" + _qname(s.name, "r"), "\\dot " + _sub_tex(tex_of(s), "r")) for s in robot.q]
+    ddqr = [_symbol(problem, "dd" + _qname(s.name, "r"), "\\ddot " + _sub_tex(tex_of(s), "r")) for s in robot.q]
+    ahat = [_symbol(problem, f"ahat{i + 1}", f"\\hat a_{{{i + 1}}}") for i in range(p)]
+    e, de = qd - q, dqd - dq
+    dqr_def = (dqd + Lam * e).applyfunc(sp.expand)
+    ddqr_def = (ddqd + Lam * de).applyfunc(sp.expand)
+    defs = dict(zip(dqr, dqr_def)) | dict(zip(ddqr, ddqr_def))
+    Yr = reference_regressor(par.Y, robot, dqr, ddqr)
+    a = par.a
+    fr = (lambda v: dm.Fv * v) if dm.Fv is not None else (lambda v: sp.zeros(n, 1))
+    dqr_v, ddqr_v, ahat_v = sp.Matrix(dqr), sp.Matrix(ddqr), sp.Matrix(ahat)
+    target = dm.B * ddqr_v + dm.S * dqr_v + dm.g + fr(dqr_v)
+    yr_ok = all(_zero(x) for x in (Yr * a - target))
+    s_r = dqr_v - dq                                   # s in the reference symbols
+    tau = Yr * ahat_v + KD * s_r
+    u = (Ginv * tau).applyfunc(tidy) if Ginv is not None else tau.applyfunc(lambda x: tidy(sp.expand(x)))
+    adot = (Gam * Yr.T * s_r).applyfunc(lambda x: tidy(sp.expand(x)))
+    # closed loop with ahat = a: B sdot + S s (+ F_v s) + K_D s = 0, s = de + Lambda e, sdot = ddq_r - ddq
+    s = (de + Lam * e).applyfunc(sp.expand)
+    sdot = ddqr_def - ddq
+    closed = (dm.B * sdot + dm.S * s + fr(s) + KD * s).applyfunc(sp.expand)
+    G = dm.G if dm.G is not None else sp.eye(n)
+    u_true = u.xreplace(dict(zip(ahat, a))).xreplace(defs)
+    residual = closed - (G * u_true - (dm.B * ddq + dm.c + dm.g + fr(dq)))
+    ok = yr_ok and all(_zero(x) for x in residual)
+    sol = Solution("control_law", title=options.title or f"Control law: {LAWS['adaptive']}")
+    sol.add("u", u, "vector", label="u")
+    sol.add("Y_r", Yr, "matrix", label="Y(q,\\dot q,\\dot q_r,\\ddot q_r)")
+    sol.add("a_adapt", a, "vector", label="a")
+    sol.add("dqr", dqr_def, "vector", label="\\dot q_r")
+    sol.add("ddqr", ddqr_def, "vector", label="\\ddot q_r")
+    sol.add("s", s, "vector", label="s = \\dot q_r - \\dot q")
+    sol.add("a_hat_dot", adot, "vector", label="\\dot{\\hat a}")
+    sol.add("Yr_check", bool(yr_ok), "bool", label="Y_r a \\equiv B\\ddot q_r + S\\dot q_r + g")
+    sol.add("closed_loop", closed, "vector", label="B(q)\\dot s + S(q,\\dot q)s + K_D s")
+    sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")
+    sol.step("model", B=dm.B, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, n=n, friction=dm.Fv is not None)
+    sol.step("reference", qd=qd, dqd=dqd, ddqd=ddqd, regulation=regulation, Lam=Lam, dqr=dqr_v, ddqr=ddqr_v,
+             dqr_def=dqr_def, ddqr_def=ddqr_def, s=s, e=e)
+    sol.step("regressor", S=dm.S, skew=dm.skew, Y=Yr, a=a, p=p, given=pask is not None
+             and pask.options.coefficients is not None, ok=yr_ok, friction=dm.Fv is not None,
+             asyms=sp.Matrix([sp.Symbol(f"a_{i + 1}") for i in range(p)]))
+    sol.step("law", law="adaptive", KD=KD, u=u, ahat=ahat_v, Ginv=Ginv, friction=dm.Fv is not None)
+    sol.step("update", Gam=Gam, adot=adot, p=p)
+    sol.step("closed_loop", law="adaptive", closed=closed, ok=ok, friction=dm.Fv is not None, skew=dm.skew, n=n)
     return sol
 
 

@@ -222,3 +222,147 @@ def test_encoded_exam_problem_verifies():
     assert rep.ok, [(c.name, c.verdict) for c in rep.checks if not c.verdict.ok]
     keys = {c.name for c in rep.checks}
     assert {"u", "closed_loop", "closed_loop_check"} <= keys
+
+
+# ------------------------------------------------------------------------------------------------ adaptive
+AD = "  - kind: control_law\n    law: adaptive\n"
+
+
+def _ref_subs(p, n):
+    return ([p.names[f"dqr{i + 1}"] for i in range(n)], [p.names[f"ddqr{i + 1}"] for i in range(n)])
+
+
+@pytest.mark.parametrize("head", [R2, RP], ids=["2R", "RP"])
+def test_adaptive_regressor_is_exact(head):
+    p, _, res = solved(head + AD)
+    dm, n = derive(p.robot), p.robot.n
+    dqr, ddqr = _ref_subs(p, n)
+    Yr, a = res["Y_r"].value, res["a_adapt"].value
+    assert Yr.shape == (n, a.rows)
+    target = dm.B * sp.Matrix(ddqr) + dm.S * sp.Matrix(dqr) + dm.g
+    assert all(sp.simplify(sp.expand(x)) == 0 for x in Yr * a - target)
+    # Y_r is free of the dynamic parameters, and gives back Y(q, dq, ddq) a = model for dq_r = dq, ddq_r = ddq
+    dyn = set(p.symbols.values()) - set(p.known)
+    assert not any(x.free_symbols & dyn for x in Yr)
+    back = Yr.xreplace(dict(zip(dqr, p.robot.dq)) | dict(zip(ddqr, p.robot.ddq))) * a - dm.lhs
+    assert all(sp.simplify(sp.expand(x)) == 0 for x in back)
+    assert res["Yr_check"].value is True and res["closed_loop_check"].value is True
+
+
+@pytest.mark.parametrize("head", [R2, RP], ids=["2R", "RP"])
+def test_adaptive_closed_loop_with_exact_estimates(head):
+    p, _, res = solved(head + AD)
+    r, dm, n = p.robot, derive(p.robot), p.robot.n
+    dqr, ddqr = _ref_subs(p, n)
+    a = res["a_adapt"].value
+    ahat = [p.names[f"ahat{i + 1}"] for i in range(a.rows)]
+    lam = [p.names[f"lambda{i + 1}"] for i in range(n)]
+    kd = [p.names[f"kd{i + 1}"] for i in range(n)]
+    qd = sp.Matrix([p.names[f"qd{i + 1}"] for i in range(n)])
+    dqd = sp.Matrix([p.names[f"dqd{i + 1}"] for i in range(n)])
+    ddqd = sp.Matrix([p.names[f"ddqd{i + 1}"] for i in range(n)])
+    q, dq, ddq = sp.Matrix(r.q), sp.Matrix(r.dq), sp.Matrix(r.ddq)
+    L = sp.diag(*lam)
+    defs = dict(zip(dqr, dqd + L * (qd - q))) | dict(zip(ddqr, ddqd + L * (dqd - dq)))
+    assert all(sp.expand(x - y.xreplace(defs)) == 0 for x, y in zip(res["dqr"].value, dqr))
+    s = dqd - dq + L * (qd - q)
+    sdot = ddqd + L * (dqd - dq) - ddq
+    u = res["u"].value.xreplace(dict(zip(ahat, a))).xreplace(defs)
+    # the model B ddq + c + g = u with ahat = a is exactly B sdot + S s + K_D s = 0
+    lhs = dm.B * ddq + dm.c + dm.g - u
+    cl = dm.B * sdot + dm.S * s + sp.diag(*kd) * s
+    assert all(sp.simplify(sp.expand(x + y)) == 0 for x, y in zip(lhs, cl))
+    assert all(sp.simplify(sp.expand(x - y)) == 0 for x, y in zip(res["closed_loop"].value, cl))
+    # update law: Gamma Y_r^T (dq_r - dq)
+    gam = sp.diag(*[p.names[f"gamma{i + 1}"] for i in range(a.rows)])
+    ref = gam * res["Y_r"].value.T * (sp.Matrix(dqr) - dq)
+    assert all(sp.expand(x - y) == 0 for x, y in zip(res["a_hat_dot"].value, ref))
+
+
+def test_adaptive_reuses_the_given_coefficients_and_the_printed_regressor():
+    """2004-03-25#1: with the printed a = (I0, m2, m d3) (line 75), Y_r is the printed regressor (line 83)."""
+    text = (PROBLEMS / "2004-03-25-ex1.yaml").read_text().replace("expected:", AD + "expected:", 1)
+    p, _, res = solved(text)
+    n = names
+    q1, q2, dq1, dq2, l1, g0 = n(p, "q1", "q2", "dq1", "dq2", "l1", "g0")
+    dqr1, dqr2, ddqr1, ddqr2 = n(p, "dqr1", "dqr2", "ddqr1", "ddqr2")
+    m1, m2, d1, I1, I2 = n(p, "m1", "m2", "d1", "I1", "I2")
+    assert list(res["a_adapt"].value) == [I1 + m1 * d1**2 + I2 + m2 * l1**2, m2, m1 * d1 + m2 * l1]
+    printed = sp.Matrix([[ddqr1, q2**2 * ddqr1 + l1 * ddqr2 + q2 * (dq1 * dqr2 + dq2 * dqr1) + g0 * q2 * sp.cos(q1),
+                          g0 * sp.sin(q1)],
+                         [0, l1 * ddqr1 + ddqr2 - q2 * dq1 * dqr1 + g0 * sp.sin(q1), 0]])
+    assert (res["Y_r"].value - printed).applyfunc(sp.expand) == sp.zeros(2, 3)
+
+
+def test_adaptive_given_gains_and_errors():
+    p, _, res = solved(RP + AD + "    lambda: 5\n    kd: [10, 20]\n    gamma: 2\n")
+    assert "lambda1" not in p.names and "gamma1" not in p.names and "kd1" not in p.names
+    r = p.robot
+    assert sp.expand(res["s"].value[1] - (p.names["dqd2"] - r.dq[1] + 5 * (p.names["qd2"] - r.q[1]))) == 0
+    assert all(g.free_symbols <= set(r.q) | set(r.dq) | {p.names[f"dqr{i}"] for i in (1, 2)}
+               | {p.names[f"ddqr{i}"] for i in (1, 2)} for g in res["a_hat_dot"].value)
+    with pytest.raises(UserError):
+        solved(RP + AD + "    kp: 3\n")
+    with pytest.raises(UserError):
+        solved(RP + CT + "    gamma: 3\n")
+    with pytest.raises(UserError):
+        solved(RP + AD + "    lambda: [1, 2, 3]\n")
+
+
+def test_adaptive_tracking_error_decays_in_simulation():
+    from scipy.integrate import solve_ivp
+    p, _, res = solved(R2 + AD + "    lambda: 5\n    kd: 20\n    gamma: 2\n")
+    r, dm, n = p.robot, derive(p.robot), p.robot.n
+    a_true = res["a_adapt"].value.xreplace(p.values)
+    pn = a_true.rows
+    t = sp.Symbol("t")
+    traj = [0.5 * sp.sin(t), 1.0 + 0.3 * sp.cos(2 * t)]
+    des = {}
+    for i, x in enumerate(traj):
+        k = i + 1
+        des.update({p.names[f"qd{k}"]: x, p.names[f"dqd{k}"]: sp.diff(x, t), p.names[f"ddqd{k}"]: sp.diff(x, t, 2)})
+    dqr, ddqr = _ref_subs(p, n)
+    ahat = [p.names[f"ahat{i + 1}"] for i in range(pn)]
+    defs = {v: d.xreplace(des) for v, d in zip(dqr, res["dqr"].value)} | \
+           {v: d.xreplace(des) for v, d in zip(ddqr, res["ddqr"].value)}
+    u = res["u"].value.xreplace(defs)
+    adot = res["a_hat_dot"].value.xreplace(defs)
+    state = list(r.q) + list(r.dq)
+    f_u = sp.lambdify([t] + state + ahat, u, "numpy")
+    f_a = sp.lambdify([t] + state + ahat, adot, "numpy")
+    f_B = sp.lambdify(state, dm.B.xreplace(p.values), "numpy")
+    f_n = sp.lambdify(state, (dm.c + dm.g).xreplace(p.values), "numpy")
+    f_qd = sp.lambdify(t, sp.Matrix(traj), "numpy")
+
+    def rhs(tt, x):
+        xs, ah = x[:2 * n], x[2 * n:]
+        tau = np.array(f_u(tt, *xs, *ah), float).ravel()
+        qdd = np.linalg.solve(np.array(f_B(*xs), float), tau - np.array(f_n(*xs), float).ravel())
+        return np.concatenate([xs[n:], qdd, np.array(f_a(tt, *xs, *ah), float).ravel()])
+
+    a0 = [0.5 * float(v) for v in a_true]          # wrong initial estimates (half the true values)
+    sol = solve_ivp(rhs, (0, 5), [1.0, -0.5, 0.0, 0.0] + a0, rtol=1e-8, atol=1e-10, dense_output=True)
+    assert sol.success
+    err = lambda tt: np.linalg.norm(sol.sol(tt)[:2] - np.array(f_qd(tt), float).ravel())
+    e0, e5 = err(0.0), err(5.0)
+    assert e0 > 0.5 and e5 < 0.02 * e0, (e0, e5)
+
+
+def test_adaptive_report_renders():
+    p, sols, _ = solved(RP + AD)
+    md = render(p, sols, "md")
+    assert "Slotine-Li" in md and "Reference velocity" in md and "Update law" in md
+    assert "\\frac12 s^T B(q) s + \\frac12\\tilde a^T\\Gamma^{-1}\\tilde a" in md and "= -s^T K_D s" in md
+    assert "verified exactly" in md and "\\dot q_{r,1}" in md
+    tex = render(p, sols, "tex")
+    assert "Slotine--Li" in tex and "Lyapunov analysis" in tex
+
+
+@pytest.mark.skipif(shutil.which("pdflatex") is None, reason="pdflatex not installed")
+def test_adaptive_latex_report_compiles(tmp_path):
+    p, sols, _ = solved(RP + AD)
+    out = tmp_path / "ad.tex"
+    out.write_text(render(p, sols, "tex"))
+    run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", out.name], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stdout[-2000:]
