@@ -22,6 +22,7 @@ from typing import Any
 
 import sympy as sp
 
+from .fourier import NotTrigPolynomial, split_angle
 from .simplify import angle_symbols, is_zero
 
 CORRECT, INCORRECT, UNDECIDED = "correct", "incorrect", "undecided"
@@ -92,20 +93,21 @@ class RationalPoint:
 
     def __init__(self, params: dict[sp.Symbol, Fraction], angles: dict[sp.Symbol, Fraction]) -> None:
         self.params = params
-        self.unit = {x: (Fraction(1) - t * t) / (1 + t * t) for x, t in angles.items()}
-        self.unit_c = {x: (self.unit[x], 2 * t / (1 + t * t)) for x, t in angles.items()}
+        self.unit_c = {x: ((1 - t * t) / (1 + t * t), 2 * t / (1 + t * t)) for x, t in angles.items()}  # (cos, sin)
+        self.angles = list(angles)
+        self.index = {x: j for j, x in enumerate(self.angles)}
         self.memo: dict[sp.Expr, Fraction] = {}
 
     def phase(self, arg: sp.Expr) -> Complex:
         """e^{i·arg} for arg = Σ k_j x_j + r·π with integer k_j and 2r integer."""
-        z: Complex = (Fraction(1), Fraction(0))
-        for term, coeff in arg.as_coefficients_dict().items():
-            if term in self.unit_c and coeff.is_Integer:
-                z = _cmul(z, _cpow(self.unit_c[term], int(coeff)))
-            elif term is sp.pi and (2 * coeff).is_Integer:
-                z = _cmul(z, _cpow((Fraction(0), Fraction(1)), int(2 * coeff) % 4))
-            else:
-                raise NotRational(arg)
+        try:
+            k, quarter = split_angle(arg, self.index)
+        except NotTrigPolynomial:
+            raise NotRational(arg) from None
+        z: Complex = _cpow((Fraction(0), Fraction(1)), quarter % 4)  # i^quarter = e^{i·quarter·π/2}
+        for x, kx in zip(self.angles, k):
+            if kx:
+                z = _cmul(z, _cpow(self.unit_c[x], kx))
         return z
 
     def value(self, e: sp.Expr) -> Fraction:

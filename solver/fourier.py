@@ -35,6 +35,21 @@ def _ring(gens: tuple[sp.Symbol, ...]) -> PolyRing:
     return PolyRing(gens, QQ)
 
 
+def split_angle(arg: sp.Expr, index: dict[sp.Symbol, int]) -> tuple[list[int], int]:
+    """arg = Σ k_j x_j + r·π/2 with integer k_j and r: returns (k, r), the x_j numbered by ``index``;
+    NotTrigPolynomial for any other argument."""
+    k = [0] * len(index)
+    quarter = 0
+    for term, coeff in arg.as_coefficients_dict().items():
+        if term in index and coeff.is_Integer:
+            k[index[term]] += int(coeff)
+        elif term is sp.pi and (2 * coeff).is_Integer:
+            quarter += int(2 * coeff)
+        else:
+            raise NotTrigPolynomial(arg)
+    return k, quarter
+
+
 def _canon(k: tuple[int, ...], kind: int) -> tuple[Key, int] | None:
     """Key with first non-zero entry of k positive, and the sign picked up (None: sin 0 = 0)."""
     first = next((v for v in k if v), 0)
@@ -101,15 +116,7 @@ class _Algebra:
         return out
 
     def trig(self, f: sp.Expr) -> TrigPoly:
-        k = [0] * len(self.angles)
-        quarter = 0  # offset in units of π/2
-        for term, coeff in f.args[0].as_coefficients_dict().items():
-            if term in self.index and coeff.is_Integer:
-                k[self.index[term]] += int(coeff)
-            elif term is sp.pi and (2 * coeff).is_Integer:
-                quarter += int(2 * coeff)
-            else:
-                raise NotTrigPolynomial(f)
+        k, quarter = split_angle(f.args[0], self.index)  # offset quarter·π/2
         kind = 0 if isinstance(f, sp.cos) else 1
         sign = 1
         # shift by quarter·π/2: cos -> -sin -> -cos -> sin; sin -> cos -> -sin -> -cos
