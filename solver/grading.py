@@ -325,7 +325,7 @@ def entry_equiv(got: sp.Expr, want: sp.Expr, item: ItemSpec) -> Verdict:
         if item.sigfigs:
             return Verdict(CORRECT if _round_sig(g, item.sigfigs) == _round_sig(w, item.sigfigs) else INCORRECT)
         tol = item.rel_tol if item.rel_tol is not None else 1e-3
-        return Verdict(CORRECT if abs(g - w) <= max(item.abs_tol, tol * abs(w)) else INCORRECT)
+        return scalar_equiv(got, want, rel_tol=tol, abs_tol=item.abs_tol)
     return scalar_equiv(got, want)
 
 
@@ -337,8 +337,7 @@ def _same(a: Any, b: Any) -> bool:
         if isinstance(a, list) or isinstance(b, list):
             return False
         if getattr(a, "is_number", False) and getattr(b, "is_number", False):  # numbers: 1e-3 relative
-            fa, fb = complex(sp.N(a)), complex(sp.N(b))
-            return abs(fa - fb) <= 1e-3 * max(abs(fb), 1e-12)
+            return scalar_equiv(a, b, rel_tol=1e-3, abs_tol=1e-15).ok
         return scalar_equiv(a, b).ok
     except (TypeError, ValueError, sp.ShapeError):
         return False
