@@ -105,21 +105,7 @@ def _env() -> jinja2.Environment:
 
 def feedback_markdown(problem: Problem, report: dict[str, Any]) -> str:
     """The feedback page of one submission."""
-    rep = _Obj(report)
-    return _env().get_template("feedback.md.j2").render(problem=problem, report=rep)
-
-
-class _Obj:
-    """Attribute access over a report dict, for the template."""
-
-    def __init__(self, d: dict[str, Any]) -> None:
-        self._d = d
-
-    def __getattr__(self, k: str) -> Any:
-        v = self._d["max" if k == "max_total" else k]
-        if isinstance(v, list):
-            return [_Obj(x) if isinstance(x, dict) else x for x in v]
-        return v
+    return _env().get_template("feedback.md.j2").render(problem=problem, report=report)
 
 
 def answer_template(ref: Reference) -> str:
