@@ -24,7 +24,7 @@ import jinja2
 
 from .grading import Reference, Report, grade
 from .problem import Problem
-from .render import templates_dir
+from .render import template_env
 from .submission import load_submission, safe_stem
 
 SUBMISSION_SUFFIXES = {".yaml", ".yml", ".json"}
@@ -95,10 +95,8 @@ def grade_files(ref: Reference, files: list[Path], jobs: int = 0,
 
 
 # ------------------------------------------------------------------------------------------ outputs
-def _env() -> jinja2.Environment:
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(templates_dir() / "md")), trim_blocks=True,
-                             lstrip_blocks=True, keep_trailing_newline=True, undefined=jinja2.StrictUndefined)
-    env.filters["points"] = lambda x: f"{x:g}"
+def _env(subdir: str = "md") -> jinja2.Environment:
+    env = template_env(subdir)
     env.filters["cell"] = lambda s: str(s).replace("|", "\\|").replace("\n", " ")
     return env
 
@@ -110,8 +108,7 @@ def feedback_markdown(problem: Problem, report: dict[str, Any]) -> str:
 
 def answer_template(ref: Reference) -> str:
     """The blank answer sheet (YAML) of a problem: one commented entry per graded item."""
-    env = _env()
-    env.loader = jinja2.FileSystemLoader(str(templates_dir() / "yaml"))
+    env = _env("yaml")
     problem = ref.problem
     names = [k for k, v in problem.names.items() if not k.startswith("_")]
     coords = ", ".join(s.name for s in problem.robot.q) if problem.robot else ""

@@ -27,7 +27,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional, Union
 
-import jinja2
 import sympy as sp
 from pydantic import Field, ValidationError
 
@@ -35,7 +34,7 @@ from .errors import Place, UserError
 from .figures import write_figures
 from .grading import Reference, grading_spec, prepare
 from .problem import Problem
-from .render import latex_printer, latex_text, md2html, md2tex, render_template, templates_dir
+from .render import latex_printer, md2html, render_template, template_env
 from .spec import Strict, load_problem
 from .yamlpos import Located, load_file
 
@@ -145,25 +144,6 @@ def is_exam_file(path: Path) -> bool:
 
 
 # ------------------------------------------------------------------------------------------ building
-def _latex_env(template_dir: Path | None) -> jinja2.Environment:
-    dirs = [str(p / "latex") for p in ([template_dir] if template_dir else []) + [templates_dir()]]
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(dirs), undefined=jinja2.StrictUndefined,
-                             trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
-                             block_start_string="<%", block_end_string="%>", variable_start_string="<<",
-                             variable_end_string=">>", comment_start_string="<#", comment_end_string="#>")
-    env.filters.update(latex_text=latex_text, md2tex=md2tex, points=lambda x: f"{x:g}")
-    return env
-
-
-def _web_env(fmt: str, template_dir: Path | None) -> jinja2.Environment:
-    dirs = [str(p / fmt) for p in ([template_dir] if template_dir else []) + [templates_dir()]]
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(dirs), undefined=jinja2.StrictUndefined,
-                             trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
-                             autoescape=fmt == "html")
-    env.filters.update(points=lambda x: f"{x:g}", md2html=md2html)
-    return env
-
-
 def _key_items(part: Part, fmt: str) -> list[dict[str, Any]]:
     assert part.ref is not None
     latex = latex_printer(part.problem)
@@ -210,7 +190,7 @@ def build(handout: Handout, kind: str, fmt: str, output: Path, template_dir: Pat
                        "key": _key_items(part, fmt) if kind == "key" else []})
     ctx = {"exam": handout.exam, "parts": bodies, "kind": kind, "total": sum(b["points"] for b in bodies)}
     if tex_fmt:
-        text = _latex_env(template_dir).get_template("handout.tex.j2").render(**ctx)
+        text = template_env("latex", template_dir).get_template("handout.tex.j2").render(**ctx)
         tex_path = (output if fmt == "tex" else work / f"{stem}.tex")
         tex_path.write_text(text, encoding="utf-8")
         if fmt == "tex":
@@ -221,9 +201,9 @@ def build(handout: Handout, kind: str, fmt: str, output: Path, template_dir: Pat
         finally:
             shutil.rmtree(work, ignore_errors=True)
         return {"files": [pdf], "solve": t_solve, "latex": time.perf_counter() - t1}
-    env = _web_env(fmt, template_dir)
-    md = _web_env("md", template_dir).get_template("handout.md.j2").render(**ctx)
-    text = md if fmt == "md" else env.get_template("handout.html.j2").render(body=md2html(md), **ctx)
+    md = template_env("md", template_dir).get_template("handout.md.j2").render(**ctx)
+    text = md if fmt == "md" else template_env("html", template_dir, autoescape=True).get_template(
+        "handout.html.j2").render(body=md2html(md), **ctx)
     output.write_text(text, encoding="utf-8")
     return {"files": [output, *files], "solve": t_solve, "latex": 0.0}
 

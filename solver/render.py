@@ -289,15 +289,26 @@ def ranks(problem: Problem) -> dict[sp.Symbol, int]:
     return out
 
 
-def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
-         rank: dict[sp.Symbol, int] | None = None) -> jinja2.Environment:
-    dirs = [str(p / fmt) for p in ([custom] if custom else []) + [templates_dir()]]
+def template_env(subdir: str, custom: Path | None = None, autoescape: bool = False) -> jinja2.Environment:
+    """Jinja2 environment over templates/<subdir>/, a user's <custom>/<subdir>/ first. LaTeX templates (tex,
+    latex) use << >>, <% %> and <# #> so that braces stay LaTeX's. Filters every template may use: points,
+    latex_text, md2tex, md2html."""
+    dirs = [str(p / subdir) for p in ([custom] if custom else []) + [templates_dir()]]
     opts: dict[str, Any] = dict(loader=jinja2.FileSystemLoader(dirs), undefined=jinja2.StrictUndefined,
-                                trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True)
-    if fmt == "tex":
+                                trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
+                                autoescape=autoescape)
+    if subdir in ("tex", "latex"):
         opts.update(block_start_string="<%", block_end_string="%>", variable_start_string="<<",
                     variable_end_string=">>", comment_start_string="<#", comment_end_string="#>")
     env = jinja2.Environment(**opts)
+    env.filters.update(points=lambda x: f"{x:g}", latex_text=latex_text, md2tex=md2tex, md2html=md2html)
+    return env
+
+
+def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
+         rank: dict[sp.Symbol, int] | None = None) -> jinja2.Environment:
+    """The report environment of one problem: :func:`template_env` plus its symbols' LaTeX printing."""
+    env = template_env(fmt, custom)
     env.filters["tex"] = Latex(names, rank)
     env.filters["num"] = number
     env.filters["terms"] = lambda terms: join_terms([env.filters["tex"](t) for t in terms if t != 0])
@@ -307,8 +318,6 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
     env.filters["equation"] = lambda value, lhs, entry, punct="": equation(value, lhs, entry, env.filters["tex"],
                                                                           punct)
     env.globals["sp"] = sp
-    env.filters["latex_text"] = latex_text
-    env.filters["md2tex"] = md2tex
     return env
 
 
