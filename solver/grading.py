@@ -33,7 +33,7 @@ from .registry import PROPERTY_CHECKS, load_all
 from .results import Result
 from .simplify import tidy
 from .solve import all_results, solve_problem
-from .spec import Strict
+from .spec import Strict, validation_error
 from .submission import Submission, answer_names, latex_spellings, parse_answer
 
 INVALID, MISSING = "invalid", "missing"
@@ -111,10 +111,7 @@ def grading_spec(problem: Problem) -> GradingSpec:
     try:
         return GradingSpec.model_validate(raw or {})
     except ValidationError as exc:
-        err = exc.errors()[0]
-        path = ("grading",) + tuple(str(p) for p in err["loc"])
-        raise UserError(f"grading.{'.'.join(str(p) for p in err['loc'])}: {err['msg']}",
-                        problem.located.place(path), "see docs/grading.md") from None
+        raise validation_error(exc, problem.located, ("grading",), hint="see docs/grading.md") from None
 
 
 def prepare(problem: Problem) -> Reference:

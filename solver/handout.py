@@ -35,7 +35,7 @@ from .figures import write_figures
 from .grading import Reference, grading_spec, prepare
 from .problem import Problem
 from .render import latex_printer, md2html, render_template, template_env
-from .spec import Strict, load_problem
+from .spec import Strict, load_problem, validation_error
 from .yamlpos import Located, load_file
 
 KINDS = ("exam", "solutions", "key")
@@ -109,10 +109,7 @@ def load_exam(path: Path) -> Handout:
     try:
         exam = ExamSpec.model_validate(loc.data if isinstance(loc.data, dict) else {})
     except ValidationError as exc:
-        err = exc.errors()[0]
-        p = tuple(err["loc"])
-        raise UserError(f"{'.'.join(str(x) for x in p) or 'exam'}: {err['msg']}", loc.place(p),
-                        "see docs/spec.md, section 'Exam files'") from None
+        raise validation_error(exc, loc, what="exam", hint="see docs/spec.md, section 'Exam files'") from None
     parts = []
     for i, ep in enumerate(exam.problems):
         problem = load_problem(_find_problem(ep.problem, path.parent, loc.place(("problems", i, "problem"))))

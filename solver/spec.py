@@ -189,6 +189,14 @@ def _pyd_message(err: dict[str, Any], path: PathT) -> tuple[str, str | None]:
     return f"{dotted(path)}: {err['msg']}", None
 
 
+def validation_error(exc: ValidationError, located: Located, prefix: PathT = (), what: str = "spec",
+                     hint: str | None = None) -> UserError:
+    """The first error of a pydantic validation of the block at ``prefix`` of a YAML file, at its line."""
+    err = exc.errors()[0]
+    path = tuple(prefix) + tuple(err["loc"])
+    return UserError(f"{'.'.join(str(p) for p in path) or what}: {err['msg']}", located.place(path), hint)
+
+
 class SpecLoader:
     """Turns located YAML data into a Problem; every expression is parsed with positions for errors."""
 
