@@ -336,6 +336,18 @@ def parse_scalar(text: str | int | float, names: Mapping[str, sp.Expr]) -> sp.Ex
     return parse(text, names, allow_lists=False)  # type: ignore[return-value]
 
 
+def expand_abbreviations(value: Parsed, subs: Mapping[sp.Symbol, sp.Expr]) -> Parsed:
+    """``value`` (or nested lists of them) with abbreviation symbols replaced by their definitions, repeatedly
+    (an abbreviation may use earlier ones)."""
+    if isinstance(value, list):
+        return [expand_abbreviations(v, subs) for v in value]
+    for _ in range(len(subs) + 1):
+        if not (getattr(value, "free_symbols", set()) & set(subs)):
+            break
+        value = value.xreplace(subs)
+    return value
+
+
 def shape_of(value: Parsed) -> tuple[int, ...]:
     """Shape of a parsed value: () scalar, (n,) list, (n, m) list of equal-length lists, ..."""
     if not isinstance(value, list):

@@ -27,7 +27,7 @@ from pydantic import Field, ValidationError
 
 from .equivalence import CORRECT, INCORRECT, UNDECIDED, Verdict, scalar_equiv, set_equiv
 from .errors import ExprError, UserError
-from .expr import shape_of
+from .expr import expand_abbreviations, shape_of
 from .problem import Problem
 from .registry import PROPERTY_CHECKS, load_all
 from .results import Result
@@ -202,7 +202,7 @@ def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict,
         if raw_other in (None, ""):
             return None
         try:
-            return _expand(parse_answer(raw_other, names, latex), subs)
+            return expand_abbreviations(parse_answer(raw_other, names, latex), subs)
         except ExprError:
             return None
 
@@ -222,7 +222,7 @@ def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict,
             msg += f" (column {exc.col}: ...{before}⟨here⟩{exc.text[exc.col - 1:exc.col + 9]})"
         out.feedback.append(f"could not read the answer: {msg}" + (f"; {exc.hint}" if exc.hint else ""))
         return out
-    value = _expand(value, subs)
+    value = expand_abbreviations(value, subs)
     out.read_as = _show(value)
     check = PROPERTY_CHECKS.get(name) if item.accept == "property" else None
     pv = check(ref.problem, ref.results, name, value, partner, item) if check else None
@@ -238,12 +238,6 @@ def grade_item(ref: Reference, name: str, item: ItemSpec, raw: Any, names: dict,
     judge(ref, name, item, r, value, out)
     out.score = round(out.score, 4)
     return out
-
-
-def _expand(value: Any, subs: dict) -> Any:
-    if isinstance(value, list):
-        return [_expand(v, subs) for v in value]
-    return value.xreplace(subs) if subs else value
 
 
 def _show(value: Any) -> str:

@@ -16,6 +16,7 @@ import sympy as sp
 
 from .equivalence import CORRECT, INCORRECT, Verdict, equivalent
 from .errors import UserError
+from .expr import expand_abbreviations
 from .problem import Problem
 from .solve import all_results, solve_problem
 from .spec import load_problem
@@ -60,16 +61,6 @@ def _abbreviations(problem: Problem, path: tuple, names: dict[str, sp.Expr]) -> 
         names[key] = sym
         subs[sym] = val
     return names, subs
-
-
-def _expand(value: Any, subs: dict) -> Any:
-    if isinstance(value, list):
-        return [_expand(v, subs) for v in value]
-    for _ in range(len(subs) + 1):
-        if not (getattr(value, "free_symbols", set()) & set(subs)):
-            break
-        value = value.xreplace(subs)
-    return value
 
 
 def _to_value(parsed: Any, kind: str) -> Any:
@@ -122,13 +113,13 @@ def parse_expected(problem: Problem) -> list[Expected]:
             tol["rel_tol"] = float(entry["tol"])
         if "abs_tol" in entry:
             tol["abs_tol"] = float(entry["abs_tol"])
-        item = Expected(key, entry.get("line"), _expand(problem.parse_at(vpath, lnames), lsubs), tol=tol)
+        item = Expected(key, entry.get("line"), expand_abbreviations(problem.parse_at(vpath, lnames), lsubs), tol=tol)
         if "erratum" in entry:
             if "corrected" not in entry:
                 raise UserError(f"expected.{key} has an erratum but no corrected: value",
                                 problem.located.place(path), "add corrected: <the right value>")
             item.erratum = str(entry["erratum"])
-            item.corrected = _expand(problem.parse_at(path + ("corrected",), lnames), lsubs)
+            item.corrected = expand_abbreviations(problem.parse_at(path + ("corrected",), lnames), lsubs)
         out.append(item)
     return out
 
