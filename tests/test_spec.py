@@ -32,9 +32,13 @@ asks:
 """
 
 
-def error_of(write, text):
+def error_of(write, text, solve=False):
+    """The message of the UserError that loading (and, with ``solve``, solving) the spec raises."""
+    from solver.solve import solve_problem
     with pytest.raises(UserError) as exc:
-        load_problem(write(text))
+        problem = load_problem(write(text))
+        if solve:
+            solve_problem(problem)
     return str(exc.value)
 
 
@@ -43,50 +47,25 @@ def test_good_spec_loads(write):
     assert p.robot.n == 2 and len(p.robot.bodies) == 2
 
 
-def test_unknown_name_has_file_line_column(write):
-    msg = error_of(write, GOOD.replace("angle: q1 + q2", "angle: q1 + qq2"))
-    assert "spec.yaml:19:19" in msg and "unknown name 'qq2'" in msg and "did you mean" in msg
+SPEC_ERRORS = [  # (replace this, by that) in GOOD -> every piece of text expected in the message
+    ("angle: q1 + q2", "angle: q1 + qq2", ["spec.yaml:19:19", "unknown name 'qq2'", "did you mean"]),
+    ("angle: q1 + q2", 'angle: "q1 + qq2"', ["spec.yaml:19:20"]),  # column inside the quotes
+    ("title: planar 2R\n", "", ["missing field 'title'"]),
+    ("inertia: I2", "inertai: I2", ["unknown field 'inertai'", "did you mean 'inertia'", "spec.yaml:20"]),
+    ("gravity: [0, -g0, 0]", "gravity: [0, -g0, 0, 1]", ["gravity must be a vector of 2 or 3 components",
+                                                         "spec.yaml:14"]),
+    ("joints: [R, R]", "joints: [R, R", ["YAML syntax", "spec.yaml:"]),
+    ("[R, R]", "[R, X]", ["joints"]),
+    ("kind: dynamic_model", "kind: dynamics", ["ask kind", "dynamic_model"]),
+    ("  m1: mass 1\n", "  m1: mass 1\n  q1: bad\n", ["generalized coordinate"]),
+    ("mass: m2", "mass: \"__import__('os').system('echo hacked')\"", ["unexpected character"]),
+]
 
 
-def test_quoted_expression_column(write):
-    msg = error_of(write, GOOD.replace("angle: q1 + q2", 'angle: "q1 + qq2"'))
-    assert "spec.yaml:19:20" in msg
-
-
-def test_missing_field(write):
-    msg = error_of(write, GOOD.replace("title: planar 2R\n", ""))
-    assert "missing field 'title'" in msg
-
-
-def test_unknown_field_suggests(write):
-    msg = error_of(write, GOOD.replace("inertia: I2", "inertai: I2"))
-    assert "unknown field 'inertai'" in msg and "did you mean 'inertia'" in msg and "spec.yaml:20" in msg
-
-
-def test_wrong_dimension(write):
-    msg = error_of(write, GOOD.replace("gravity: [0, -g0, 0]", "gravity: [0, -g0, 0, 1]"))
-    assert "gravity must be a vector of 2 or 3 components" in msg and "spec.yaml:14" in msg
-
-
-def test_yaml_syntax_error(write):
-    msg = error_of(write, GOOD.replace("joints: [R, R]", "joints: [R, R"))
-    assert "YAML syntax" in msg and "spec.yaml:" in msg
-
-
-def test_bad_joint_type_and_ask_kind(write):
-    assert "joints" in error_of(write, GOOD.replace("[R, R]", "[R, X]"))
-    msg = error_of(write, GOOD.replace("kind: dynamic_model", "kind: dynamics"))
-    assert "ask kind" in msg and "dynamic_model" in msg
-
-
-def test_symbol_clash_with_coordinate(write):
-    msg = error_of(write, GOOD.replace("  m1: mass 1\n", "  m1: mass 1\n  q1: bad\n"))
-    assert "generalized coordinate" in msg
-
-
-def test_injection_is_refused(write):
-    msg = error_of(write, GOOD.replace("mass: m2", "mass: \"__import__('os').system('echo hacked')\""))
-    assert "unexpected character" in msg
+@pytest.mark.parametrize("old, new, expected", SPEC_ERRORS)
+def test_spec_errors_say_where_and_what(write, old, new, expected):
+    msg = error_of(write, GOOD.replace(old, new))
+    assert all(part in msg for part in expected), msg
 
 
 def test_cli_exit_code_2_without_traceback(write):
@@ -124,12 +103,6 @@ asks:
     from solver.solve import all_results, solve_problem
     res = all_results(solve_problem(load_problem(write(text))))
     assert res["qdot_ps"].value.shape == (2, 1)
-    msg = error_of_solve(write, text.replace("kind: redundancy", "kind: dynamic_model").split("    task:")[0])
+    msg = error_of(write, text.replace("kind: redundancy", "kind: dynamic_model").split("    task:")[0], solve=True)
     assert "no bodies and no model" in msg and "spec.yaml:5:" in msg
 
-
-def error_of_solve(write, text):
-    from solver.solve import solve_problem
-    with pytest.raises(UserError) as exc:
-        solve_problem(load_problem(write(text)))
-    return str(exc.value)
