@@ -59,17 +59,19 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
 @app.command()
 def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam files) to validate")) -> None:
     """Validate specs or exam files without solving: 'ok' or a clear error (exit code 2)."""
-    from .handout import is_exam_file, load_exam
-    from .spec import load_problem
+    from .handout import is_exam_data, load_exam
+    from .spec import SpecLoader
     from .verify import parse_expected
+    from .yamlpos import load_file
     bad = 0
     for s in specs:
         try:
-            if is_exam_file(s):
-                exam = load_exam(s)
+            located = load_file(s)
+            if is_exam_data(located.data):
+                exam = load_exam(s, located)
                 typer.echo(f"{s}: ok (exam file, {len(exam.parts)} problem(s))")
                 continue
-            parse_expected(load_problem(s))
+            parse_expected(SpecLoader(located).load())
             typer.echo(f"{s}: ok")
         except UserError as exc:
             typer.echo(str(exc), err=True)

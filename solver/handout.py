@@ -35,7 +35,7 @@ from .figures import write_figures
 from .grading import Reference, grading_spec, prepare
 from .problem import Problem
 from .render import latex_printer, md2html, render_template, template_env
-from .spec import Strict, load_problem, validation_error
+from .spec import SpecLoader, Strict, load_problem, validation_error
 from .yamlpos import Located, load_file
 
 KINDS = ("exam", "solutions", "key")
@@ -103,9 +103,10 @@ def _apply_variant(problem: Problem, values: dict[str, Any], located: Located, i
     return shown
 
 
-def load_exam(path: Path) -> Handout:
-    """Read an exam file and the problems it names (errors at the exam file's lines)."""
-    loc = load_file(path)
+def load_exam(path: Path, located: Located | None = None) -> Handout:
+    """Read an exam file (``located``: its already parsed YAML) and the problems it names (errors at the exam
+    file's lines)."""
+    loc = located or load_file(path)
     try:
         exam = ExamSpec.model_validate(loc.data if isinstance(loc.data, dict) else {})
     except ValidationError as exc:
@@ -119,24 +120,21 @@ def load_exam(path: Path) -> Handout:
 
 
 def load_sources(paths: list[Path]) -> Handout:
-    """An exam file, or an ad-hoc selection of problem specs."""
-    exams = [p for p in paths if is_exam_file(p)]
+    """An exam file, or an ad-hoc selection of problem specs (each file read once)."""
+    located = [load_file(p) for p in paths]
+    exams = [(p, loc) for p, loc in zip(paths, located) if is_exam_data(loc.data)]
     if exams:
         if len(paths) > 1:
-            raise UserError("give one exam file, or problem specs only", Place(str(exams[0])),
+            raise UserError("give one exam file, or problem specs only", Place(str(exams[0][0])),
                             "list the problems inside the exam file")
-        return load_exam(exams[0])
-    parts = [Part(load_problem(p), -1.0) for p in paths]
+        return load_exam(*exams[0])
+    parts = [Part(SpecLoader(loc).load(), -1.0) for loc in located]
     return Handout(ExamSpec(title="Exercises", problems=[ExamProblem(problem=str(p)) for p in paths]), parts,
                    ", ".join(str(p) for p in paths))
 
 
-def is_exam_file(path: Path) -> bool:
-    """An exam file (problems: list, no robot/asks), as opposed to a problem spec."""
-    try:
-        data = load_file(path).data
-    except UserError:
-        return False
+def is_exam_data(data: Any) -> bool:
+    """Whether parsed YAML is an exam file (problems: list, no robot/asks), as opposed to a problem spec."""
     return isinstance(data, dict) and "problems" in data and "robot" not in data and "asks" not in data
 
 
