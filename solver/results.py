@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable, Optional
 
 import sympy as sp
 
@@ -43,12 +43,20 @@ class Panel:
 
 @dataclass
 class Figure:
-    """Numbers to plot (the renderer draws them): one or more side-by-side panels."""
+    """Numbers to plot (the renderer draws them): one or more side-by-side panels, sampled by ``sample`` the
+    first time they are asked for (reports without files, verify and grading never pay for them)."""
 
     name: str
     caption: str
-    panels: list[Panel]
+    sample: Callable[[], list[Panel]] = field(repr=False)
     path: str = ""  # set when the renderer writes the image file
+    _panels: Optional[list[Panel]] = field(default=None, repr=False)
+
+    @property
+    def panels(self) -> list[Panel]:
+        if self._panels is None:
+            self._panels = self.sample()
+        return self._panels
 
 
 @dataclass

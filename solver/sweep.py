@@ -55,19 +55,22 @@ def coordinate_figure(name: str, caption: str, entries: list[tuple[str, sp.Expr]
     state = set(q) | set(robot.dq) | set(robot.ddq)
     fixed, unit = numeric_values([e for _, e in entries], values, state)
     fixed.update({s: reference.get(s, 0.0) for s in state})
-    panels = []
-    for j, qj in enumerate(q):
-        deps = [(label, e) for label, e in entries if qj in e.free_symbols]
-        if not deps:
-            continue
-        lo, hi = ranges.get(qj, default_range(robot.joints[j]))
-        grid = np.linspace(lo, hi, points)
-        curves = [Curve(label, [float(v) for v in grid], sweep(e, qj, grid, fixed)) for label, e in deps]
-        panels.append(Panel(f"${latex.get(qj, sp.latex(qj))}$", "", curves, robot.joints[j] == "R"))
-    if not panels:
+    columns = [(j, qj, [(label, e) for label, e in entries if qj in e.free_symbols]) for j, qj in enumerate(q)]
+    columns = [c for c in columns if c[2]]
+    if not columns:
         return None
+
+    def sample() -> list[Panel]:
+        panels = []
+        for j, qj, deps in columns:
+            lo, hi = ranges.get(qj, default_range(robot.joints[j]))
+            grid = np.linspace(lo, hi, points)
+            curves = [Curve(label, [float(v) for v in grid], sweep(e, qj, grid, fixed)) for label, e in deps]
+            panels.append(Panel(f"${latex.get(qj, sp.latex(qj))}$", "", curves, robot.joints[j] == "R"))
+        return panels
+
     others = [s for s in q if reference.get(s, 0.0) != 0.0]
     note = " Other coordinates at 0" if not others else " Other coordinates at the reference state"
     note += "." if not unit else (", parameters without a numeric value set to 1 ("
                                  + ", ".join(f"${latex.get(s, sp.latex(s))}$" for s in unit) + ").")
-    return Figure(name, caption + note, panels)
+    return Figure(name, caption + note, sample)
