@@ -23,6 +23,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional, Union
@@ -139,7 +140,7 @@ def is_exam_data(data: Any) -> bool:
 
 
 # ------------------------------------------------------------------------------------------ building
-def _key_items(part: Part, fmt: str) -> list[dict[str, Any]]:
+def _key_items(part: Part) -> list[dict[str, Any]]:
     assert part.ref is not None
     latex = latex_printer(part.problem)
     out = []
@@ -152,7 +153,6 @@ def _key_items(part: Part, fmt: str) -> list[dict[str, Any]]:
 
 def build(handout: Handout, kind: str, fmt: str, output: Path, template_dir: Path | None = None) -> dict[str, Any]:
     """Write the handout to ``output`` (pdf | tex | md | html). Returns {"files": [...], "solve": s, "latex": s}."""
-    import time
     if kind not in KINDS:
         raise UserError(f"unknown handout kind '{kind}'", None, "use --kind exam, solutions or key")
     from .solve import solve_problem
@@ -182,7 +182,7 @@ def build(handout: Handout, kind: str, fmt: str, output: Path, template_dir: Pat
             body = render_template(part.problem, "solution.tex.j2" if tex_fmt else "solution.md.j2",
                                    "tex" if tex_fmt else "md", template_dir, solutions=sols, level=2, fragment=True)
         bodies.append({"problem": part.problem, "points": part.points, "variant": part.variant, "solution": body,
-                       "key": _key_items(part, fmt) if kind == "key" else []})
+                       "key": _key_items(part) if kind == "key" else []})
     ctx = {"exam": handout.exam, "parts": bodies, "kind": kind, "total": sum(b["points"] for b in bodies)}
     if tex_fmt:
         text = template_env("latex", template_dir).get_template("handout.tex.j2").render(**ctx)
