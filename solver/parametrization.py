@@ -509,7 +509,7 @@ def compute_given(vec: sp.Matrix, robot, dyn_all: list[sp.Symbol], coeffs: list[
         ok = False
         if extra:
             try:
-                exp1, _, monos1, A1, C1 = setup(set(dyn_all) | set(extra))
+                exp1, _, monos1, A1, _ = setup(set(dyn_all) | set(extra))
                 ok = len(independent_rows(A1, gen)) == p
             except ParamError:
                 ok = False
