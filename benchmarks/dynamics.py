@@ -18,10 +18,10 @@ import sympy as sp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from solver.dynamics import derive  # noqa: E402
-from solver.kinematics import dh_chain, omega_from_rotation  # noqa: E402
-from solver.robot import Body, Robot  # noqa: E402
-from solver.simplify import tidy  # noqa: E402
+from solver.dynamics.model import derive  # noqa: E402
+from solver.math.rigid import dh_chain, omega_from_rotation  # noqa: E402
+from solver.math.simplify import tidy  # noqa: E402
+from solver.spec.robot import Body, Robot  # noqa: E402
 
 
 def planar(n: int):
@@ -75,8 +75,15 @@ def robosolve_spatial() -> float:
 
 # ---------------------------------------------------------------------------------------------- peer
 def _mechanics(kind: str, n: int) -> float:
-    from sympy.physics.mechanics import (Lagrangian, LagrangesMethod, Point, ReferenceFrame, RigidBody,
-                                         dynamicsymbols, inertia)
+    from sympy.physics.mechanics import (
+        LagrangesMethod,
+        Lagrangian,
+        Point,
+        ReferenceFrame,
+        RigidBody,
+        dynamicsymbols,
+        inertia,
+    )
     t = time.perf_counter()
     N = ReferenceFrame("N")
     O = Point("O")

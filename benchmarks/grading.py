@@ -25,8 +25,8 @@ import sympy as sp
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from solver.gradebook import grade_files  # noqa: E402
-from solver.grading import ItemSpec, prepare  # noqa: E402
+from solver.grading.gradebook import grade_files  # noqa: E402
+from solver.grading.grader import ItemSpec, prepare  # noqa: E402
 from solver.spec import load_problem  # noqa: E402
 
 PROBLEMS = {
@@ -136,7 +136,7 @@ def peer(a: sp.Expr, b: sp.Expr, how: str, cap: float) -> tuple[bool | None, flo
 
 def entry_pairs(ref, items, truth, limit: int, rng: random.Random):  # type: ignore[no-untyped-def]
     """Distinct (answer entry, reference entry, truth) of the readable answers, at most ``limit``."""
-    from solver.submission import answer_names, latex_spellings, load_submission, parse_answer
+    from solver.grading.submission import answer_names, latex_spellings, load_submission, parse_answer
     pairs = {}
     for path, t in truth.items():
         sub = load_submission(Path(path))
@@ -190,7 +190,7 @@ def main() -> None:
             pairs = entry_pairs(ref, items, truth, args.peer_pairs, random.Random(1))
         print(f"  on {len(pairs)} distinct (answer entry, reference entry) pairs:")
         print(f"  {'method':<26}{'time [s]':>10}{'wrong':>8}{'undecided/timeout':>20}")
-        from solver.grading import entry_equiv
+        from solver.grading.grader import entry_equiv
         t = time.perf_counter()
         ours = [entry_equiv(a, b, ItemSpec()).verdict for a, b, _ in pairs]
         t_ours = time.perf_counter() - t

@@ -15,8 +15,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from solver.handout import build, latex_tool, load_sources  # noqa: E402
-from solver.simplify import tidy  # noqa: E402
+from solver.math.simplify import tidy  # noqa: E402
+from solver.publish.handout import build, latex_tool, load_sources  # noqa: E402
 
 DEFAULT = "2004-03-25-ex1,2016-09-12-ex1,2020-07-15-remote-ex1"
 

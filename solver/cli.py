@@ -9,7 +9,7 @@ from typing import Optional
 
 import typer
 
-from .errors import UserError
+from solver.spec.errors import UserError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Solve, explain, verify robotics (dynamics & control) exam problems written as YAML specs.")
@@ -33,10 +33,10 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
           fragment: bool = typer.Option(False, help="LaTeX body only, no preamble"),
           templates: Optional[Path] = typer.Option(None, help="directory with your own md/ and tex/ templates")) -> None:
     """Solve a problem and print the step-by-step solution."""
-    from .figures import write_figures
-    from .render import render
-    from .solve import solve_problem
-    from .spec import load_problem
+    from solver.publish.figures import write_figures
+    from solver.publish.render import render
+    from solver.solve import solve_problem
+    from solver.spec import load_problem
     try:
         problem = load_problem(spec)
         solutions = solve_problem(problem)
@@ -59,10 +59,10 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
 @app.command()
 def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam files) to validate")) -> None:
     """Validate specs or exam files without solving: 'ok' or a clear error (exit code 2)."""
-    from .handout import is_exam_data, load_exam
-    from .spec import SpecLoader
-    from .verify import parse_expected
-    from .yamlpos import load_file
+    from solver.publish.handout import is_exam_data, load_exam
+    from solver.spec.loader import SpecLoader
+    from solver.spec.yamlpos import load_file
+    from solver.verify import parse_expected
     bad = 0
     for s in specs:
         try:
@@ -84,7 +84,7 @@ def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam file
 def verify(paths: list[Path] = typer.Argument(..., help="spec files or directories"),
            quiet: bool = typer.Option(False, "--quiet", "-q", help="only failures and the summary")) -> None:
     """Solve every problem and compare with its expected (printed) values; non-zero exit on any mismatch."""
-    from .verify import describe, verify_paths
+    from solver.verify import describe, verify_paths
     try:
         reports = verify_paths(paths)
     except UserError as exc:
@@ -111,9 +111,9 @@ def grade(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
     """Grade submitted answers: feedback on stdout for one file; a class with --out."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from .gradebook import feedback_markdown, grade_files, submission_files, write_outputs
-    from .grading import prepare
-    from .spec import load_problem
+    from solver.grading.gradebook import feedback_markdown, grade_files, submission_files, write_outputs
+    from solver.grading.grader import prepare
+    from solver.spec import load_problem
     try:
         problem = load_problem(spec)
         ref = prepare(problem)
@@ -147,9 +147,9 @@ def grade(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
 @app.command("answer-template")
 def answer_template_(spec: Path = typer.Argument(..., help="problem spec (YAML)")) -> None:
     """Print the blank answer sheet (YAML) students fill in."""
-    from .gradebook import answer_template
-    from .grading import prepare
-    from .spec import load_problem
+    from solver.grading.gradebook import answer_template
+    from solver.grading.grader import prepare
+    from solver.spec import load_problem
     try:
         sys.stdout.write(answer_template(prepare(load_problem(spec))))
     except UserError as exc:
@@ -178,7 +178,7 @@ def handout(sources: list[Path] = typer.Argument(..., help="an exam file (exams/
             templates: Optional[Path] = typer.Option(None, help="directory with your own latex/, md/, html/ templates"),
             timing: bool = typer.Option(False, help="print the time of the solve and LaTeX phases")) -> None:
     """Publish a handout: the exam sheet, the solutions or the answer key (PDF via LaTeX, or tex/md/html)."""
-    from .handout import build, load_sources
+    from solver.publish.handout import build, load_sources
     fmt = format.value if format else {".tex": "tex", ".md": "md", ".html": "html"}.get(output.suffix, "pdf")
     try:
         result = build(load_sources(sources), kind.value, fmt, output, templates)
@@ -194,14 +194,14 @@ def handout(sources: list[Path] = typer.Argument(..., help="an exam file (exams/
 @app.command()
 def schema() -> None:
     """Print the JSON Schema of the spec format (for editor completion)."""
-    from .spec import json_schema
+    from solver.spec.models import json_schema
     typer.echo(json.dumps(json_schema(), indent=2, ensure_ascii=False))
 
 
 @app.command("list")
 def list_(paths: list[Path] = typer.Argument(..., help="spec files or directories")) -> None:
     """One line per problem: id, title, topics, asks."""
-    from .spec import load_problem
+    from solver.spec import load_problem
     files: list[Path] = []
     for p in paths:
         files += sorted(p.rglob("*.yaml")) if p.is_dir() else [p]

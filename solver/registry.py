@@ -1,7 +1,7 @@
 """Ask kinds: each solver module registers its kind, its options model and its solve function.
 
-A new ask kind = one module in ``solver/`` that calls :func:`ask_kind` + one template per format in
-``templates/``; nothing else changes.
+A new ask kind = one module in a chapter package (``solver/<chapter>/``) that calls :func:`ask_kind` + one
+template per format in ``templates/``; nothing else changes (docs/architecture.md).
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING, Callable
 from pydantic import BaseModel
 
 if TYPE_CHECKING:
-    from .problem import AskContext, Problem
-    from .results import Solution
+    from solver.results import Solution
+    from solver.spec.problem import AskContext, Problem
 
 
 @dataclass
@@ -66,17 +66,17 @@ def property_check(*names: str) -> Callable:
     return wrap
 
 
+CHAPTERS = ("dynamics", "kinematics", "control", "interaction", "planning")
 _LOADED = False
 
 
 def load_all() -> dict[str, AskKind]:
-    """Import every module of the package once, so that all ask kinds are registered."""
+    """Import every module of the chapter packages once, so that all ask kinds are registered."""
     global _LOADED
     if not _LOADED:
-        import solver
-
-        for info in pkgutil.iter_modules(solver.__path__):
-            if info.name not in ("cli", "__main__"):
-                importlib.import_module(f"solver.{info.name}")
+        for chapter in CHAPTERS:
+            package = importlib.import_module(f"solver.{chapter}")
+            for info in pkgutil.iter_modules(package.__path__):
+                importlib.import_module(f"solver.{chapter}.{info.name}")
         _LOADED = True
     return ASKS

@@ -1,9 +1,9 @@
 """Solving a problem: run each ask's registered solver in order."""
 from __future__ import annotations
 
-from .problem import Problem
-from .registry import load_all
-from .results import Solution
+from solver.registry import load_all
+from solver.results import Solution
+from solver.spec.problem import Problem
 
 
 def solve_problem(problem: Problem) -> list[Solution]:

@@ -14,12 +14,12 @@ from typing import Any
 
 import sympy as sp
 
-from .equivalence import CORRECT, INCORRECT, Verdict, equivalent
-from .errors import UserError
-from .expr import expand_abbreviations
-from .problem import Problem
-from .solve import all_results, solve_problem
-from .spec import load_problem
+from solver.math.equivalence import CORRECT, INCORRECT, Verdict, equivalent
+from solver.solve import all_results, solve_problem
+from solver.spec import load_problem
+from solver.spec.errors import UserError
+from solver.spec.expr import expand_abbreviations
+from solver.spec.problem import Problem
 
 ENTRY_FIELDS = {"value", "line", "erratum", "corrected", "tol", "abs_tol", "note", "where"}
 

@@ -7,16 +7,15 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT
 
-from solver.control import check_control_law
-from solver.dynamics import derive
-from solver.errors import UserError
-from solver.render import render
+from solver.control.laws import check_control_law
+from solver.dynamics.model import derive
+from solver.publish.render import render
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem, load_problem_text
+from solver.spec.errors import UserError
 from solver.verify import check_problem
-
-from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT
 
 R2 = """
 id: t2r
@@ -158,8 +157,8 @@ def test_property_check_accepts_rewritten_u_and_rejects_missing_c():
 
 
 def test_property_check_through_the_grader():
-    from solver.grading import grade, prepare
-    from solver.submission import Submission
+    from solver.grading.grader import grade, prepare
+    from solver.grading.submission import Submission
     p = load_problem(PROBLEMS / "2007-04-19-ex2.yaml")
     ref = prepare(p)
     u = ref.results["u"].value

@@ -1,13 +1,13 @@
 """The Lagrangian solver against independent derivations and structural properties."""
 import random
 
-import sympy as sp
 import pytest
+import sympy as sp
 
-from solver.dynamics import derive
-from solver.kinematics import dh_chain
-from solver.robot import Body, Robot
-from solver.simplify import is_zero, tidy
+from solver.dynamics.model import derive
+from solver.math.rigid import dh_chain
+from solver.math.simplify import is_zero, tidy
+from solver.spec.robot import Body, Robot
 
 
 def planar_nR(n: int) -> Robot:
@@ -72,7 +72,7 @@ def test_spatial_dh_robot_properties():
     frames = dh_chain(rows, "standard")
     m = sp.symbols("m1:4", positive=True)
     bodies = []
-    from solver.kinematics import omega_from_rotation
+    from solver.math.rigid import omega_from_rotation
     for i, A in enumerate(frames):
         R, p = A[:3, :3], A[:3, 3]
         r_c = sp.Matrix([-[0, a2, a3][i] / 2, 0, 0])

@@ -1,9 +1,10 @@
-import sympy as sp
 import pytest
-from hypothesis import given, settings, strategies as st
+import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from solver.errors import ExprError
-from solver.expr import parse, shape_of
+from solver.spec.errors import ExprError
+from solver.spec.expr import parse, shape_of
 
 q1, q2 = sp.symbols("q1 q2", real=True)
 m2, l1, alpha = sp.symbols("m2 l1 alpha", positive=True)

@@ -7,8 +7,8 @@ import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from solver.fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
-from solver.simplify import is_zero, tidy
+from solver.math.fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
+from solver.math.simplify import is_zero, tidy
 
 q1, q2, q3, a, b = sp.symbols("q1 q2 q3 a b", real=True)
 ANGLES = [q1, q2, q3]

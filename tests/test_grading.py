@@ -7,16 +7,15 @@ import time
 
 import pytest
 import sympy as sp
+from conftest import PROBLEMS, ROOT
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from solver.equivalence import CORRECT, INCORRECT, scalar_equiv
-from solver.gradebook import answer_template, grade_files, gradescope_json, write_outputs
-from solver.grading import INVALID, MISSING, ItemSpec, grade, prepare
+from solver.grading.gradebook import answer_template, grade_files, gradescope_json, write_outputs
+from solver.grading.grader import INVALID, MISSING, ItemSpec, grade, prepare
+from solver.grading.submission import Submission, load_submission
+from solver.math.equivalence import CORRECT, INCORRECT, scalar_equiv
 from solver.spec import load_problem
-from solver.submission import Submission, load_submission
-
-from conftest import PROBLEMS, ROOT
 
 SUBS = ROOT / "examples" / "submissions" / "2004-03-25-ex1"
 
@@ -232,7 +231,7 @@ def test_fuzz_grader_with_random_valid_answers(e):
 
 
 def test_degrees_for_radians_and_time_limit():
-    from solver.grading import diagnose
+    from solver.grading.grader import diagnose
     assert diagnose(sp.Integer(90), sp.pi / 2) == ["degrees and radians mixed up"]
     r = prepare(load_problem(PROBLEMS / "2004-03-25-ex1.yaml"))
     r.spec.time_limit = 1e-6  # every item runs out of time: left for manual review, never guessed

@@ -8,14 +8,13 @@ import subprocess
 import sys
 
 import pytest
+from conftest import PROBLEMS, ROOT
 
-from solver.errors import UserError
-from solver.handout import build, load_sources, log_excerpt
-from solver.render import to_json
+from solver.publish.handout import build, load_sources, log_excerpt
+from solver.publish.render import to_json
 from solver.solve import solve_problem
 from solver.spec import load_problem
-
-from conftest import PROBLEMS, ROOT
+from solver.spec.errors import UserError
 
 EXAM = ROOT / "exams" / "2004-03-25.yaml"
 HAS_LATEX = bool(shutil.which("latexmk") or shutil.which("pdflatex")) and bool(shutil.which("pdftotext"))

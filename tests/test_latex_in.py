@@ -2,11 +2,12 @@ import time
 
 import pytest
 import sympy as sp
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from solver.errors import ExprError
-from solver.expr import MAX_LENGTH
-from solver.latex_in import latex_to_plain, looks_like_latex, parse_latex
+from solver.grading.latex_in import latex_to_plain, looks_like_latex, parse_latex
+from solver.spec.errors import ExprError
+from solver.spec.expr import MAX_LENGTH
 
 NAMES = {n: sp.Symbol(n) for n in (
     "m1 m2 l1 l2 d1 d2 I1 I2 q1 q2 q3 dq1 dq2 dq3 ddq1 ddq2 ddq3 g0 dc3 theta1 alpha I2x").split()}

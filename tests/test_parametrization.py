@@ -8,17 +8,16 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT
 
-from solver.dynamics import derive
-from solver.errors import UserError
-from solver.parametrization import canonical, check
-from solver.render import render
-from solver.simplify import is_zero
+from solver.dynamics.model import derive
+from solver.dynamics.parametrization import canonical, check
+from solver.math.simplify import is_zero
+from solver.publish.render import render
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem, load_problem_text
+from solver.spec.errors import UserError
 from solver.verify import check_problem
-
-from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT
 
 HEAD_2R = """
 id: t2r

@@ -7,14 +7,13 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import PROBLEMS
 
-from solver.errors import UserError
-from solver.render import render
+from solver.publish.render import render
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem, load_problem_text
+from solver.spec.errors import UserError
 from solver.verify import check_problem, describe
-
-from conftest import PROBLEMS
 
 ROBOT_3R = """
 id: t

@@ -5,13 +5,12 @@ import subprocess
 
 import pytest
 import sympy as sp
+from conftest import PROBLEMS
 from sympy.parsing.sympy_parser import parse_expr
 
-from solver.render import render
+from solver.publish.render import render
 from solver.solve import solve_problem
 from solver.spec import load_problem
-
-from conftest import PROBLEMS
 
 RP = PROBLEMS / "2004-03-25-ex1.yaml"
 
@@ -54,7 +53,7 @@ def test_latex_is_complete_document_and_fragment(solved):
 @pytest.mark.parametrize("name", sorted(p.stem for p in PROBLEMS.glob("*.yaml")))
 def test_latex_compiles(tmp_path, name):
     """Every problem of the library gives a LaTeX report (with its figures) that compiles."""
-    from solver.figures import write_figures
+    from solver.publish.figures import write_figures
     p = load_problem(PROBLEMS / f"{name}.yaml")
     sols = solve_problem(p)
     figures = write_figures(sols, tmp_path / "r.tex", "tex")  # compiled with its figures
@@ -80,7 +79,7 @@ def test_figures_hold_the_sampled_formulas(solved):
 
 
 def test_figures_drawn_beside_output(solved, tmp_path):
-    from solver.figures import write_figures
+    from solver.publish.figures import write_figures
     problem, sols = solved
     files = write_figures(sols, tmp_path / "x.tex", "tex")
     assert [f.name for f in files] == ["x-1-gravity.pdf", "x-1-inertia.pdf"]
@@ -103,7 +102,7 @@ def test_equilibria_section():
 
 
 def test_long_equations_break_into_lines():
-    from solver.render import display, visible_length
+    from solver.publish.render import display, visible_length
     assert visible_length(r"\dot{q}_{1}^{2} \sin{q_{2}}") == len("xq12xxxq2")  # q̇₁² sin q₂
     short = display(["a", "- b"], "u_{1}")
     assert short == r"\[a - b = u_{1}\]"

@@ -3,8 +3,9 @@ import sys
 
 import pytest
 
-from solver.errors import UserError
-from solver.spec import json_schema, load_problem
+from solver.spec import load_problem
+from solver.spec.errors import UserError
+from solver.spec.models import json_schema
 
 GOOD = """\
 id: t

@@ -2,11 +2,10 @@
 from pathlib import Path
 
 import pytest
+from conftest import PROBLEMS
 
 from solver.spec import load_problem
 from solver.verify import check_problem, describe
-
-from conftest import PROBLEMS
 
 FILES = sorted(PROBLEMS.glob("*.yaml"))
 

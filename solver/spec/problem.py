@@ -7,8 +7,8 @@ from typing import Any, Callable
 import sympy as sp
 from pydantic import BaseModel
 
-from .robot import Robot
-from .yamlpos import Located, PathT
+from solver.spec.robot import Robot
+from solver.spec.yamlpos import Located, PathT
 
 
 @dataclass

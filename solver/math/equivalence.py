@@ -8,7 +8,7 @@ Scalars, in order:
    A non-zero value proves a ≢ b; zero at several independent points means a ≡ b (Schwartz-Zippel: a non-zero
    rational function vanishes at a random point of a large grid with negligible probability);
 2. where (1) does not apply (radicals, exp, angles that also appear outside sin/cos, other constants): the
-   canonical Fourier form of :mod:`solver.simplify`, then 30-digit evaluation at random points;
+   canonical Fourier form of :mod:`solver.math.simplify`, then 30-digit evaluation at random points;
 3. otherwise ``undecided``, never a guess.
 
 Matrices entry by entry, lists item by item, sets of configurations up to order and to 2π in the angles.
@@ -16,14 +16,14 @@ Matrices entry by entry, lists item by item, sets of configurations up to order 
 from __future__ import annotations
 
 import random
-from fractions import Fraction
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Any
 
 import sympy as sp
 
-from .fourier import NotTrigPolynomial, split_angle
-from .simplify import angle_symbols, is_zero
+from solver.math.fourier import NotTrigPolynomial, split_angle
+from solver.math.simplify import angle_symbols, is_zero
 
 CORRECT, INCORRECT, UNDECIDED = "correct", "incorrect", "undecided"
 

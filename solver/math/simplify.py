@@ -18,7 +18,7 @@ from functools import lru_cache
 
 import sympy as sp
 
-from .fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
+from solver.math.fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
 
 _TRIG = (sp.sin, sp.cos)
 

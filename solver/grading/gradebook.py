@@ -22,10 +22,10 @@ from typing import Any, Callable, Iterable
 
 import jinja2
 
-from .grading import Reference, Report, grade
-from .problem import Problem
-from .render import template_env
-from .submission import load_submission, safe_stem
+from solver.grading.grader import Reference, Report, grade
+from solver.grading.submission import load_submission, safe_stem
+from solver.publish.render import template_env
+from solver.spec.problem import Problem
 
 SUBMISSION_SUFFIXES = {".yaml", ".yml", ".json"}
 
@@ -60,7 +60,7 @@ def _grade_file(path: str) -> dict[str, Any]:
     try:
         report = grade(_REF, load_submission(Path(path)))
     except Exception as exc:  # noqa: BLE001 - one broken submission never stops a batch
-        from .grading import INVALID, ItemResult
+        from solver.grading.grader import INVALID, ItemResult
         report = Report(safe_stem(Path(path).stem), path, _REF.problem.id,
                         [ItemResult(n, INVALID, 0.0, it.points, ["internal error while grading: manual review"])
                          for n, it in _REF.items.items()], [f"internal error: {exc.__class__.__name__}"])

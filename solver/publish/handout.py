@@ -31,13 +31,14 @@ from typing import Any, Optional, Union
 import sympy as sp
 from pydantic import Field, ValidationError
 
-from .errors import Place, UserError
-from .figures import write_figures
-from .grading import Reference, grading_spec, prepare
-from .problem import Problem
-from .render import latex_printer, md2html, render_template, template_env
-from .spec import SpecLoader, Strict, load_problem, validation_error
-from .yamlpos import Located, load_file
+from solver.grading.grader import Reference, grading_spec, prepare
+from solver.publish.figures import write_figures
+from solver.publish.render import latex_printer, md2html, render_template, template_env
+from solver.spec.errors import Place, UserError
+from solver.spec.loader import SpecLoader, load_problem, validation_error
+from solver.spec.models import Strict
+from solver.spec.problem import Problem
+from solver.spec.yamlpos import Located, load_file
 
 KINDS = ("exam", "solutions", "key")
 LATEX_PACKAGES = "latexmk texlive-latex-recommended texlive-latex-extra"
@@ -79,7 +80,7 @@ class Handout:
 def _find_problem(name: str, base: Path, place: Place) -> Path:
     cands = [base / name] if name.endswith((".yaml", ".yml")) else [
         base / f"{name}.yaml", base.parent / "problems" / f"{name}.yaml", Path("problems") / f"{name}.yaml",
-        Path(__file__).resolve().parent.parent / "problems" / f"{name}.yaml"]
+        Path(__file__).resolve().parents[2] / "problems" / f"{name}.yaml"]
     for c in cands:
         if c.is_file():
             return c
@@ -155,7 +156,7 @@ def build(handout: Handout, kind: str, fmt: str, output: Path, template_dir: Pat
     """Write the handout to ``output`` (pdf | tex | md | html). Returns {"files": [...], "solve": s, "latex": s}."""
     if kind not in KINDS:
         raise UserError(f"unknown handout kind '{kind}'", None, "use --kind exam, solutions or key")
-    from .solve import solve_problem
+    from solver.solve import solve_problem
     t0 = time.perf_counter()
     solved = []
     for part in handout.parts:

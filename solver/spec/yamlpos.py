@@ -10,7 +10,7 @@ from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
-from .errors import Place, UserError
+from solver.spec.errors import Place, UserError
 
 PathT = tuple[Any, ...]
 

@@ -12,13 +12,13 @@ from typing import Literal, Optional, Union
 import sympy as sp
 from pydantic import Field
 
-from .errors import UserError
-from .registry import PropertyVerdict, ask_kind, property_check
-from .results import Solution
-from .robot import Body, Robot
-from .simplify import is_zero, tidy, tidy_matrix, velocity_terms
-from .spec import Strict
-from .sweep import coordinate_figure
+from solver.math.simplify import is_zero, tidy, tidy_matrix, velocity_terms
+from solver.math.sweep import coordinate_figure
+from solver.registry import PropertyVerdict, ask_kind, property_check
+from solver.results import Solution
+from solver.spec.errors import UserError
+from solver.spec.models import Strict
+from solver.spec.robot import Body, Robot
 
 
 @dataclass
@@ -288,7 +288,7 @@ def add_figures(sol: Solution, dm: DynamicModel, problem, options: DynamicModelA
 @property_check("S")
 def check_factorization(problem, results, name, S, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
     """Any S with S q̇ ≡ c; full credit only with Ḃ - 2S skew-symmetric when ``options.require_skew``."""
-    from .equivalence import scalar_equiv
+    from solver.math.equivalence import scalar_equiv
     robot, c, B = problem.robot, results.get("c"), results.get("B")
     if robot is None or c is None or not isinstance(S, list):
         return None
@@ -314,7 +314,7 @@ def check_factorization(problem, results, name, S, other, options) -> PropertyVe
 @property_check("U", *[f"U{i}" for i in range(1, 13)])
 def check_potential(problem, results, name, U, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
     """A potential energy is defined up to an additive constant: ∂(U - U_ref)/∂q ≡ 0."""
-    from .equivalence import scalar_equiv
+    from solver.math.equivalence import scalar_equiv
     ref = results.get(name)
     if ref is None or problem.robot is None or isinstance(U, list):
         return None

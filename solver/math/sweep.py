@@ -6,13 +6,15 @@ their numeric ``values`` (parameters without a value are set to 1, and the capti
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 import sympy as sp
 
-from .results import Curve, Figure, Panel
-from .robot import Robot
+from solver.results import Curve, Figure, Panel
+
+if TYPE_CHECKING:
+    from solver.spec.robot import Robot
 
 
 def default_range(joint: str) -> tuple[float, float]:

@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import dataclasses
-import re
 import json
+import re
 from pathlib import Path
 from typing import Any, Callable
 
@@ -11,16 +11,16 @@ import jinja2
 import sympy as sp
 from sympy.printing.latex import LatexPrinter
 
-from .problem import Problem
-from .results import Result, Solution
+from solver.results import Result, Solution
+from solver.spec.problem import Problem
 
 FORMATS = ("md", "tex", "json")
 
 
 def templates_dir() -> Path:
     """The shipped templates: inside the installed package, else the repository's top-level templates/."""
-    here = Path(__file__).resolve().parent
-    for cand in (here / "templates", here.parent / "templates"):
+    package = Path(__file__).resolve().parents[1]  # solver/
+    for cand in (package / "templates", package.parent / "templates"):
         if cand.is_dir():
             return cand
     raise FileNotFoundError("robosolve templates not found")

@@ -25,16 +25,17 @@ from typing import Any, Iterator, Literal, Optional
 import sympy as sp
 from pydantic import Field, ValidationError
 
-from .equivalence import CORRECT, INCORRECT, UNDECIDED, Verdict, scalar_equiv, set_equiv
-from .errors import ExprError, UserError
-from .expr import expand_abbreviations, shape_of
-from .problem import Problem
-from .registry import PROPERTY_CHECKS, load_all
-from .results import Result
-from .simplify import tidy
-from .solve import all_results, solve_problem
-from .spec import Strict, validation_error
-from .submission import Submission, answer_names, latex_spellings, parse_answer
+from solver.grading.submission import Submission, answer_names, latex_spellings, parse_answer
+from solver.math.equivalence import CORRECT, INCORRECT, UNDECIDED, Verdict, scalar_equiv, set_equiv
+from solver.math.simplify import tidy
+from solver.registry import PROPERTY_CHECKS, load_all
+from solver.results import Result
+from solver.solve import all_results, solve_problem
+from solver.spec.errors import ExprError, UserError
+from solver.spec.expr import expand_abbreviations, shape_of
+from solver.spec.loader import validation_error
+from solver.spec.models import Strict
+from solver.spec.problem import Problem
 
 INVALID, MISSING = "invalid", "missing"
 _BOOLS = {"true": True, "yes": True, "false": False, "no": False}
@@ -116,7 +117,7 @@ def grading_spec(problem: Problem) -> GradingSpec:
 
 def prepare(problem: Problem) -> Reference:
     """Solve ``problem`` once and fix the items to grade."""
-    from .verify import parse_expected
+    from solver.verify import parse_expected
     spec = grading_spec(problem)
     load_all()  # every solver module registers its ask kinds and property checks
     results = all_results(solve_problem(problem))

@@ -18,12 +18,12 @@ from typing import Any, Literal, Optional, Union
 import sympy as sp
 from pydantic import Field
 
-from .dynamics import derive, require_model
-from .errors import UserError
-from .registry import PropertyVerdict, ask_kind, property_check
-from .results import Solution
-from .simplify import is_zero, tidy
-from .spec import Strict
+from solver.dynamics.model import derive, require_model
+from solver.math.simplify import is_zero, tidy
+from solver.registry import PropertyVerdict, ask_kind, property_check
+from solver.results import Solution
+from solver.spec.errors import UserError
+from solver.spec.models import Strict
 
 ExprT = Union[str, int, float, list[Any]]
 LAWS = {"computed_torque": "computed torque (feedback linearization in joint space)",
@@ -218,7 +218,7 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
 def model_parametrization(problem, robot, dm):  # type: ignore[no-untyped-def]
     """The linear parametrization Y(q, q̇, q̈) a of the model used by the problem: that of its
     ``linear_parametrization`` ask (part: model) with its ``coefficients:`` if given, else computed the same way."""
-    from .parametrization import ParamError, compute_auto, compute_given, model_vector
+    from solver.dynamics.parametrization import ParamError, compute_auto, compute_given, model_vector
     vec = model_vector(dm, robot, "model")
     known = list(problem.known)
     dyn = [s for s in problem.symbols.values() if s not in set(known)]
@@ -344,7 +344,7 @@ def check_control_law(problem, results, name, value, other, options) -> Property
     """Computed torque: u is right iff the closed loop it gives is q̈ ≡ q̈_d + K_D ė + K_P e, i.e.
     B⁻¹ G (u − u_ref) ≡ 0 (checked on adj(B) G (u − u_ref)); names the closed-loop equations that fail and a missing
     c or g term. Other laws: None (compare with the reference)."""
-    from .equivalence import scalar_equiv
+    from solver.math.equivalence import scalar_equiv
     ask, ref = _control_ask(problem), results.get("u")
     robot = problem.robot
     if ask is None or ref is None or robot is None or ask.options.law != "computed_torque":

@@ -1,4 +1,4 @@
-r"""LaTeX answers -> the plain syntax of :mod:`solver.expr`: a translator, never an evaluator.
+r"""LaTeX answers -> the plain syntax of :mod:`solver.spec.expr`: a translator, never an evaluator.
 
 The LaTeX is tokenized and rewritten into plain text (``2*m2*l1*dq1``), which the one allow-list parser
 :func:`solver.expr.parse` then reads. Accepted subset (anything else is an :class:`ExprError` whose column
@@ -28,8 +28,8 @@ from typing import Collection, Mapping
 
 import sympy as sp
 
-from .errors import ExprError
-from .expr import CONSTANTS, FUNCTIONS, GREEK, MAX_DEPTH, MAX_LENGTH, Parsed, parse
+from solver.spec.errors import ExprError
+from solver.spec.expr import CONSTANTS, FUNCTIONS, GREEK, MAX_DEPTH, MAX_LENGTH, Parsed, parse
 
 __all__ = ["latex_to_plain", "parse_latex", "looks_like_latex"]
 

@@ -12,11 +12,11 @@ from typing import Literal, Optional
 import sympy as sp
 from pydantic import Field
 
-from .dynamics import derive, require_model
-from .registry import ask_kind
-from .results import Solution
-from .simplify import angle_symbols, tidy
-from .spec import Strict
+from solver.dynamics.model import derive, require_model
+from solver.math.simplify import angle_symbols, tidy
+from solver.registry import ask_kind
+from solver.results import Solution
+from solver.spec.models import Strict
 
 
 class EquilibriaAsk(Strict):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from .simplify import tidy
+from solver.math.simplify import tidy
 
 
 def rot_x(a: sp.Expr) -> sp.Matrix:

@@ -21,12 +21,12 @@ import numpy as np
 import sympy as sp
 from pydantic import Field, model_validator
 
-from .errors import UserError
-from .expr import shape_of
-from .registry import ask_kind
-from .results import Solution
-from .simplify import tidy
-from .spec import Strict
+from solver.math.simplify import tidy
+from solver.registry import ask_kind
+from solver.results import Solution
+from solver.spec.errors import UserError
+from solver.spec.expr import shape_of
+from solver.spec.models import Strict
 
 Scalar = Union[str, int, float]
 ExprT = Union[str, int, float, list[Any]]
@@ -386,7 +386,7 @@ class _Spec:
     def _weight(self) -> sp.Matrix:
         raw, n = self.options.weight, self.n
         if isinstance(raw, str) and raw.strip() == "inertia" and "inertia" not in self.problem.names:
-            from .dynamics import derive, has_model
+            from solver.dynamics.model import derive, has_model
             if self.problem.robot is None or not has_model(self.problem.robot):
                 raise self.fail(("weight",), "weight: inertia needs a robot with bodies or a model")
             B = derive(self.problem.robot).B

@@ -38,14 +38,14 @@ import mpmath
 import sympy as sp
 from pydantic import Field
 
-from .dynamics import derive, require_model
-from .equivalence import equivalent
-from .errors import UserError
-from .expr import shape_of
-from .registry import PropertyVerdict, ask_kind, property_check
-from .results import Solution
-from .simplify import is_zero, tidy
-from .spec import Strict
+from solver.dynamics.model import derive, require_model
+from solver.math.equivalence import equivalent
+from solver.math.simplify import is_zero, tidy
+from solver.registry import PropertyVerdict, ask_kind, property_check
+from solver.results import Solution
+from solver.spec.errors import UserError
+from solver.spec.expr import shape_of
+from solver.spec.models import Strict
 
 ExprT = Union[str, int, float, list[Any]]
 PARTS = {"model": "B(q)\\ddot q + c(q,\\dot q) + g(q)", "inertia": "B(q)\\ddot q", "gravity": "g(q)"}
@@ -704,7 +704,7 @@ def solve_linear_parametrization(problem, options: LinearParametrizationAsk, ctx
 def check_parametrization(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
     """(Y, a) answered together: Y a ≡ the reference Y a, a free of q, q̇, q̈, Y free of the dynamic parameters
     (symbols not in known:), and no more coefficients than the minimum; any grouping is accepted."""
-    from .equivalence import scalar_equiv
+    from solver.math.equivalence import scalar_equiv
     if not {"Y", "a"} <= set(results):
         return None
     partner = other("a" if name == "Y" else "Y")

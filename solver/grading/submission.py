@@ -5,7 +5,7 @@
     B: "[[a1 + 2*h*cos(q2), a2 + h*cos(q2)], [a2 + h*cos(q2), a2]]"
     g: "$\\begin{pmatrix} ... \\end{pmatrix}$"   # LaTeX in $...$ is accepted too
 
-Values are plain math (the syntax of :mod:`solver.expr`) or LaTeX (:mod:`solver.latex_in`), numbers, or YAML
+Values are plain math (the syntax of :mod:`solver.spec.expr`) or LaTeX (:mod:`solver.grading.latex_in`), numbers, or YAML
 lists of them. Nothing is evaluated: every value goes through the allow-list parsers.
 """
 from __future__ import annotations
@@ -17,11 +17,11 @@ from typing import Any, Mapping
 
 import sympy as sp
 
-from .errors import ExprError, UserError
-from .expr import MAX_LENGTH, MAX_LIST, parse
-from .latex_in import looks_like_latex, parse_latex
-from .problem import Problem
-from .yamlpos import load_text
+from solver.grading.latex_in import looks_like_latex, parse_latex
+from solver.spec.errors import ExprError, UserError
+from solver.spec.expr import MAX_LENGTH, MAX_LIST, parse
+from solver.spec.problem import Problem
+from solver.spec.yamlpos import load_text
 
 MAX_FILE_BYTES = 2_000_000
 RESERVED = {"student", "where", "id", "name"}

@@ -22,7 +22,7 @@ from typing import Callable, Mapping, Union
 
 import sympy as sp
 
-from .errors import ExprError
+from solver.spec.errors import ExprError
 
 MAX_LENGTH = 20_000
 MAX_DEPTH = 60

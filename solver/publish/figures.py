@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .results import Figure, Solution
+from solver.results import Figure, Solution
 
 
 def _angle_ticks(ax, lo: float, hi: float) -> None:  # type: ignore[no-untyped-def]

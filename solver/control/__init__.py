@@ -1,0 +1,1 @@
+"""Chapter: motion control. Ask kind control_law (laws)."""

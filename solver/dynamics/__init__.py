@@ -1,0 +1,1 @@
+"""Chapter: dynamic models. Ask kinds dynamic_model (model), equilibria, linear_parametrization."""

@@ -1,0 +1,1 @@
+"""Chapter: interaction with the environment (constraints, force control, collisions)."""

@@ -1,0 +1,1 @@
+"""Chapter: kinematics and redundancy. Ask kind redundancy."""

@@ -1,0 +1,1 @@
+"""Chapter: motion planning (trajectories, time scaling)."""

@@ -1,0 +1,1 @@
+"""Publishing: rendering solutions (Jinja2 templates, JSON), figures (matplotlib), handouts (PDF, tex, md, html)."""

@@ -1,0 +1,150 @@
+"""The spec format as pydantic models: validation and the JSON Schema (`robosolve schema`).
+
+The `asks:` list is the union of every registered ask kind's options model (:func:`spec_model`).
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Annotated, Any, Literal, Optional, Union
+
+from pydantic import BaseModel, ConfigDict, Field, create_model
+
+from solver.registry import load_all
+
+Scalar = Union[str, int, float]
+ExprT = Union[str, int, float, list[Any]]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Source(Strict):
+    file: str = Field(description="seed file the exercise comes from")
+    lines: Optional[list[int]] = Field(None, description="[first, last] line of the exercise in that file")
+
+
+class SymbolInfo(Strict):
+    meaning: str = Field(description="what the symbol is (shown in reports)")
+    sign: Literal["positive", "nonnegative", "real", "nonzero", "negative"] = Field(
+        "positive", description="assumption on the symbol's value (default: real and positive)")
+    latex: Optional[str] = Field(None, description="LaTeX name, e.g. 'I_{2,xx}' (default: derived from the name)")
+
+
+class Link(Strict):
+    """A body in explicit form: what exam solutions write down."""
+
+    name: Optional[str] = Field(None, description="label in the report (default: link i)")
+    mass: Scalar = Field(0, description="mass m_i")
+    com: ExprT = Field(description="CoM position p_ci(q) in the base frame, 2 (planar) or 3 components")
+    angle: Optional[Scalar] = Field(None, description="planar: absolute orientation of the body in the plane (ω = d(angle)/dt about z)")
+    rotation: Optional[ExprT] = Field(None, description="spatial: rotation matrix ⁰R_i(q) of the body frame; inertia then in body frame")
+    omega: Optional[ExprT] = Field(None, description="spatial: angular velocity (linear in dq), in the frame of `inertia`")
+    inertia: ExprT = Field(0, description="barycentric inertia: scalar (about the plane normal), [Ixx, Iyy, Izz] or a 3x3 tensor")
+
+
+class DHRow(Strict):
+    a: Scalar = 0
+    alpha: Scalar = 0
+    d: Scalar = 0
+    theta: Scalar = 0
+
+
+class DHLink(Strict):
+    name: Optional[str] = None
+    mass: Scalar = Field(0, description="mass m_i")
+    com: ExprT = Field([0, 0, 0], description="CoM position in frame i (3 components)")
+    inertia: ExprT = Field(0, description="barycentric inertia in frame i: [Ixx, Iyy, Izz], 3x3, or scalar Izz")
+
+
+class DH(Strict):
+    convention: Literal["standard", "modified"] = Field("standard", description="standard (distal) or modified (Craig) DH")
+    table: list[DHRow] = Field(description="one row per joint: a, alpha, d, theta (joint variables q_i inside)")
+    links: list[DHLink] = Field(description="inertial data of each link, in its own DH frame")
+    base: Optional[ExprT] = Field(None, description="optional 4x4 transform from the world frame to frame 0")
+
+
+class Extra(Strict):
+    kinetic: list[Scalar] = Field([], description="added kinetic energy terms, quadratic in the velocities (motor rotors)")
+    potential: list[Scalar] = Field([], description="added potential energy terms (springs of elastic joints)")
+
+
+class Friction(Strict):
+    viscous: Optional[ExprT] = Field(None, description="viscous friction F_v: list (diagonal) or n x n matrix; adds F_v q̇")
+
+
+class GivenModel(Strict):
+    B: Optional[ExprT] = Field(None, description="inertia matrix B(q)")
+    U: Optional[Scalar] = Field(None, description="potential energy U(q)")
+    g: Optional[ExprT] = Field(None, description="gravity vector g(q)")
+    c: Optional[ExprT] = Field(None, description="Coriolis/centrifugal vector c(q, dq), if given instead of derived")
+
+
+class InputName(Strict):
+    name: str = Field(description="the input's name in expressions, e.g. utheta1")
+    latex: Optional[str] = Field(None, description="how it prints in LaTeX, e.g. u_{\\theta,1}")
+
+
+class RobotSpec(Strict):
+    joints: list[Literal["R", "P"]] = Field(description="joint types in order; coordinates q1..qn")
+    coordinates: Optional[list[str]] = Field(
+        None, description="names of all generalized coordinates (default q1..qn); velocities d<name>, accelerations dd<name>")
+    gravity: Optional[ExprT] = Field(None, description="gravity acceleration vector g0 in the base frame, e.g. [0, -g0, 0]; U = -Σ m_i g0ᵀ p_ci")
+    links: Optional[list[Link]] = Field(None, description="explicit bodies")
+    dh: Optional[DH] = Field(None, description="bodies from a DH table")
+    extra: Optional[Extra] = None
+    friction: Optional[Friction] = None
+    input_map: Optional[ExprT] = Field(None, description="G(q): generalized forces = G u (default identity)")
+    inputs: Optional[list[Union[str, InputName]]] = Field(
+        None, description="names of the inputs u (default u1..um); {name: ..., latex: ...} to choose how one prints")
+    model: Optional[GivenModel] = Field(None, description="model given directly instead of (or besides) bodies")
+
+
+class SpecBase(Strict):
+    id: str = Field(description="unique id, e.g. 2004-03-25-ex1")
+    title: str = Field(description="one-line title")
+    source: Optional[Source] = None
+    topics: list[str] = Field([], description="topic tags")
+    statement: str = Field("", description="the problem text, Markdown with $...$ math")
+    symbols: dict[str, Union[str, SymbolInfo]] = Field(
+        {}, description="every parameter with its meaning; real and positive unless `sign` says otherwise")
+    values: dict[str, Scalar] = Field({}, description="numeric values of parameters, for numeric results")
+    robot: Optional[RobotSpec] = None
+    known: list[str] = Field([], description="quantities taken as known (kinematic data), vs. dynamic parameters")
+    expected: dict[str, Any] = Field({}, description="printed results for `robosolve verify` (see docs/spec.md)")
+    grading: Optional[dict[str, Any]] = Field(None, description="grading options (see docs/grading.md)")
+    notes: str = Field("", description="free notes: assumptions, reconstruction of lost figures, errata")
+
+
+@lru_cache(maxsize=1)
+def spec_model() -> type[BaseModel]:
+    """The Spec model with `asks` as the union of every registered ask kind's options."""
+    kinds = load_all()
+    models = tuple(k.options for k in kinds.values())
+    item = Annotated[Union[models], Field(discriminator="kind")] if len(models) > 1 else models[0]
+    return create_model("Spec", __base__=SpecBase,
+                        asks=(list[item], Field(description="what is asked, in order")))  # type: ignore[valid-type]
+
+
+def json_schema() -> dict[str, Any]:
+    """JSON Schema of the spec format."""
+    schema = spec_model().model_json_schema()
+    schema["title"] = "robosolve problem spec"
+    return schema
+
+
+def _inner_model(annotation: Any, node: Any) -> Any:
+    """The pydantic model inside Optional[...]/list[...] annotations (for 'did you mean' hints)."""
+    args = getattr(annotation, "__args__", None)
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for a in args or ():
+        m = _inner_model(a, node)
+        if m is not None and hasattr(m, "model_fields"):
+            if "kind" in m.model_fields and isinstance(node, dict):
+                kind_field = m.model_fields["kind"]
+                allowed = getattr(kind_field.annotation, "__args__", ())
+                if node.get("kind") not in allowed:
+                    continue
+            return m
+    return None
