@@ -11,7 +11,8 @@ Scalars, in order:
    canonical Fourier form of :mod:`solver.math.simplify`, then 30-digit evaluation at random points;
 3. otherwise ``undecided``, never a guess.
 
-Matrices entry by entry, lists item by item, sets of configurations up to order and to 2π in the angles.
+Matrices entry by entry, lists item by item, sets of configurations up to order and to 2π in the angles,
+conditions (lists of expressions, each meaning ``expr > 0``) as sets after removing positive factors.
 """
 from __future__ import annotations
 
@@ -249,8 +250,60 @@ def set_equiv(got: list[sp.Matrix], want: list[sp.Matrix], angles: list[int] | N
     return Verdict(CORRECT)
 
 
+def normalize_condition(expr: sp.Expr) -> sp.Expr:
+    """The condition ``expr > 0`` in a canonical form: the numerator and denominator factored, every factor known
+    to be positive (from the symbols' assumptions: masses, stiffnesses, ...) and every positive number removed,
+    the remaining factors multiplied (n/d > 0 iff n·d > 0). Returns 1 for a condition that always holds, -1 for
+    one that never does."""
+    num, den = sp.fraction(sp.together(sp.sympify(expr)))
+    if sp.expand(num) == 0:
+        return sp.Integer(-1)  # 0 > 0 never holds
+    sign, kept = 1, []
+    for part, power in ((num, 1), (den, -1)):
+        coeff, factors = sp.factor_list(sp.expand(part))
+        if coeff < 0:
+            sign = -sign
+        for f, k in factors:
+            if f.is_positive:
+                continue
+            if f.is_negative:
+                sign = -sign if k % 2 else sign
+                continue
+            kept.append(f ** k)  # a factor of the denominator has the sign of the same factor in the numerator
+    if not kept:
+        return sp.Integer(sign)
+    return sign * sp.Mul(*kept)
+
+
+def conditions_equiv(got: list[sp.Expr], want: list[sp.Expr]) -> Verdict:
+    """Two lists of conditions c_i > 0 are the same set once normalized (:func:`normalize_condition`); conditions
+    that always hold (``k_d > 0`` for a positive symbol k_d) are left out on both sides."""
+    def norm(cs: list[sp.Expr]) -> list[sp.Expr]:
+        out = [normalize_condition(c) for c in cs]
+        return [c for c in out if c != 1]
+
+    g, w = norm(list(got)), norm(list(want))
+    used: set[int] = set()
+    missing = []
+    for c in w:
+        k = next((k for k, x in enumerate(g) if k not in used and scalar_equiv(x, c).ok), None)
+        if k is None:
+            missing.append(c)
+        else:
+            used.add(k)
+    extra = [x for k, x in enumerate(g) if k not in used]
+    if missing or extra:
+        parts = ([f"expected condition(s) {', '.join(f'{c} > 0' for c in missing)} not found"] if missing else []) \
+            + ([f"unexpected condition(s) {', '.join(f'{c} > 0' for c in extra)}"] if extra else [])
+        return Verdict(INCORRECT, "; ".join(parts))
+    return Verdict(CORRECT)
+
+
 def equivalent(got: Any, want: Any, kind: str, **tol: Any) -> Verdict:
     """Compare a computed value with an expected one, by result kind."""
+    if kind == "conditions":
+        w = list(want) if isinstance(want, (list, tuple, sp.MatrixBase)) else [want]
+        return conditions_equiv(list(got), w)
     if kind == "bool":
         return Verdict(CORRECT if bool(got) == bool(want) else INCORRECT)
     if kind == "set":
