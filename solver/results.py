@@ -31,6 +31,7 @@ class Curve:
     label: str  # LaTeX
     x: list[float]
     y: list[float]
+    dashed: bool = False  # a reference or predicted value drawn dashed
 
 
 @dataclass

@@ -190,6 +190,9 @@ def _step(sol: Solution, name: str, **data: Any) -> None:
     sol.step(name, **out)
 
 
+S_SHOW = sp.Symbol("zzs")  # the Laplace variable in printed polynomials: its name sorts it after the coefficients
+
+
 def frac_terms(e: sp.Expr, s: sp.Symbol) -> tuple[list[sp.Expr], list[sp.Expr]]:
     """Numerator and denominator of a rational function of s as lists of terms c_k s^k, highest power first."""
     num, den = sp.fraction(sp.together(e))
@@ -202,10 +205,36 @@ def frac_terms(e: sp.Expr, s: sp.Symbol) -> tuple[list[sp.Expr], list[sp.Expr]]:
         for (k,), c in zip(poly.monoms(), poly.coeffs()):
             f = sp.factor(c)
             c = f if sp.count_ops(f) <= sp.count_ops(c) else c
-            out.append(sp.Mul(c, s**k, evaluate=False) if k and c not in (1, -1) else c * s**k)
+            out.append(c * S_SHOW**k)
         return out
 
     return terms(num), terms(den)
+
+
+def nice(e: sp.Expr, state: list[sp.Symbol] | None = None) -> sp.Expr:
+    """A readable, equivalent form: with ``state``, collected in the state variables (coefficients and the
+    constant part factored); otherwise the shortest of factor(e) and s + factor(e - s) for a symbol s of e
+    (d + k_p F_d/(k_e (k_e + k_p)) rather than one fraction)."""
+    e = sp.expand(e)
+    if state:
+        terms = sp.collect(e, state, evaluate=False)
+        out = sp.Integer(0)
+        for k, c in terms.items():
+            f = sp.factor(c)
+            out += (f if sp.count_ops(f) <= sp.count_ops(c) else c) * k
+        return out
+    best = sp.factor(e)
+    if sp.count_ops(best) > 200:
+        return e
+    for x in sorted(e.free_symbols, key=lambda v: v.name):
+        cand = x + sp.factor(e - x)
+        if sp.count_ops(cand) < sp.count_ops(best):
+            best = cand
+    return best
+
+
+def nice_matrix(M: sp.Matrix, state: list[sp.Symbol] | None = None) -> sp.Matrix:
+    return M.applyfunc(lambda x: nice(x, state))
 
 
 def scalar_if_1(M: Any) -> Any:
@@ -236,7 +265,7 @@ class Contact:
     def Fc(self) -> sp.Matrix:
         """The force the robot exerts on the environment (measured): K_e (p - p_e), or the exogenous one."""
         if self.K is not None:
-            return (self.K * (self.p - self.rest)).applyfunc(sp.expand)
+            return self.K * (self.p - self.rest)
         assert self.force is not None
         return -self.force if self.on == "robot" else self.force
 
@@ -346,6 +375,8 @@ class Analysis:
     conditions: list[sp.Expr] = field(default_factory=list)
     stable: bool | None = None
     witness: dict[sp.Symbol, sp.Expr] | None = None
+    factors: list[tuple[sp.Expr, int]] = field(default_factory=list)
+    columns: list[list[sp.Expr]] = field(default_factory=list)
     poles: list[sp.Expr] | None = None
     eq: sp.Matrix | None = None
     extras: dict[str, Any] = field(default_factory=dict)
@@ -363,13 +394,14 @@ def analyze(residual: sp.Matrix, x: list, dx: list, ddx: list, s: sp.Symbol, ste
     out.loop = loop
     poly = lti.char_poly(loop, s)
     out.poly = poly
-    deg = sp.Poly(poly, s).degree()
-    if deg <= lti.MAX_SYMBOLIC_DEGREE:
-        coeffs = lti.coefficients(poly, s)
-        out.column = lti.routh_column(coeffs)
-        out.conditions = lti.hurwitz_conditions(out.column)
+    out.factors = lti.s_factors(poly, s)
+    if all(sp.Poly(f, s).degree() <= lti.MAX_SYMBOLIC_DEGREE for f, _ in out.factors):
+        out.columns = [lti.routh_column(lti.coefficients(f, s)) for f, _ in out.factors]
+        out.column = out.columns[0] if len(out.factors) == 1 and out.factors[0][1] == 1 else []
+        out.conditions = lti.hurwitz_conditions([c for col in out.columns for c in col])
         out.stable, out.witness = lti.stable_for_all(out.conditions) if out.conditions else (True, None)
-    out.poles = lti.poles(poly, s)
+    roots = [lti.short_poles(f, s) for f, k in out.factors for _ in range(k)]
+    out.poles = None if any(r is None for r in roots) else [x for r in roots for x in r]
     st = lti.LinearLoop(loop.x, loop.dx, loop.ddx, loop.A2, loop.A1, loop.A0, loop.r0.xreplace(steady))
     out.eq = lti.equilibrium(st)
     return out
@@ -440,6 +472,7 @@ def setup(c: Ctx) -> Setup:
         Fm = sp.Matrix([fresh(problem, x, None, real=True) for x in names])
     elif contact is not None:
         Fm = contact.Fc()
+    problem.latex_names.setdefault(S_SHOW, "s")
     s = problem.names.get("s")
     if not isinstance(s, sp.Symbol):  # the Laplace variable, complex (answers may use it)
         s = lti.S
@@ -533,12 +566,12 @@ def _actuate(c: Ctx, S: Setup, f_task: sp.Matrix, J: sp.Matrix, kd: sp.Matrix | 
         if extra is not None:
             tau += extra
         Gi = _inverse(c, G, "the input map G", ("law",))
-        return (Gi * tau).applyfunc(sp.expand), tau.applyfunc(sp.expand)
+        return (Gi * tau if G != sp.eye(G.rows) else tau), tau
     if G.cols == 1 and f_task.rows == 1:
         u = f_task[0] - (kd[0, 0] * (G.T * S.dq)[0] if kd is not None else 0)
         if extra is not None:
             u += extra[0]
-        return sp.Matrix([sp.expand(u)]), None
+        return sp.Matrix([u]), None
     raise c.fail(("law",), f"this law needs a square input map or a single input with a scalar contact; G is "
                            f"{G.rows}x{G.cols}", "check robot.input_map")
 
@@ -588,6 +621,7 @@ def law_force(c: Ctx, S: Setup) -> Law:
         residual = _closed(S, u)
         Jb = Md * ct.J * _inverse(c, S.B, "B", ("robot",))
         closed = (Jb * residual).applyfunc(lambda x: tidy(sp.factor_terms(sp.expand(x))))
+        residual = closed  # the task-space form: same poles and equilibria, without the factors B M_d⁻¹
         free = _closed(S, u, free=True)
         plain = False
     else:
@@ -598,7 +632,7 @@ def law_force(c: Ctx, S: Setup) -> Law:
         single = S.G.cols == 1
         kd = gain(c, "kd", 1 if single else S.n, None)
         u, tau = _actuate(c, S, f, ct.J, kd)
-        data.update(kind="plain", cff=cff, KD=kd, single=single, v=(S.G.T * S.dq) if single else S.dq)
+        data.update(kind="plain", cff=cff, ff=cff * Fd, KD=kd, single=single, v=(S.G.T * S.dq) if single else S.dq)
         residual = _closed(S, u)
         closed = residual
         free = _closed(S, u, free=True)
@@ -790,7 +824,7 @@ def solve_force_control(problem, options: ForceControlAsk, ctx) -> Solution:  # 
         sol.add(name + sfx, scalar_if_1(value), kind, label=label)
 
     ct = S.contact
-    model = S.model()
+    model = nice_matrix(S.model(), list(S.ddq) + list(S.dq) + list(S.q) + list(S.u))
     add("model", model, label="B\\ddot q + n - \\tau_c - G u")
     Fc = ct.Fc() if ct is not None else None
     if ct is not None and ct.elastic:
@@ -813,9 +847,16 @@ def solve_force_control(problem, options: ForceControlAsk, ctx) -> Solution:  # 
     if options.law == "force" and options.design is not None:
         law = _design_force(c, S, law, sol, add)
     if options.law != "admittance":
+        signals = [x for x in law.data.get("ddpd", []) if isinstance(x, sp.Symbol)] + \
+            [x for x in law.data.get("dpd", []) if isinstance(x, sp.Symbol)] + \
+            [x for x in law.data.get("pd", []) if isinstance(x, sp.Symbol)] + list(S.dq) + list(S.q)
+        if ct is not None:
+            signals += sorted((ct.force.free_symbols if ct.force is not None else set(S.Fm)), key=str)
+        if options.law == "impedance" or law.data.get("kind") == "inverse":
+            law.u = nice_matrix(law.u, signals)
         add("u", law.u, label="u")
     if options.law in ("compliance",) and law.data.get("from_force"):
-        add("reference", law.data["pd"], label="p_d")
+        add("reference", nice_matrix(law.data["pd"]), label="p_d")
     if options.law in ("impedance", "admittance"):
         d = law.data
         add("M_d", d["Md"], label="M_d")
@@ -836,6 +877,7 @@ def solve_force_control(problem, options: ForceControlAsk, ctx) -> Solution:  # 
         _step(sol, "impedance", **d, wz=wz, u=law.u, law=options.law)
     else:
         _step(sol, "law", law=options.law, u=law.u, **law.data)
+    law.closed = nice_matrix(law.closed, law.ddx + law.dx + law.x)
     add("closed_loop", law.closed, label="\\text{closed loop}")
     if law.check is not None:
         add("closed_loop_check", bool(law.check), "bool", label="\\text{closed loop verified}")
@@ -895,7 +937,8 @@ def _plant(S: Setup, model: sp.Matrix, Fc: sp.Expr) -> dict[str, Any]:
     tf_q = lti.transfer(loop, S.q, {u: 0}, S.s)
     P = lti.transfer(loop, sp.Matrix([Fc]), {u: 0}, S.s)[0]
     num = lti.collect_s(sp.cancel(P * den), S.s)
-    return {"P": P, "den": den, "num": num, "tf_q": tf_q, "A": loop.A(S.s)}
+    tf_num = tf_q.applyfunc(lambda e: lti.collect_s(sp.cancel(e * den), S.s))
+    return {"P": P, "den": den, "num": num, "tf_q": tf_q, "A": loop.A(S.s), "tf_num": tf_num}
 
 
 def _omega_zeta(Md: sp.Matrix, Dd: sp.Matrix, Kd: sp.Matrix) -> tuple[Any, Any] | None:
@@ -917,21 +960,21 @@ def _report_analysis(c: Ctx, S: Setup, law: Law, an: Analysis, sol: Solution, ad
     xi = law.xi
     eq = an.eq
     if eq is not None:
-        q_eq = eq[:S.n, :]
+        q_eq = nice_matrix(eq[:S.n, :])
         add("equilibrium", q_eq, "vector", label="\\bar q")
         data: dict[str, Any] = {"q_eq": q_eq, "xi_eq": eq[S.n:, :] if xi else None, "steady": law.steady}
         at = dict(zip(law.x, eq)) | {v: 0 for v in law.dx} | law.steady
         if ct is not None and ct.elastic:
-            F_eq = ct.Fc().xreplace(at).applyfunc(lambda x: sp.factor(sp.cancel(x)))
+            F_eq = nice_matrix(ct.Fc().xreplace(at))
             add("F_c_eq", F_eq, label="\\bar F_c")
             data["F_eq"] = F_eq
             if o.law == "force" or (o.law == "compliance" and law.data.get("from_force")):
                 Fd = law.data["Fd"]
-                err = (Fd - F_eq).applyfunc(lambda x: sp.factor(sp.cancel(x)))
+                err = nice_matrix(Fd - F_eq)
                 add("force_error", err, label="F_d - \\bar F_c")
                 data.update(err=err, Fd=Fd)
         if o.law != "admittance":
-            u_eq = law.u.xreplace(S.measured()).xreplace(at).applyfunc(lambda x: sp.factor(sp.cancel(x)))
+            u_eq = nice_matrix(law.u.xreplace(S.measured()).xreplace(at))
             add("u_eq", u_eq, label="\\bar u")
             data["u_eq"] = u_eq
         _step(sol, "equilibrium", law=o.law, **data)
@@ -953,28 +996,35 @@ def _report_analysis(c: Ctx, S: Setup, law: Law, an: Analysis, sol: Solution, ad
         _step(sol, "transfer", **tf, cff=law.data.get("cff"), integral=bool(xi), s=s)
     if an.poly is not None:
         add("char_poly", an.poly, "scalar", label="\\det A(s)")
-        if an.column:
-            add("routh", sp.Matrix(an.column), "vector", label="\\text{Routh column}")
+        if an.columns:
+            if an.column:
+                add("routh", sp.Matrix(an.column), "vector", label="\\text{Routh column}")
+            else:
+                add("routh", [sp.Matrix(col) for col in an.columns], "list", label="\\text{Routh columns}")
             add("stability", list(an.conditions) if an.conditions else [], "conditions",
                 label="\\text{conditions} > 0")
+            never = any(x == -1 for x in an.conditions)
             if an.stable is not None:
                 add("stable", bool(an.stable), "bool", label="\\text{stable for all parameters}")
         if an.poles is not None:
             add("poles", sp.Matrix(an.poles), "vector", label="\\text{poles}")
         num = None
         if problem_values(c) and an.poly.free_symbols - {s}:
-            pn = an.poly.xreplace(c.problem.values)
-            if pn.free_symbols <= {s}:
-                num = lti.poles(pn, s)
+            fs = [(f.xreplace(c.problem.values), k) for f, k in an.factors]
+            if all(f.free_symbols <= {s} for f, _ in fs):
+                num = [x for f, k in fs for _ in range(k) for x in lti.poles(f, s)]
                 add("poles_num", sp.Matrix(num), "vector", label="\\text{poles}")
         witness = None
         if an.witness:
             point = dict(an.witness)
             point.update({x: sp.Integer(1) for x in an.poly.free_symbols - {s} - set(point)})
             witness = {"point": point, "poles": lti.poles(an.poly.xreplace(point), s)}
-        _step(sol, "stability", poly=an.poly, column=an.column, conditions=an.conditions, stable=an.stable,
-                 witness=witness,
-                 poles=an.poles, poles_num=num, s=s, degree=sp.Poly(an.poly, s).degree())
+        factors = [(f, k) for f, k in an.factors] if len(an.factors) > 1 or an.factors[0][1] > 1 else None
+        _step(sol, "stability", poly=an.poly, column=an.column, stable=an.stable,
+              conditions=[x for x in an.conditions if x != -1], never=bool(an.columns) and never,
+              witness=witness, poles=an.poles, poles_num=num, s=s, degree=sp.Poly(an.poly, s).degree(),
+              factors=factors, factor_terms=[frac_terms(f, s)[0] for f, _ in an.factors] if factors else None,
+              columns=an.columns if factors else None)
 
 
 def problem_values(c: Ctx) -> bool:
@@ -1003,7 +1053,7 @@ def _free_motion(c: Ctx, S: Setup, law: Law, sol: Solution, add: Any) -> None:
     """Without contact (F_c = 0): the closed loop, its steady velocity or rest position."""
     if law.free is None:
         return
-    free = law.free.applyfunc(lambda x: tidy(sp.expand(x)))
+    free = nice_matrix(law.free, law.ddx + law.dx + law.x)
     add("free_closed_loop", free[:S.n, :], label="\\text{closed loop, free motion}")
     data: dict[str, Any] = {"free": free[:S.n, :], "integral": bool(law.xi)}
     if c.options.law == "force":
@@ -1123,17 +1173,17 @@ def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
             if ct.elastic and eq is not None:
                 at = dict(zip(loop.x, eq))
                 fe = float(Fc[i].xreplace(nums).xreplace(at))
-                curves.append(Curve(f"predicted $\\bar F_c = {fe:.4g}$", tl, [fe] * len(tl)))
+                curves.append(Curve(f"predicted $\\bar F_c = {fe:.4g}$", tl, [fe] * len(tl), dashed=True))
             if "Fd" in law.data:
                 fd = float(law.data["Fd"][i].xreplace(nums))
-                curves.append(Curve(f"$F_d = {fd:.4g}$", tl, [fd] * len(tl)))
+                curves.append(Curve(f"$F_d = {fd:.4g}$", tl, [fd] * len(tl), dashed=True))
         panels.append(Panel("$t$ [s]", "contact force", curves))
         qc = []
         for j in range(S.n):
             qc.append(Curve(f"${tex(S.q[j])}(t)$", tl, [float(v) for v in X[j]]))
             if eq is not None:
                 qe = float(eq[j])
-                qc.append(Curve(f"predicted $\\bar{{{tex(S.q[j])}}} = {qe:.4g}$", tl, [qe] * len(tl)))
+                qc.append(Curve(f"predicted $\\bar{{{tex(S.q[j])}}} = {qe:.4g}$", tl, [qe] * len(tl), dashed=True))
         panels.append(Panel("$t$ [s]", "position", qc))
         return panels
 

@@ -19,7 +19,7 @@ from typing import Any, Sequence
 import numpy as np
 import sympy as sp
 
-from solver.math.equivalence import normalize_condition
+from solver.math.equivalence import reduce_conditions
 from solver.math.simplify import tidy
 
 S = sp.Symbol("s")  # the Laplace variable (the problem's own `s` replaces it when declared)
@@ -118,6 +118,23 @@ def rational(e: sp.Expr, s: sp.Symbol) -> sp.Expr:
     return collect_s(n, s) / collect_s(d, s)
 
 
+def s_factors(p: sp.Expr, s: sp.Symbol, max_ops: int = 3000) -> list[tuple[sp.Expr, int]]:
+    """The factors of p(s) that depend on s, with multiplicities (the constant content dropped): a decoupled
+    closed loop gives one factor per direction. p itself when it does not factor (or is too large to try)."""
+    p = sp.expand(p)
+    if sp.count_ops(p) > max_ops:
+        return [(collect_s(p, s), 1)]
+    num, _ = sp.fraction(sp.together(p))
+    try:
+        _, fl = sp.factor_list(sp.expand(num))
+    except sp.PolynomialError:
+        return [(collect_s(p, s), 1)]
+    out = [(collect_s(f, s), k) for f, k in fl if f.has(s)]
+    if len(out) == 1 and out[0][1] == 1:
+        return [(collect_s(p, s), 1)]  # keep the content (leading coefficient) of an irreducible polynomial
+    return out or [(collect_s(p, s), 1)]
+
+
 def coefficients(p: sp.Expr, s: sp.Symbol) -> list[sp.Expr]:
     """[a_n, ..., a_0] of a polynomial in s."""
     return [sp.factor(c) for c in sp.Poly(sp.expand(p), s).all_coeffs()]
@@ -183,32 +200,9 @@ def _short(p: sp.Expr) -> sp.Expr:
 
 def hurwitz_conditions(column: Sequence[sp.Expr]) -> list[sp.Expr]:
     """The non-trivial conditions c > 0 for every root in the open left half plane, one per entry of the Routh
-    column (the first entry b_0 taken positive), normalized (:func:`normalize_condition`: positive factors and
-    always-true conditions removed) and without the factors that are earlier conditions (positive by then)."""
-    out: list[sp.Expr] = []
-    for c in column:
-        n = normalize_condition(c)
-        if n in (1, -1):
-            if n == -1:
-                out.append(n)
-            continue
-        sign, factors = sp.Integer(1), []
-        for f in sp.Mul.make_args(n):
-            base, k = f.as_base_exp()
-            if f == -1:
-                sign = -sign
-            elif any(sp.expand(base - o) == 0 for o in out):
-                continue  # an earlier condition: positive here
-            else:
-                factors.append(f)
-        if not factors:
-            if sign < 0:
-                out.append(sp.Integer(-1))
-            continue
-        cond = sign * sp.Mul(*factors)
-        if not any(sp.expand(cond - o) == 0 for o in out):
-            out.append(cond)
-    return out
+    column (b_0 > 0 taken as the reference sign), reduced by :func:`solver.math.equivalence.reduce_conditions`
+    (positive factors, always-true conditions and factors that are earlier conditions removed)."""
+    return reduce_conditions(list(column))
 
 
 def always_positive(c: sp.Expr) -> bool | None:
@@ -293,8 +287,8 @@ def stable_for_all(conditions: Sequence[sp.Expr], samples: int = 3000,
     if all(v is True for v in verdicts):
         return True, None
     syms = sorted(set().union(*[sp.sympify(c).free_symbols for c in conditions]), key=lambda x: x.name)
-    if not syms:
-        return None, None
+    if not syms or not all(x.is_positive for x in syms):
+        return None, None  # conditions on gains of any sign: they are design conditions, not a property
     rng = np.random.default_rng(seed)
     funcs = [sp.lambdify(syms, c, "numpy") for c in conditions]
     for _ in range(samples):
@@ -346,6 +340,14 @@ def match_polynomial(p: sp.Expr, target: sp.Expr, s: sp.Symbol, unknowns: Sequen
 def second_order(m: sp.Expr, d: sp.Expr, k: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
     """(ω_n, ζ) of m s² + d s + k: ω_n = √(k/m), ζ = d / (2√(k m))."""
     return sp.sqrt(k / m), d / (2 * sp.sqrt(k * m))
+
+
+def short_poles(p: sp.Expr, s: sp.Symbol, max_ops: int = 24) -> list[sp.Expr] | None:
+    """:func:`poles`, but closed forms only when they are short enough to read."""
+    out = poles(p, s)
+    if out is not None and sum(sp.count_ops(x) for x in out) > max_ops:
+        return None
+    return out
 
 
 def poles(p: sp.Expr, s: sp.Symbol) -> list[sp.Expr] | None:

@@ -275,14 +275,37 @@ def normalize_condition(expr: sp.Expr) -> sp.Expr:
     return sign * sp.Mul(*kept)
 
 
-def conditions_equiv(got: list[sp.Expr], want: list[sp.Expr]) -> Verdict:
-    """Two lists of conditions c_i > 0 are the same set once normalized (:func:`normalize_condition`); conditions
-    that always hold (``k_d > 0`` for a positive symbol k_d) are left out on both sides."""
-    def norm(cs: list[sp.Expr]) -> list[sp.Expr]:
-        out = [normalize_condition(c) for c in cs]
-        return [c for c in out if c != 1]
+def reduce_conditions(conditions: list[sp.Expr]) -> list[sp.Expr]:
+    """A set of conditions c_i > 0, each normalized (:func:`normalize_condition`), without the ones that always
+    hold, and without the factors of a condition that are themselves conditions of the set (positive then):
+    [k_d, k_d (k_f + 1) - m k_i] -> [k_d, k_d (k_f + 1) - m k_i], [k_d, k_d·(...)] -> [k_d, (...)]."""
+    out = [normalize_condition(c) for c in conditions]
+    out = [c for c in out if c != 1]
+    changed = True
+    while changed:
+        changed = False
+        for i, c in enumerate(out):
+            factors = sp.Mul.make_args(c)
+            if len(factors) < 2:
+                continue
+            keep = [f for f in factors if not any(j != i and sp.expand(f.as_base_exp()[0] - o) == 0
+                                                  for j, o in enumerate(out))]
+            if len(keep) < len(factors):
+                out[i] = normalize_condition(sp.Mul(*keep)) if keep else sp.Integer(1)
+                changed = True
+        uniq: list[sp.Expr] = []
+        for c in out:
+            if c != 1 and not any(sp.expand(c - u) == 0 for u in uniq):
+                uniq.append(c)
+        out = uniq
+    return out
 
-    g, w = norm(list(got)), norm(list(want))
+
+def conditions_equiv(got: list[sp.Expr], want: list[sp.Expr]) -> Verdict:
+    """Two lists of conditions c_i > 0 are the same set once reduced (:func:`reduce_conditions`): normalized,
+    conditions that always hold (``k_d > 0`` for a positive symbol k_d) left out, factors that are other
+    conditions of the set removed."""
+    g, w = reduce_conditions(list(got)), reduce_conditions(list(want))
     used: set[int] = set()
     missing = []
     for c in w:

@@ -27,7 +27,7 @@ def draw(fig: Figure, path: Path) -> None:
     f, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False)
     for ax, panel in zip(axes.flat, fig.panels):
         for c in panel.curves:
-            ax.plot(c.x, c.y, label=c.label, linewidth=1.6)
+            ax.plot(c.x, c.y, label=c.label, linewidth=1.6, linestyle="--" if c.dashed else "-")
         ax.set_xlabel(panel.xlabel)
         if panel.ylabel:
             ax.set_ylabel(panel.ylabel)
