@@ -57,47 +57,72 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
 
 
 @app.command()
-def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam files) to validate")) -> None:
-    """Validate specs or exam files without solving: 'ok' or a clear error (exit code 2)."""
-    from solver.publish.handout import is_exam_data, load_exam
-    from solver.spec.loader import SpecLoader
-    from solver.spec.yamlpos import load_file
-    from solver.verify import parse_expected
+def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam files) to validate"),
+          time_limit: float = typer.Option(120.0, "--time-limit", min=1, help="seconds per file (reading and solving)")
+          ) -> None:
+    """Validate specs or exam files: 'ok', or every error found (file:line, what, how to fix; exit code 2).
+    A spec with expected: values is solved, to find entries that name no result or cannot be read."""
+    from solver.sandbox import Limits, run_many
+    outcomes = run_many(_check_file, specs, 0, Limits(time_limit, 4096))
     bad = 0
-    for s in specs:
-        try:
-            located = load_file(s)
-            if is_exam_data(located.data):
-                exam = load_exam(s, located)
-                typer.echo(f"{s}: ok (exam file, {len(exam.parts)} problem(s))")
-                continue
-            parse_expected(SpecLoader(located).load())
-            typer.echo(f"{s}: ok")
-        except UserError as exc:
-            typer.echo(str(exc), err=True)
+    for s, out in zip(specs, outcomes):
+        lines = out.value if out.ok else [f"{s}: error: {out.message}"]
+        if lines and lines[0].startswith(f"{s}: ok"):
+            typer.echo(lines[0])
+        else:
             bad += 1
+            for line in lines:
+                typer.echo(line, err=True)
     if bad:
         raise typer.Exit(2)
 
 
+def _check_file(path: Path) -> list[str]:
+    """`check` of one file (in a bounded worker): ["<file>: ok ..."] or the error messages."""
+    from solver.publish.handout import is_exam_data, load_exam
+    from solver.spec.loader import SpecLoader
+    from solver.spec.yamlpos import load_file
+    from solver.verify import ERROR, check_problem
+    try:
+        located = load_file(path)
+        if is_exam_data(located.data):
+            exam = load_exam(path, located)
+            return [f"{path}: ok (exam file, {len(exam.parts)} problem(s))"]
+        problem = SpecLoader(located).load()
+        if not problem.expected:
+            return [f"{path}: ok"]
+        rep = check_problem(problem, compare=False)
+    except UserError as exc:
+        return [str(exc)]
+    errors = [c.verdict.detail for c in rep.checks if c.verdict.verdict == ERROR]
+    return errors or [f"{path}: ok"]
+
+
 @app.command()
 def verify(paths: list[Path] = typer.Argument(..., help="spec files or directories"),
-           quiet: bool = typer.Option(False, "--quiet", "-q", help="only failures and the summary")) -> None:
+           quiet: bool = typer.Option(False, "--quiet", "-q", help="only failures and the summary"),
+           jobs: int = typer.Option(0, "--jobs", "-j", min=0, help="worker processes (0: one per core)"),
+           time_limit: float = typer.Option(900.0, "--time-limit", min=1, help="seconds per problem"),
+           seed: int = typer.Option(2024, help="seed of the random points of the equivalence tests")) -> None:
     """Solve every problem and compare with its expected (printed) values; non-zero exit on any mismatch."""
+    from solver.math import equivalence
+    from solver.sandbox import Limits
     from solver.verify import describe, verify_paths
+    equivalence.SEED = seed
+
+    def show(rep) -> None:  # type: ignore[no-untyped-def]
+        if not quiet or not rep.ok:
+            typer.echo("\n".join(describe(rep)))
     try:
-        reports = verify_paths(paths)
+        reports = verify_paths(paths, jobs, Limits(time_limit, 8192), on_done=show)
     except UserError as exc:
         _fail(exc)
         return
-    for rep in reports:
-        lines = describe(rep)
-        if not quiet or not rep.ok:
-            typer.echo("\n".join(lines))
     n_ok = sum(r.ok for r in reports)
     checks = sum(len(r.checks) for r in reports)
     errata = sum(c.erratum is not None for r in reports for c in r.checks)
-    typer.echo(f"\n{n_ok}/{len(reports)} problems ok, {checks} results checked, {errata} errata recorded")
+    typer.echo(f"\n{n_ok}/{len(reports)} problems ok, {checks} results checked, {errata} errata recorded "
+               f"(random points: seed {seed})")
     if n_ok != len(reports) or not reports:
         raise typer.Exit(1)
 
