@@ -129,6 +129,7 @@ def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam file
 
 def _check_file(path: Path) -> list[str]:
     """`check` of one file (in a bounded worker): ["<file>: ok ..."] or the error messages."""
+    from solver.grading.grader import grading_spec
     from solver.publish.handout import is_exam_data, load_exam
     from solver.spec.loader import SpecLoader
     from solver.spec.yamlpos import load_file
@@ -139,6 +140,7 @@ def _check_file(path: Path) -> list[str]:
             exam = load_exam(path, located)
             return [f"{path}: ok (exam file, {len(exam.parts)} problem(s))"]
         problem = SpecLoader(located).load()
+        grading_spec(problem)
         if not problem.expected:
             return [f"{path}: ok"]
         rep = check_problem(problem, compare=False)

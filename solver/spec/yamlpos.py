@@ -1,13 +1,14 @@
 """Read YAML (or JSON) into plain Python data, remembering where every value stands in the file."""
 from __future__ import annotations
 
+import datetime
 import io
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ruamel.yaml import YAML
-from ruamel.yaml.comments import CommentedMap, CommentedSeq
+from ruamel.yaml.comments import CommentedMap, CommentedSeq, TaggedScalar
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from solver.spec.errors import Place, UserError
@@ -66,6 +67,9 @@ class _Builder:
         if len(path) > MAX_NESTING:
             raise _TooMuch(f"nested more than {MAX_NESTING} levels deep")
         positions = self.positions
+        tag = getattr(getattr(node, "tag", None), "value", None)
+        if tag or isinstance(node, (TaggedScalar, bytes)):
+            raise _TooMuch(f"YAML tags ({tag or '!!binary'}) are not allowed: write plain values")
         if isinstance(node, CommentedMap):
             out = {}
             for key in node:
@@ -88,7 +92,9 @@ class _Builder:
             return out_l
         if isinstance(node, str):
             return _text(node)
-        return node
+        if node is None or isinstance(node, (int, float, datetime.date)):
+            return node
+        raise _TooMuch(f"a YAML {type(node).__name__} is not allowed: write plain values")
 
 
 def _text(s: Any) -> str:
@@ -138,7 +144,8 @@ def load_text(text: str, file: str = "<input>") -> Located:
     try:
         data = builder.plain(node, ())
     except _TooMuch as exc:
-        raise UserError(f"file too complex: {exc}", Place(file), "write each value out; do not use YAML aliases") from None
+        raise UserError(f"cannot read this YAML: {exc}", Place(file),
+                        "write plain values (no aliases *name, no tags !name)") from None
     except RecursionError:
         raise UserError("YAML nested too deeply", Place(file), f"at most {MAX_NESTING} levels") from None
     return Located(data, file, builder.positions, text.splitlines())
