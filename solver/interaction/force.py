@@ -215,12 +215,14 @@ def nice(e: sp.Expr, state: list[sp.Symbol] | None = None) -> sp.Expr:
     """A readable, equivalent form: with ``state``, collected in the state variables (coefficients and the
     constant part factored); otherwise the shortest of factor(e) and s + factor(e - s) for a symbol s of e
     (d + k_p F_d/(k_e (k_e + k_p)) rather than one fraction)."""
+    if sp.count_ops(e) > 300:  # bounded work: large expressions are left as they are
+        return e
     e = sp.expand(e)
     if state:
         terms = sp.collect(e, state, evaluate=False)
         out = sp.Integer(0)
         for k, c in terms.items():
-            f = sp.factor(c)
+            f = sp.factor(c) if sp.count_ops(c) < 80 else c
             out += (f if sp.count_ops(f) <= sp.count_ops(c) else c) * k
         return out
     best = sp.factor(e)
@@ -517,15 +519,25 @@ def desired_force(c: Ctx, m: int) -> sp.Matrix:
 
 
 def _inverse(c: Ctx, M: sp.Matrix, what: str, sub: tuple) -> sp.Matrix:
+    """M⁻¹ = adj(M)/det(M), entries tidied (no general simplification: bounded work); a singular M is an error."""
     if M.rows != M.cols:
         raise c.fail(sub, f"{what} is {M.rows}x{M.cols}, not square", "the law needs as many inputs/task "
                                                                           "directions as coordinates")
-    det = sp.simplify(M.det())
-    if det == 0:
-        raise c.fail(sub, f"{what} is singular (det = 0)")
     if M.is_diagonal():
+        if any(_is_zero(M[i, i]) for i in range(M.rows)):
+            raise c.fail(sub, f"{what} is singular (det = 0)")
         return sp.diag(*[1 / M[i, i] for i in range(M.rows)])
-    return (M.adjugate() / det).applyfunc(sp.simplify)
+    det = tidy(M.det(method="berkowitz"))
+    if _is_zero(det):
+        raise c.fail(sub, f"{what} is singular (det = 0)")
+    if not M.free_symbols:
+        return M.inv()
+    return (M.adjugate() / det).applyfunc(lambda x: tidy(sp.cancel(x)) if sp.count_ops(x) < 300 else x)
+
+
+def _is_zero(e: sp.Expr) -> bool:
+    """Exactly zero (randomized exact test for trigonometric polynomials, see solver.math.equivalence)."""
+    return e == 0 or scalar_equiv(e, 0).ok
 
 
 def _dot(M: sp.Matrix, q: sp.Matrix, dq: sp.Matrix) -> sp.Matrix:
@@ -577,9 +589,9 @@ def _actuate(c: Ctx, S: Setup, f_task: sp.Matrix, J: sp.Matrix, kd: sp.Matrix | 
 
 
 def _closed(S: Setup, u: sp.Matrix, free: bool = False) -> sp.Matrix:
-    """The model with the law's u and the measured force substituted."""
+    """The model with the law's u and the measured force substituted (tidied when small: bounded work)."""
     r = S.model(free).xreplace(dict(zip(S.u, u)))
-    return r.xreplace(S.measured(free)).applyfunc(lambda e: tidy(sp.expand(e)))
+    return r.xreplace(S.measured(free)).applyfunc(lambda e: tidy(sp.expand(e)) if sp.count_ops(e) < 200 else e)
 
 
 def law_force(c: Ctx, S: Setup) -> Law:
@@ -709,7 +721,8 @@ def law_impedance(c: Ctx, S: Setup, admittance: bool = False) -> Law:
     if not sensing and o.inertia is not None:
         raise c.fail(("inertia",), "without force sensing the apparent inertia is the robot's Λ(q) = J⁻ᵀ B J⁻¹",
                      "remove inertia: (or set sensing: true)")
-    Lam = (Ji.T * S.B * Ji).applyfunc(lambda x: tidy(sp.simplify(x)))
+    constant = not (J.free_symbols | S.B.free_symbols) & set(S.q)
+    Lam = (Ji.T * S.B * Ji).applyfunc(tidy) if (constant or not o.sensing) else None  # Λ(q) only when used
     if sensing:
         Md = c.square(("inertia",), m, "inertia", positive=True) if o.inertia is not None else \
             (sp.Matrix([[fresh(c.problem, "M_d", "M_{d}", positive=True)]]) if m == 1 else
@@ -760,14 +773,14 @@ def law_impedance(c: Ctx, S: Setup, admittance: bool = False) -> Law:
         else:
             tau = S.B * Ji * (ddpd - Jdot * S.dq) + J.T * (Dd * (dpd - J * S.dq) + Kd * (pd - p)) + S.nvec
         Gi = _inverse(c, S.G, "the input map G", ("law",))
-        u = (Gi * tau).applyfunc(lambda x: tidy(sp.expand(x)))
+        u = (Gi * tau).applyfunc(lambda x: tidy(sp.expand(x)) if sp.count_ops(x) < 150 else x)
         residual = _closed(S, u)
         # check: M_d J B⁻¹ (model residual) ≡ closed loop (exactly)
         Bi = _inverse(c, S.B, "B", ("robot",))
-        chk = (Md * J * Bi * residual - closed).applyfunc(lambda x: sp.simplify(sp.expand(x)))
-        data.update(tau=tau.applyfunc(sp.expand))
+        chk = Md * J * Bi * residual - closed
+        data.update(tau=tau)
         law = Law(u, closed, closed, list(S.q), list(S.dq), list(S.ddq), {}, data,
-                  check=all(x == 0 for x in chk))
+                  check=all(_is_zero(x) for x in chk))
     law.steady = {x: 0 for x in list(dpd) + list(ddpd) if isinstance(x, sp.Symbol)}
     if ct is not None:
         law.free = (Md * err_dd + Dd * err_d + Kd * err).applyfunc(lambda x: tidy(sp.expand(x)))
@@ -874,7 +887,7 @@ def solve_force_control(problem, options: ForceControlAsk, ctx) -> Solution:  # 
             add("zeta", wz[1], label="\\zeta")
         if options.law == "admittance":
             add("admittance", d["filt"], label="M_d\\ddot p_c + D_d\\dot p_c + K_d(p_c - p_d) - F")
-        _step(sol, "impedance", **d, wz=wz, u=law.u, law=options.law)
+        _step(sol, "impedance", **d, wz=wz, u=law.u, law=options.law, u_short=sp.count_ops(law.u) < 800)
     else:
         _step(sol, "law", law=options.law, u=law.u, **law.data)
     law.closed = nice_matrix(law.closed, law.ddx + law.dx + law.x)
@@ -1153,7 +1166,7 @@ def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
         t_end = float(spec.time)
     elif pn:
         slow = min(abs(complex(p).real) for p in pn) if pn else 1.0
-        t_end = float(min(max(6.0 / max(slow, 1e-3), 0.5), 200.0))
+        t_end = float(min(max(10.0 / max(slow, 1e-3), 0.5), 200.0))
     else:
         t_end = 10.0
     eq = an.eq.xreplace(nums) if an.eq is not None else None
@@ -1285,11 +1298,12 @@ def check_impedance_gains(problem, results, name, value, other, options) -> Prop
     Dr, Kr, Mr = (_as_matrix(results[k + sfx].value) for k in ("D_d", "K_d", "M_d"))
     if D.shape != Dr.shape or K.shape != Kr.shape or Md.shape != Mr.shape:
         return PropertyVerdict(False, 0.0, [f"{name} must be {Dr.rows}x{Dr.cols}"])
-    # required: D = a1 M, K = a0 M with a1 = Dr Mr⁻¹, a0 = Kr Mr⁻¹ (scalars times I)
+    # required: D = a1 M, K = a0 M with a1 = Dr Mr⁻¹, a0 = Kr Mr⁻¹ (scalars times I); only the graded item is judged
     a1, a0 = (Dr * Mr.inv())[0, 0], (Kr * Mr.inv())[0, 0]
-    ok = all(scalar_equiv(x, 0).ok for x in (D - a1 * Md)) and all(scalar_equiv(x, 0).ok for x in (K - a0 * Md))
-    if ok:
-        return PropertyVerdict(True, 1.0, ["M_d s² + D_d s + K_d has the required roots in every direction"])
+    mine = D - a1 * Md if name.startswith("D_d") else K - a0 * Md
+    if all(scalar_equiv(x, 0).ok for x in mine):
+        return PropertyVerdict(True, 1.0, [f"with M_d = {Md if Md.shape != (1, 1) else Md[0, 0]}, "
+                                           "M_d s² + D_d s + K_d has the required roots in every direction"])
     return None
 
 

@@ -24,6 +24,7 @@ from typing import Any
 import sympy as sp
 
 from solver.dynamics.model import derive, has_model
+from solver.math.equivalence import scalar_equiv
 from solver.math.simplify import tidy
 from solver.registry import PropertyVerdict
 from solver.results import Solution
@@ -119,8 +120,8 @@ def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
                      else "the task has more directions than the robot has joints")
     if Ja.rows != Ja.cols:
         raise c.fail(("augment",), "the augmented Jacobian must be square")
-    detJa = tidy(sp.simplify(Ja.det()))
-    if detJa == 0:
+    detJa = tidy(Ja.det(method="berkowitz"))
+    if detJa == 0 or scalar_equiv(detJa, 0).ok:
         raise c.fail(("augment",) if aug is not None else ("task",), "the (augmented) task Jacobian is singular "
                      "everywhere", "choose other task/augment rows")
     if aug is not None:
@@ -128,7 +129,7 @@ def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
     Jdot = sum((J.diff(x) * v for x, v in zip(q, dq)), sp.zeros(*J.shape)).applyfunc(tidy)
     Jadot = sum((Ja.diff(x) * v for x, v in zip(q, dq)), sp.zeros(*Ja.shape)).applyfunc(tidy)
     add("Jdot", Jdot, "matrix", label="\\dot J(q, \\dot q)")
-    Jai = (Ja.adjugate() / detJa).applyfunc(lambda x: tidy(sp.simplify(x))) if n <= 4 else Ja.inv()
+    Jai = (Ja.adjugate() / detJa).applyfunc(lambda x: tidy(sp.cancel(x)) if sp.count_ops(x) < 300 else x)
     names = [a for a in axes] + aug_names
     motion_all = [a for a in axes if a in motion_dirs] + aug_names
     idx_m = [names.index(a) for a in motion_all]
@@ -198,7 +199,7 @@ def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
             una = un.xreplace(subs).applyfunc(lambda x: tidy(sp.expand(x)))
             add("u_nominal_at", una, "vector", label="u_d\\big|_{*}")
             data.update(at=subs, una=una)
-    _step(sol, "hybrid_law", **data)
+    _step(sol, "hybrid_law", **data, raw=dict(data))
     from solver.interaction.force import _register_checks
     _register_checks(sfx)
     return sol
@@ -278,7 +279,7 @@ def check_hybrid_law(problem, ask, value) -> PropertyVerdict | None:  # type: ig
     """A hybrid law is right iff, substituted in the model, its closed loop is σ = a, λ = a_f (decoupled)."""
     from solver.interaction.force import Ctx
     sol = solve_hybrid(Ctx(problem, ask.options, ask.ctx))
-    st = next((s.data for s in sol.steps if s.name == "hybrid_law"), None)
+    st = next((s.data["raw"] for s in sol.steps if s.name == "hybrid_law"), None)
     if st is None:
         return None
     U = sp.Matrix(value) if isinstance(value, list) else sp.Matrix([value])

@@ -71,10 +71,25 @@ def equilibrium(loop: LinearLoop) -> sp.Matrix | None:
 
 
 def steady_velocity(loop: LinearLoop) -> sp.Matrix | None:
-    """The constant velocity v̄ reached when no position acts (A0 = 0): A1 v̄ + r0 = 0; None otherwise."""
-    if any(e != 0 for e in loop.A0) or sp.simplify(loop.A1.det()) == 0:
+    """The constant velocity v̄ of a steady motion x(t) = x₀ + v̄ t (ẍ = 0) when positions do not fully act:
+    A0 v̄ = 0 and A1 v̄ + A0 x₀ + r0 = 0; None when A0 is invertible (an equilibrium instead) or v̄ is not unique."""
+    n = loop.A0.rows
+    if n != loop.A0.cols or sp.simplify(loop.A0.det()) != 0:
         return None
-    return loop.A1.LUsolve(-loop.r0).applyfunc(lambda e: sp.factor(sp.cancel(e)))
+    v = sp.symbols(f"_v0:{n}")
+    x0 = sp.symbols(f"_x0:{n}")
+    V, X0 = sp.Matrix(v), sp.Matrix(x0)
+    eqs = list(loop.A0 * V) + list(loop.A1 * V + loop.A0 * X0 + loop.r0)
+    sols = sp.linsolve(eqs, list(v) + list(x0))
+    if not sols:
+        return None
+    sol = next(iter(sols))
+    vel = sp.Matrix(sol[:n])
+    if vel.free_symbols & (set(v) | set(x0)):
+        return None
+    if all(sp.simplify(e) == 0 for e in vel):
+        return None  # at rest: no steady motion
+    return vel.applyfunc(lambda e: sp.factor(sp.cancel(e)))
 
 
 def char_poly(loop: LinearLoop, s: sp.Symbol) -> sp.Expr:
