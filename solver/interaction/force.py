@@ -634,7 +634,7 @@ def law_force(c: Ctx, S: Setup) -> Law:
         Jb = Md * ct.J * _inverse(c, S.B, "B", ("robot",))
         closed = (Jb * residual).applyfunc(lambda x: tidy(sp.factor_terms(sp.expand(x))))
         residual = closed  # the task-space form: same poles and equilibria, without the factors B M_d⁻¹
-        free = _closed(S, u, free=True)
+        free = (Jb * _closed(S, u, free=True)).applyfunc(lambda x: tidy(sp.factor_terms(sp.expand(x))))
         plain = False
     else:
         cff = c.ctx.expr("feedforward") if o.feedforward is not None else sp.Integer(0)
@@ -1162,8 +1162,11 @@ def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
     if x0 is None:
         return None
     pn = lti.poles(an.poly.xreplace(nums), S.s) if an.poly is not None else None
+    unstable = bool(pn) and max(complex(p).real for p in pn) >= 0
     if spec.time is not None:
         t_end = float(spec.time)
+    elif pn and unstable:
+        t_end = float(min(max(5.0 / max(max(complex(p).real for p in pn), 1e-3), 0.5), 200.0))
     elif pn:
         slow = min(abs(complex(p).real) for p in pn) if pn else 1.0
         t_end = float(min(max(10.0 / max(slow, 1e-3), 0.5), 200.0))
@@ -1173,6 +1176,8 @@ def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
     names = c.problem.latex_names
     tex = lambda x: names.get(x, sp.latex(x))  # noqa: E731
 
+    word = "equilibrium" if unstable else "predicted"
+
     def sample() -> list[Panel]:
         t, X, _ = lti.simulate(st, nums, x0, [0.0] * len(loop.x), t_end)
         tl = [float(v) for v in t]
@@ -1180,23 +1185,24 @@ def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
         Fvals = np.array([np.ravel(fc_f(*X[:S.n, k])) for k in range(X.shape[1])]).T
         panels = []
         curves = []
-        for i in range(ct.m):
+        for i in (range(ct.m) if ct.elastic else ()):
             lab = f"$F_{{c{',' + str(i + 1) if ct.m > 1 else ''}}}(t)$"
             curves.append(Curve(lab, tl, [float(v) for v in Fvals[i]]))
             if ct.elastic and eq is not None:
                 at = dict(zip(loop.x, eq))
                 fe = float(Fc[i].xreplace(nums).xreplace(at))
-                curves.append(Curve(f"predicted $\\bar F_c = {fe:.4g}$", tl, [fe] * len(tl), dashed=True))
+                curves.append(Curve(f"{word} $\\bar F_c = {fe:.4g}$", tl, [fe] * len(tl), dashed=True))
             if "Fd" in law.data:
                 fd = float(law.data["Fd"][i].xreplace(nums))
                 curves.append(Curve(f"$F_d = {fd:.4g}$", tl, [fd] * len(tl), dashed=True))
-        panels.append(Panel("$t$ [s]", "contact force", curves))
+        if curves:
+            panels.append(Panel("$t$ [s]", "contact force", curves))
         qc = []
         for j in range(S.n):
             qc.append(Curve(f"${tex(S.q[j])}(t)$", tl, [float(v) for v in X[j]]))
             if eq is not None:
                 qe = float(eq[j])
-                qc.append(Curve(f"predicted $\\bar{{{tex(S.q[j])}}} = {qe:.4g}$", tl, [qe] * len(tl), dashed=True))
+                qc.append(Curve(f"{word} $\\bar{{{tex(S.q[j])}}} = {qe:.4g}$", tl, [qe] * len(tl), dashed=True))
         panels.append(Panel("$t$ [s]", "position", qc))
         return panels
 
@@ -1204,9 +1210,15 @@ def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
     if unit:
         note = " Parameters without a value set to 1: " + ", ".join(f"${tex(s)}$" for s in unit) + "."
     ref = " Constant references." if steady else ""
-    return Figure("response", f"Closed-loop response from rest at the contact (linear model, contact "
-                              f"maintained): contact force and position, with the predicted steady state.{ref}"
-                              f"{note}", sample)
+    if ct.elastic:
+        what = "Closed-loop response from rest at the contact (linear model, contact maintained): contact force " \
+               "and position"
+    else:
+        what = "Closed-loop response from rest under the constant contact force " + ", ".join(
+            f"${tex(f)} = {float(f.xreplace(nums)):.4g}$" for f in ct.force) + ": position"
+    tail = (". The closed loop is unstable: the response diverges from the equilibrium (dashed)." if unstable
+            else ", with the predicted steady state (dashed).")
+    return Figure("response", f"{what}{tail}{ref}{note}", sample)
 
 
 def _initial(c: Ctx, S: Setup, ct: Contact, nums: dict, spec: SimulateSpec, size: int) -> list[float] | None:
