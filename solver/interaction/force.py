@@ -379,6 +379,7 @@ class Analysis:
     witness: dict[sp.Symbol, sp.Expr] | None = None
     factors: list[tuple[sp.Expr, int]] = field(default_factory=list)
     columns: list[list[sp.Expr]] = field(default_factory=list)
+    deltas: list[sp.Expr] = field(default_factory=list)
     poles: list[sp.Expr] | None = None
     eq: sp.Matrix | None = None
     extras: dict[str, Any] = field(default_factory=dict)
@@ -399,6 +400,9 @@ def analyze(residual: sp.Matrix, x: list, dx: list, ddx: list, s: sp.Symbol, ste
     out.factors = lti.s_factors(poly, s)
     if all(sp.Poly(f, s).degree() <= lti.MAX_SYMBOLIC_DEGREE for f, _ in out.factors):
         out.columns = [lti.routh_column(lti.coefficients(f, s)) for f, _ in out.factors]
+        if len(out.factors) == 1:
+            co = lti.coefficients(out.factors[0][0], s)
+            out.deltas = [co[0]] + [lti._short(d) for d in lti.hurwitz_determinants(co)[:-1]]  # Δ_n = b_n Δ_{n-1}
         out.column = out.columns[0] if len(out.factors) == 1 and out.factors[0][1] == 1 else []
         out.conditions = lti.hurwitz_conditions([c for col in out.columns for c in col])
         out.stable, out.witness = lti.stable_for_all(out.conditions) if out.conditions else (True, None)
@@ -1037,7 +1041,8 @@ def _report_analysis(c: Ctx, S: Setup, law: Law, an: Analysis, sol: Solution, ad
               conditions=[x for x in an.conditions if x != -1], never=bool(an.columns) and never,
               witness=witness, poles=an.poles, poles_num=num, s=s, degree=sp.Poly(an.poly, s).degree(),
               factors=factors, factor_terms=[frac_terms(f, s)[0] for f, _ in an.factors] if factors else None,
-              columns=an.columns if factors else None)
+              columns=an.columns if factors else None, deltas=an.deltas,
+              long_column=any(sp.count_ops(x) > 40 for x in an.column))
 
 
 def problem_values(c: Ctx) -> bool:
