@@ -175,6 +175,9 @@ def _tex_name(name: str) -> str:
     return f"{base}_{{{sub}}}" if sub else base
 
 
+_TF_KEYS = {"P", "den", "num", "W", "We", "L", "poly"}  # always given as N(s)/D(s) term lists, even constant
+
+
 def _step(sol: Solution, name: str, **data: Any) -> None:
     """A report step; 1x1 matrices become scalars, the contact a dict of its parts, and rational functions of s
     come with their numerator and denominator terms in descending powers (``<key>_frac``)."""
@@ -185,7 +188,7 @@ def _step(sol: Solution, name: str, **data: Any) -> None:
             v = {"p": scalar_if_1(v.p), "J": scalar_if_1(v.J), "rest": scalar_if_1(v.rest), "K": scalar_if_1(v.K),
                  "D": scalar_if_1(v.D), "force": scalar_if_1(v.force), "on": v.on, "elastic": v.elastic, "m": v.m}
         out[k] = scalar_if_1(v)
-        if s is not None and isinstance(out[k], sp.Expr) and out[k].has(s):
+        if s is not None and isinstance(out[k], sp.Expr) and (out[k].has(s) or k in _TF_KEYS):
             out[k + "_frac"] = frac_terms(out[k], s)
     sol.step(name, **out)
 
