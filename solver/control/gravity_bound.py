@@ -185,6 +185,7 @@ def maximize(fn: Callable[[np.ndarray], np.ndarray], box: list[tuple[float, floa
         return float(v[0]), np.zeros(0)
     if k <= RANDOM_ABOVE:
         m = max(3, int(round(GRID_POINTS ** (1.0 / k))))
+        m = 24 * max(1, m // 24) if m >= 24 else (12 if m >= 12 else m)  # angles k·π/12 (or π/6) on the grid
         axes = [np.linspace(lo, hi, m, endpoint=not per) for (lo, hi), per in zip(box, periodic)]
         pts = np.array(list(itertools.product(*axes)))
     else:
@@ -192,11 +193,13 @@ def maximize(fn: Callable[[np.ndarray], np.ndarray], box: list[tuple[float, floa
         lo, hi = np.array([b[0] for b in box]), np.array([b[1] for b in box])
         pts = lo + (hi - lo) * rng.random((GRID_POINTS, k))
     vals = fn(pts)
-    best_v, best_x = float(vals.max()), pts[int(vals.argmax())]
+    top = np.flatnonzero(vals >= vals.max() * (1 - 1e-12))
+    best = max(top, key=lambda i: tuple(pts[i]))      # ties: the lexicographically largest point
+    best_v, best_x = float(vals[best]), pts[best]
     bounds = [(None, None) if per else b for b, per in zip(box, periodic)]
     for i in np.argsort(-vals)[:6]:
         res = minimize(lambda x: -float(fn(x[None, :])[0]), pts[i], method="L-BFGS-B", bounds=bounds)
-        if -res.fun > best_v:
+        if -res.fun > best_v * (1 + 1e-12) + 1e-14:
             best_v, best_x = float(-res.fun), res.x
     return best_v, best_x
 

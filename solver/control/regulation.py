@@ -87,6 +87,9 @@ class RegulationAsk(Strict):
     ki: Optional[ExprT] = Field(None, description="pid: integral gains, as kp; default ki1..")
     task: Optional[ExprT] = Field(None, description="cartesian_pd: the task function p = f(q) (m expressions)")
     pd: Optional[ExprT] = Field(None, description="cartesian_pd: the desired task value p_d; default pd1..")
+    assume: dict[str, Scalar] = Field({}, description="parameter relations assumed by this ask, substituted in "
+                                                      "the model first, e.g. {d2: 0, d1: -m2*l1/m1} (a "
+                                                      "self-balanced robot)")
     ranges: dict[str, list[Scalar]] = Field({}, description="joint ranges {q2: [d, L]} used for α (needed for "
                                                              "prismatic coordinates that appear in ∂g/∂q)")
     alpha: Optional[bool] = Field(None, description="compute α ≥ ‖∂g/∂q‖ (default: for the laws whose conditions "
@@ -352,11 +355,34 @@ class _Regulation:
         self.problem, self.options, self.ctx = problem, options, ctx
         self.robot = require_model(problem)
         self.dm = derive(self.robot)
+        self.assumed = self._assume()
         self.n = self.robot.n
         self.law = options.law
         self.sfx = options.suffix
         self.sol = Solution("regulation", title=options.title or f"Regulation: {LAWS[self.law]}")
         self.values = dict(problem.values)
+
+    def _assume(self) -> dict:
+        """Substitute the ask's parameter relations in the model (a copy)."""
+        import dataclasses
+        o = self.options
+        if not o.assume:
+            return {}
+        subs = {}
+        for name in o.assume:
+            if name not in self.problem.symbols:
+                raise UserError(f"'{name}' in assume: is not a parameter of the problem",
+                                self.place("assume", name), "name a symbol declared under symbols:")
+            subs[self.problem.symbols[name]] = sp.sympify(self.ctx.expr("assume", name))
+        dm = self.dm
+
+        def sub(x):  # type: ignore[no-untyped-def]
+            return None if x is None else (x.xreplace(subs).applyfunc(tidy) if isinstance(x, sp.MatrixBase)
+                                           else tidy(sp.sympify(x).xreplace(subs)))
+        self.dm = dataclasses.replace(dm, B=sub(dm.B), c=sub(dm.c), g=sub(dm.g), U=sub(dm.U), lhs=sub(dm.lhs),
+                                      Fv=sub(dm.Fv), G=sub(dm.G), S=sub(dm.S),
+                                      C=None if dm.C is None else [sub(c) for c in dm.C])
+        return subs
 
     # -- small helpers
     def place(self, *key: Any):  # type: ignore[no-untyped-def]
@@ -388,6 +414,7 @@ class _Regulation:
         self._forces()
         self.G = dm.G if dm.G is not None else sp.eye(n)
         self.sol.step("model", B=dm.B, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, n=n, friction=dm.Fv is not None,
+                      assumed=self.assumed,
                       forces=self.forces_view, tau_ext=self.tau_ext, tau_comp=self.tau_comp, law=self.law)
         build = {"elastic": self._elastic, "cartesian_pd": self._cartesian, "pid": self._pid}.get(self.law, self._joint)
         build()
@@ -670,8 +697,11 @@ class _Regulation:
         self.phi = phi
         self.add("equilibrium_eq", phi, "vector", label="\\tau(q,0) + \\tau_{ext}(q) - g(q)")
         self.damped = [i for i in range(n) if (self.damping[i] != 0 or any(self.Fv[i, j] != 0 for j in range(n)))]
+        pid_phi = None
+        if self.law == "pid":   # φ without the integral term: B q̈ + c + K_D q̇ = φ(q) + K_I ξ
+            pid_phi = phi - sp.diag(*self.ki) * sp.Matrix(self.states)
         self.sol.step("closed_loop", closed=closed, phi=phi, law=self.law, friction=self.dm.Fv is not None,
-                      states=self.states)
+                      states=self.states, damping=self.damping, n=n, pid_phi=pid_phi)
         if self.law == "pid":
             return
         # the generalized force at rest must be conservative: −∇P = φ
@@ -686,7 +716,10 @@ class _Regulation:
             P = self.P_core - self.U_comp + self.U_ext
         if self.eq_known is not None:
             P = P - P.xreplace(dict(zip(self.q, self.eq_known)))
-        self.P = tidy(sp.expand(P)) if not P.has(sp.tanh, sp.cosh) else P
+        if not P.has(sp.tanh, sp.cosh):
+            rest = tidy(sp.expand(P - self.P_core))
+            P = self.P_core + rest if sp.count_ops(rest) < sp.count_ops(tidy(sp.expand(P))) else tidy(sp.expand(P))
+        self.P = P
 
     # -- Lyapunov
     def _lyapunov(self) -> None:
@@ -708,7 +741,8 @@ class _Regulation:
         self.add("V_dot", sp.expand(claimed), "scalar", label="\\dot V")
         self.add("V_check", bool(ok), "bool", label="\\dot V \\text{ verified}")
         self.V, self.vdot_ok = V, ok
-        self.sol.step("lyapunov", V=V, T=T, P=self.P, vdot=sp.expand(claimed), ok=ok, law=self.law,
+        mismatch = any(not _zero(x) for x in (self.tau_ext - self.tau_comp))
+        self.sol.step("lyapunov", V=V, T=T, P=self.P, vdot=sp.expand(claimed), ok=ok, law=self.law, mismatch=mismatch,
                       friction=dm.Fv is not None, damped=self.damped, n=n, skew=dm.skew,
                       tanh=self.law == "saturated_pd", forces=bool(self.options.external))
 
@@ -739,6 +773,16 @@ class _Regulation:
         self.alpha_info = b
         A = b.A
         self.add("dg_dq", A, "matrix", label="\\partial g/\\partial q")
+        AtA = (A.T * A).applyfunc(tidy)
+        self.add("AtA", AtA, "matrix", label="A^T A")
+        lam_max = None
+        if A.shape == (2, 2):
+            tr, det = tidy(AtA.trace()), tidy(sp.factor(AtA.det()))
+            self.add("AtA_trace", tr, "scalar", label="\\operatorname{tr}(A^T A)")
+            self.add("AtA_det", det, "scalar", label="\\det(A^T A)")
+            lam_max = (tr + sp.sqrt(tr ** 2 - 4 * det)) / 2
+            self.add("lambda_max", lam_max, "scalar", label="\\lambda_{\\max}(A^T A)")
+        extra_ata = {"AtA": AtA, "lam_max": lam_max}
         self.add("alpha", b.alpha, "scalar", label="\\alpha")
         if b.alpha_max is not None:
             self.add("alpha_max", b.alpha_max, "scalar", label="\\max_q \\|\\partial g/\\partial q\\|")
@@ -785,7 +829,7 @@ class _Regulation:
         if o.bound_for is not None:
             self._bound_for(b, thr if thr is not None else b.alpha)
         kmin = sp.Min(*kps) if len(kps) > 1 else kps[0]
-        self.sol.step("alpha", b=b, law=law, thr=thr, factor=factor, kps=kps, kmin=kmin, **extra,
+        self.sol.step("alpha", b=b, law=law, thr=thr, factor=factor, kps=kps, kmin=kmin, **extra, **extra_ata,
                       revolute=self.revolute, ranges=self.ranges)
 
     def _num(self, x: Any) -> Optional[float]:
@@ -1079,6 +1123,9 @@ class _Regulation:
         net = (self.tau + self.tau_ext - self.dm.c - self.dm.g - self.Fv * sp.Matrix(self.dq)).xreplace(state)
         net = net.applyfunc(tidy)
         self.add("u_at", u_at, "vector", label="u\\big|_{*}")
+        if self.law == "cartesian_pd":
+            self.add("f_at", self.f.xreplace(state).applyfunc(tidy), "vector", label="f\\big|_{*}")
+            self.add("J_at", self.J.xreplace(state).applyfunc(tidy), "matrix", label="J\\big|_{*}")
         self.add("Bddq_at", net, "vector", label="B\\ddot q\\big|_{*}")
         rest = all(state[v] == 0 for v in self.dq)
         if rest:

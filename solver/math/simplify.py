@@ -205,16 +205,27 @@ def tidy_matrix(m: sp.Matrix) -> sp.Matrix:
     return m.applyfunc(tidy)
 
 
+def _canonical_coefficients(expr: sp.Expr) -> bool:
+    """Whether the Fourier form of ``expr`` is canonical: no radicals of non-constant expressions and no functions
+    other than sin/cos (sqrt(2)*sqrt(a^2 + b) vs a + ..., tanh vs sinh/cosh have several forms)."""
+    if any(p.base.free_symbols and not p.exp.is_Integer for p in expr.atoms(sp.Pow)):
+        return False
+    return all(isinstance(f, (sp.sin, sp.cos)) for f in expr.atoms(sp.Function))
+
+
 def is_zero(expr: sp.Expr) -> bool | None:
-    """Exact zero test for trigonometric polynomials; None when the canonical form does not decide."""
+    """Exact zero test for trigonometric polynomials; None when the canonical form does not decide (a non-zero
+    form of an expression with radicals or other functions does not prove it non-zero)."""
+    expr = sp.sympify(expr)
     try:
-        return _fourier(sp.sympify(expr)) == 0
+        z = _fourier(expr) == 0
     except NotTrigPolynomial:
         num, _ = sp.fraction(sp.together(expr))
         try:
-            return _fourier(num) == 0
+            z = _fourier(num) == 0
         except NotTrigPolynomial:
             return None
+    return True if z else (False if _canonical_coefficients(expr) else None)
 
 
 def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:
