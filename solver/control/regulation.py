@@ -188,6 +188,15 @@ def _vec(problem, ctx, path: tuple, what: str) -> sp.Matrix:  # type: ignore[no-
 
 
 def _zero(x: sp.Expr) -> bool:
+    """x ≡ 0: randomized exact evaluation (solver.math.equivalence), else the canonical forms."""
+    from solver.math.equivalence import exact_zero
+    x = sp.sympify(x)
+    if x == 0:
+        return True
+    if not x.atoms(sp.Float):
+        z = exact_zero(x)
+        if z is not None:
+            return z
     x = sp.expand(x)
     if x == 0:
         return True
@@ -687,8 +696,7 @@ class _Regulation:
 
     def _closed_loop(self) -> None:
         dm, n = self.dm, self.n
-        closed = (dm.lhs - self.tau - self.tau_ext).applyfunc(lambda x: sp.expand(x))
-        closed = closed.applyfunc(lambda x: tidy(x) if not x.has(sp.tanh) else x)
+        closed = (dm.lhs - self.tau - self.tau_ext).applyfunc(sp.expand)
         self.closed = closed
         self.add("closed_loop", closed, "vector", label="B\\ddot q + c + g + F_v\\dot q - \\tau - \\tau_{ext}")
         at_rest = {v: 0 for v in self.dq + self.ddq}
