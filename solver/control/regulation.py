@@ -27,7 +27,7 @@ from typing import Any, Literal, Optional, Union
 
 import numpy as np
 import sympy as sp
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from solver.control.gravity_bound import GradientBound, box_of, gradient_bound, matrix_function, maximize, spectral
 from solver.dynamics.model import derive, require_model
@@ -107,6 +107,17 @@ class RegulationAsk(Strict):
                                                      "(default the least, α/K_P,m)")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
                         description="appended to every result name (several control asks in one problem)")
+
+    @field_validator("kp", "kd", "ki")
+    @classmethod
+    def _literal_gains(cls, v: Any, info: Any) -> Any:
+        """Plain numbers are checked already here (robosolve check); expressions when solving."""
+        strict = info.field_name != "kd"
+        for x in (v if isinstance(v, list) else [v]):
+            if isinstance(x, (int, float)) and not isinstance(x, bool) and (x < 0 or (strict and x == 0)):
+                raise ValueError(f"gain {x} is {'negative' if x < 0 else 'zero'}: the gains must be "
+                                 f"{'positive' if strict else 'non-negative'}")
+        return v
 
 
 # ------------------------------------------------------------------------------------------------ spec helpers
@@ -555,7 +566,7 @@ class _Regulation:
                                        for i in range(n)])
                 comp = self.uhat
             tau = KP * e - KD * dq + comp
-            self.P_core = (e.T * KP * e)[0] / 2
+            self.P_core = sum((k * x ** 2 for k, x in zip(self.kp, e)), sp.Integer(0)) / 2
             if law in ("pd_constant", "iterative"):
                 self.P_core -= (q.T * comp)[0]
             if law == "pd_constant":
@@ -772,7 +783,7 @@ class _Regulation:
             g_grav = (self.dm.g - sp.Matrix([sp.diff(sum(self.robot.potential_extra, sp.Integer(0)), s)
                                              for s in self.q]) - self.tau_ext).applyfunc(tidy)
         for c in self.q:
-            if c not in self.revolute and c not in self.ranges and any(
+            if (o.alpha or o.bound_for) and c not in self.revolute and c not in self.ranges and any(
                     c in x.free_symbols for x in g_grav.jacobian(self.q)):
                 raise UserError(f"α (the bound on ‖∂g/∂q‖) needs the range of the prismatic coordinate {c}",
                                 self.place("ranges") if o.ranges else self.place("law"),
@@ -790,7 +801,8 @@ class _Regulation:
             self.add("AtA_det", det, "scalar", label="\\det(A^T A)")
             lam_max = (tr + sp.sqrt(tr ** 2 - 4 * det)) / 2
             self.add("lambda_max", lam_max, "scalar", label="\\lambda_{\\max}(A^T A)")
-        extra_ata = {"AtA": AtA, "lam_max": lam_max}
+        extra_ata = {"AtA": AtA, "lam_max": lam_max, "tr": tr if lam_max is not None else None,
+                     "det": det if lam_max is not None else None}
         self.add("alpha", b.alpha, "scalar", label="\\alpha")
         if b.alpha_max is not None:
             self.add("alpha_max", b.alpha_max, "scalar", label="\\max_q \\|\\partial g/\\partial q\\|")
@@ -834,11 +846,11 @@ class _Regulation:
             self.cond_text = ("elastic", b.alpha)
         if law in ("pd_gravity", "saturated_pd"):
             self.gas = self._lasalle_ok()
-        if o.bound_for is not None:
-            self._bound_for(b, thr if thr is not None else b.alpha)
         kmin = sp.Min(*kps) if len(kps) > 1 else kps[0]
         self.sol.step("alpha", b=b, law=law, thr=thr, factor=factor, kps=kps, kmin=kmin, **extra, **extra_ata,
                       revolute=self.revolute, ranges=self.ranges)
+        if o.bound_for is not None:
+            self._bound_for(b, thr if thr is not None else b.alpha)
 
     def _num(self, x: Any) -> Optional[float]:
         v = sp.sympify(x).xreplace(self.values)
@@ -1354,3 +1366,29 @@ def _lyap_fail(V: sp.Expr, Bm: sp.Matrix, rest: sp.Matrix, q: list, dq: list, eq
                 return (f"V is not larger than at the equilibrium at q = {np.round(x[:n], 3).tolist()}, "
                         f"q̇ = {np.round(x[n:], 3).tolist()}")
     return None
+
+
+@property_check("alpha_q")
+def check_alpha_q(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """Any configuration where ‖∂g/∂q‖ reaches its maximum (there are often several, e.g. ±π/2)."""
+    A, amax = results.get("dg_dq"), results.get("alpha_max")
+    robot = problem.robot
+    if A is None or amax is None or robot is None or not isinstance(value, list):
+        return None
+    try:
+        qv = [sp.sympify(x) for x in (value[0] if len(value) == 1 and isinstance(value[0], list) else value)]
+    except (sp.SympifyError, TypeError):
+        return None
+    if len(qv) != robot.n or any(not x.is_number for x in qv):
+        return None
+    vals = dict(problem.values)
+    At = A.value.xreplace(dict(zip(robot.q, qv)))
+    free = set().union(*[x.free_symbols for x in At]) | amax.value.free_symbols
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        sub = {**{s: sp.Float(rng.uniform(0.5, 2.0)) for s in free}, **vals}
+        Mn = np.array(At.xreplace(sub).evalf(), dtype=float)
+        got, want = float(np.linalg.svd(Mn, compute_uv=False)[0]), float(amax.value.xreplace(sub))
+        if abs(got - want) > 1e-6 * max(1.0, want):
+            return PropertyVerdict(False, 0.0, [f"‖∂g/∂q‖ = {got:.6g} there, below its maximum {want:.6g}"])
+    return PropertyVerdict(True, 1.0, ["a configuration where ‖∂g/∂q‖ is maximum"])
