@@ -1116,7 +1116,6 @@ class _Regulation:
             routh = [kd, tidy(k1), ki, tidy(kd * k1 - b * ki)]
             self.add("routh", sp.Matrix(routh), "vector", label="\\text{Routh: all} > 0")
             data["routh"] = routh
-        Mn = Ms.xreplace(self.values)
         if poly is not None and not (sp.sympify(poly).xreplace(self.values).free_symbols - {s}):
             coeffs = [float(c) for c in sp.Poly(sp.sympify(poly).xreplace(self.values), s).all_coeffs()]
             roots = np.roots(coeffs)
@@ -1124,7 +1123,6 @@ class _Regulation:
             self.add("locally_stable", stable, "bool", label="\\text{locally asymptotically stable}")
             data["roots"] = [complex(r) for r in sorted(roots, key=lambda z: (z.real, z.imag))]
             data["stable"] = stable
-        del Mn
         self.sol.step("pid", **data)
 
     # -- a state
