@@ -360,7 +360,7 @@ def _numeric_extremum(law: Law, values: dict) -> Extremum:
     from scipy.optimize import minimize_scalar
 
     fns, bks = law.numeric_pieces(values)
-    best = (bks[0], 0.0, 0.0)  # (t, |f|, f)
+    best: tuple = (bks[0], 0.0, 0.0, 0)  # (t, |f|, f, piece)
     for k, fn in enumerate(fns):
         a, b = bks[k], bks[k + 1]
         grid = np.linspace(a, b, GRID)
@@ -374,7 +374,12 @@ def _numeric_extremum(law: Law, values: dict) -> Extremum:
             if -float(r.fun) > cand[1]:
                 cand = (float(r.x), -float(r.fun), float(fn(np.array([r.x]))[0]))
         if cand[1] > best[1]:
-            best = cand
+            best = cand + (k,)
+    k = best[3] if len(best) > 3 else 0
+    for j in (k, k + 1):  # at a break of the law: the exact value of the piece there
+        if j < len(bks) and abs(best[0] - bks[j]) <= 1e-7 * max(1.0, abs(bks[-1] - bks[0])):
+            v = sp.simplify(law.pieces[k].subs(law.t, law.breaks[j]))
+            return Extremum(v, sp.simplify(sp.Abs(v)), law.breaks[j], "exact")
     return Extremum(sp.Float(best[2], 12), sp.Float(best[1], 12), sp.Float(best[0], 12), "numeric")
 
 

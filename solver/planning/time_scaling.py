@@ -185,6 +185,14 @@ def y_exact(a: sp.Expr, f: sp.Expr, g: sp.Expr, U: sp.Expr, values: dict) -> Opt
     return best
 
 
+def inverse(y: sp.Expr) -> sp.Expr:
+    """1/y for y > 0, written sqrt(1/y²) when that is shorter (k = sqrt((τ − g)/(U − g)) rather than
+    1/sqrt((U − g)/(τ − g)))."""
+    a = sp.simplify(1 / y)
+    b = sp.sqrt(sp.factor(sp.cancel(sp.simplify(1 / y ** 2))))
+    return b if sp.count_ops(b) < sp.count_ops(a) else a
+
+
 @dataclass
 class Binding:
     """Where the smallest y is attained: joint, piece, time, and whether at a piece end (exact)."""
@@ -389,6 +397,22 @@ class _Job:
             raise self.fail(("find",), f"{what} is searched numerically: every parameter needs a value",
                             "add values: for " + ", ".join(missing))
 
+    def probe(self, exprs: list[sp.Expr]) -> dict:
+        """The parameter values, and 1 for every parameter without one: they only choose between the branches
+        of a formula (which root, which joint), the results stay symbolic."""
+        syms: set = set()
+        for e in exprs:
+            syms |= sp.sympify(e).free_symbols
+        return {**self.values, **{s: sp.Integer(1) for s in syms if s not in self.values}}
+
+    def largest(self, xs: list[sp.Expr]) -> sp.Expr:
+        """The largest of ``xs``: decided with the parameter values, else a Max."""
+        if len(xs) == 1:
+            return xs[0]
+        if all(not sp.sympify(x).subs(self.values).free_symbols for x in xs):
+            return max(xs, key=lambda x: _float(sp.sympify(x).subs(self.values)))
+        return sp.Max(*xs)
+
     def law_params(self, motion: Motion) -> None:
         for key in ("A", "V", "Ts"):
             if all(key in law.params for law in motion.laws):
@@ -501,7 +525,7 @@ class _Job:
                 parts = [getattr(pc, part)[i].subs(self.t, b.end) for part in ("inertial", "friction", "gravity")]
                 y = y_exact(*[sp.simplify(x) for x in parts], U[i], self.values)
                 if y is not None:
-                    val = sp.simplify(1 / y)
+                    val = inverse(y)
             if val is None:
                 val = sp.Float(1 / b.y, 12)
             k_joint.append(val)
@@ -532,6 +556,7 @@ class _Job:
         if robot is not None and robot.gravity is not None:
             g_vec = derive(robot).g
         rows, k_list, g_list, scaled = [], [], [], []
+        probe = self.probe([self.ctx.expr("peaks", j, "tau") for j in range(len(peaks))] + U)
         for j, p in enumerate(peaks):
             base = ("peaks", j)
             if p.joint > n:
@@ -548,17 +573,15 @@ class _Job:
                 g = sp.simplify(g_vec[p.joint - 1].subs(dict(zip(robot.q, qv))))
             u = U[p.joint - 1]
             a = sp.simplify(tau - g)
-            nums = [_float(x.subs(self.values)) for x in (a, g, u)]
-            if any(abs(x) > 1e300 for x in nums):
-                raise self.fail(base, "not a number")
+            nums = [_float(x.subs(probe)) for x in (a, g, u)]
             if abs(nums[1]) > nums[2]:
                 raise self.fail(base, "the gravity torque alone exceeds the bound: no time scaling helps")
-            y = y_exact(a, sp.Integer(0), g, u, self.values)
-            kk = sp.simplify(1 / y) if y is not None else sp.Integer(0)
+            y = y_exact(a, sp.Integer(0), g, u, probe)
+            kk = inverse(y) if y is not None else sp.Integer(0)
             k_list.append(kk)
             g_list.append(g)
             rows.append({"joint": p.joint, "tau": tau, "g": g, "U": u, "k": kk})
-        kn = [_float(x.subs(self.values)) for x in k_list]
+        kn = [_float(x.subs(probe)) for x in k_list]
         jmax = int(np.argmax(kn))
         k = k_list[jmax]
         for r in rows:
@@ -573,7 +596,8 @@ class _Job:
             T = self.ctx.expr("T")
             self.add("T_scaled", sp.simplify(k * T), label="T' = k T")
         self.add("tau_scaled_peak", sp.Matrix(scaled), label="\\tau_j(k t_j)")
-        self.sol.step("peaks", rows=rows, k=k, joint=jmax, T=T, gravity=g_vec is not None)
+        self.sol.step("peaks", rows=rows, k=k, joint=jmax, T=T, gravity=g_vec is not None,
+                      unit=sorted(s.name for s in probe if s not in self.values))
 
     # -- minimum time -----------------------------------------------------------------------------------------
     def minimum_time(self) -> None:
@@ -633,20 +657,11 @@ class _Job:
                     sols = [s for s in sp.solve(sp.Eq(ext.abs, bound[i]), Tf) if s.is_positive is not False]
                     if not sols:
                         raise self.fail(("motion",), f"no duration meets the bound on {base.names[i]}")
-                    cands.append((k, sp.simplify(max(sols, key=lambda s: _float(s.subs(self.values))
-                                                      if not s.subs(self.values).free_symbols else 0)), ext))
-                if not cands:
-                    Ti = sp.Integer(0)
-                elif len(cands) == 1 or all(not c[1].subs(self.values).free_symbols for c in cands):
-                    Ti = max(cands, key=lambda c: _float(c[1].subs(self.values)))[1]
-                else:
-                    Ti = sp.Max(*[c[1] for c in cands])
+                    cands.append((k, sp.simplify(self.largest(sols)), ext))
+                Ti = self.largest([c[1] for c in cands]) if cands else sp.Integer(0)
                 per.append({"T": Ti, "cands": cands})
                 Ts.append(Ti)
-            if len(Ts) == 1 or all(not x.subs(self.values).free_symbols for x in Ts):
-                T_min = max(Ts, key=lambda x: _float(x.subs(self.values)))
-            else:
-                T_min = sp.Max(*Ts)
+            T_min = self.largest(Ts)
             motion = base.subs({Tf: T_min})
             how = "replan"
         self.add("T_min", T_min, label="T_{\\min}")
@@ -726,28 +741,34 @@ class _Job:
         tau = dm.lhs.xreplace(sub)
         if Ginv is not None:
             tau = Ginv.xreplace(sub) * tau
-        tau = tau.applyfunc(lambda e: sp.simplify(sp.expand(e)))
+        tau = tau.applyfunc(lambda e: sp.factor_terms(sp.simplify(e)))
         self.add("tau_path", tau, label="\\tau \\text{ along the motion}")
         sign = sp.sign(D) if D.is_number else sp.Integer(1)
         acc_up, acc_dn, vel, rows = [], [], [], []
+        zero = {v: 0, a: 0}
         for i in range(robot.n):
-            e = sp.expand(tau[i])
-            bi, ci = e.coeff(a), e.coeff(v, 2)
-            rest = sp.simplify(e - bi * a - ci * v ** 2)
-            fi = rest.coeff(v)
-            gi = sp.simplify(rest - fi * v)
+            e = tau[i]
+            bi = sp.simplify(sp.diff(e, a))
+            ci = sp.simplify(sp.diff(e, v, 2).subs(zero) / 2)
+            fi = sp.simplify(sp.diff(e, v).subs(zero))
+            gi = sp.simplify(e.subs(zero))
+            if sp.simplify(e - (bi * a + ci * v ** 2 + fi * v + gi)) != 0:
+                bi = ci = fi = sp.nan  # not of this form: checked along the motion
             deps = (sp.sympify(bi).free_symbols | sp.sympify(ci).free_symbols | gi.free_symbols) & {x, v, a}
             kind = "none"
-            if deps or fi != 0 or (bi != 0 and ci != 0):
+            if bi is sp.nan or deps or fi != 0 or (bi != 0 and ci != 0):
                 kind = "check"
             elif bi != 0:
                 kind = "acc"
-                bs = bi if bi.is_positive or bi.is_negative else None
+                if i == j:  # b_jj > 0: B is positive definite
+                    self.positives = self.positives + [bi]
+                bs = bi if (i == j or bi.is_positive or bi.is_negative) else None
                 if bs is None and gi != 0:
                     kind = "check"
                 else:
-                    sb = 1 if (bs is None or bi.is_positive) else -1
-                    hi, lo = (U[i] - gi) / (sb * sp.Abs(bi)), (-U[i] - gi) / (sb * sp.Abs(bi))
+                    sb = 1 if (bs is None or i == j or bi.is_positive) else -1
+                    mag = bi if i == j else sp.Abs(bi)
+                    hi, lo = (U[i] - gi) / (sb * mag), (-U[i] - gi) / (sb * mag)
                     if sb < 0:
                         hi, lo = lo, hi
                     up, dn = (hi, -lo) if sign > 0 else (-lo, hi)
@@ -764,6 +785,8 @@ class _Job:
                     vel.append(sp.simplify(sp.sqrt(U[i] / cs)))
                 else:
                     kind = "check"
+            if kind == "none" and gi != 0:
+                kind = "check"  # a constant (gravity) torque: within its bound or not, at any speed
             rows.append({"i": i, "b": bi, "c": ci, "g": gi, "f": fi, "kind": kind})
         if not acc_up:
             raise self.fail(("moving",), "no row of the model bounds the acceleration of the moving coordinate with "
