@@ -30,8 +30,9 @@ from pydantic import Field
 from solver.dynamics.model import DynamicModel, derive, require_model
 from solver.planning.laws import Law, LawError, extremum, less, sample
 from solver.planning.motion import Motion, MotionSpec, coordinated_trapezoids, read_motion
-from solver.planning.trajectory import (assume_positive, law_figure, parse_times, substitute, time_symbol,
-                                        vec_or_scalar)
+from solver.planning.trajectory import (_law_view, assume_positive, coordinate_labels, law_figure, parse_times,
+                                        substitute, time_labels,
+                                        time_symbol, vec_or_scalar)
 from solver.registry import ask_kind
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
@@ -96,7 +97,9 @@ class Piece:
 
 
 def _simplify(M: sp.Matrix) -> sp.Matrix:
-    return M.applyfunc(lambda x: sp.simplify(x) if sp.count_ops(x) < 300 else x)
+    """Light tidying only (full simplification of trigonometric functions of polynomials in t is slow): values
+    are simplified where they are evaluated."""
+    return M.applyfunc(lambda x: sp.factor_terms(sp.expand(x)) if sp.count_ops(x) < 300 else x)
 
 
 def torque_pieces(motion: Motion, dm: DynamicModel, robot, values: dict, Ginv: Optional[sp.Matrix]) -> list[Piece]:  # type: ignore[no-untyped-def]
@@ -302,9 +305,20 @@ def _float(x: Any) -> float:
     return float(sp.N(x))
 
 
+def motion_view(motion: Motion, pieces: Optional[list[Piece]] = None) -> dict:
+    """What the templates show of a motion: each coordinate's law and, when short, each joint's torque."""
+    view: dict = {"motion": motion, "var": "q", "laws": [_law_view(law) for law in motion.laws], "taus": None,
+                  "symbols": [sp.Symbol(n, real=True) for n in motion.names]}
+    if pieces:
+        taus = [_law_view(tau_law(pieces, i, motion.t)) for i in range(len(pieces[0].tau))]
+        if all(sp.count_ops(p) < 60 for v in taus for p, _, _ in v["pieces"]):
+            view["taus"] = taus
+    return view
+
+
 # ------------------------------------------------------------------------------------------------ figures
 def torque_figure(pieces: list[Piece], U: Optional[list[sp.Expr]], values: dict, t: sp.Symbol, k: Optional[float],
-                  names: list[str], caption: str) -> Figure:
+                  names: list[str], caption: str, marks_at: Optional[list[tuple]] = None) -> Figure:
     """Each joint's torque against time (nominal, and scaled to k T), with the bounds ±U_i."""
     def sample_all() -> list[Panel]:
         panels = []
@@ -324,7 +338,8 @@ def torque_figure(pieces: list[Piece], U: Optional[list[sp.Expr]], values: dict,
             if U is not None:
                 u = float(U[i].subs(values))
                 hl = [(u, "bound"), (-u, "")]
-            panels.append(Panel("$t$", f"$\\tau_{{{i + 1}}}$ ({name})", curves, hlines=hl))
+            marks = [(float(x), float(y), lab) for j, x, y, lab in (marks_at or []) if j == i]
+            panels.append(Panel("$t$", f"$\\tau_{{{i + 1}}}$", curves, hlines=hl, markers=marks))
         return panels
 
     return Figure("torque", caption, sample_all)
@@ -423,19 +438,19 @@ class _Job:
         return [extremum(tau_law(pieces, i, self.t, part), self.values) for i in range(n)]
 
     def figures(self, motion: Motion, pieces: list[Piece], U: Optional[list[sp.Expr]], k: Optional[float],
-                caption: str) -> None:
+                caption: str, marks: Optional[list[tuple]] = None) -> None:
         if not self.options.plots:
             return
         self.sol.figures.append(law_figure("motion", "The joint motion: position, velocity, acceleration.", motion,
-                                           self.values))
-        self.sol.figures.append(torque_figure(pieces, U, self.values, self.t, k, motion.names, caption))
+                                           self.values, labels=coordinate_labels(self.problem, motion)))
+        self.sol.figures.append(torque_figure(pieces, U, self.values, self.t, k, motion.names, caption, marks))
 
     # -- torque ---------------------------------------------------------------------------------------------
     def torque(self) -> None:
         robot, dm, Ginv = self.model()
         motion = self.motion()
         pieces = torque_pieces(motion, dm, robot, self.values, Ginv)
-        self.sol.step("motion", motion=motion, pieces=pieces, dm=dm, robot=robot, G=Ginv is not None)
+        self.sol.step("motion", view=motion_view(motion, pieces), dm=dm, G=Ginv is not None)
         self.law_params(motion)
         times = self.times(motion.T)
         rows = self.at_rows(pieces, times)
@@ -447,6 +462,7 @@ class _Job:
     def at_rows(self, pieces: list[Piece], times: list[sp.Expr]) -> list[dict]:
         rows = []
         law = Law(self.t, [pieces[0].a] + [p.b for p in pieces], [sp.Integer(0)] * len(pieces))
+        labels = time_labels(self.problem, self.ctx.path + ("at",)) if times else []
         for j, tau in enumerate(times, 1):
             tag = "_at" + (str(j) if len(times) > 1 else "")
             try:
@@ -455,7 +471,7 @@ class _Job:
                 raise self.fail(("at",), str(exc)) from None
             v = pieces[k].tau.subs(self.t, tau).applyfunc(sp.simplify)
             v = self.add("tau" + tag, v, label=f"\\tau({sp.latex(tau)})")
-            rows.append({"t": tau, "tau": v, "num": substitute(v, self.values)})
+            rows.append({"t": tau, "label": labels[j - 1], "tau": v, "num": substitute(v, self.values)})
         return rows
 
     def peak_results(self, pieces: list[Piece], n: int, U: Optional[list[sp.Expr]]) -> dict:
@@ -489,7 +505,7 @@ class _Job:
         motion = self.motion()
         U = _bounds(self.problem, self.ctx, "torque_max", robot.n)
         pieces = torque_pieces(motion, dm, robot, self.values, Ginv)
-        self.sol.step("motion", motion=motion, pieces=pieces, dm=dm, robot=robot, G=Ginv is not None)
+        self.sol.step("motion", view=motion_view(motion, pieces), dm=dm, G=Ginv is not None)
         self.law_params(motion)
         peaks = self.peak_results(pieces, robot.n, U)
         data = self.uniform(pieces, U, motion.T, robot.n)
@@ -501,7 +517,12 @@ class _Job:
         rows = self.at_rows(pieces, times)
         self.sol.step("scaling", **data, peaks=peaks, U=U, rows=rows, names=motion.names, T=motion.T)
         kf = data["k_float"] if np.isfinite(data["k_float"]) else None
-        self.figures(motion, pieces, U, kf, "Torques of the nominal and of the scaled motion, with the bounds.")
+        marks = None
+        if kf is not None:
+            j, b = data["joint"], data["binds"][data["joint"]]
+            marks = [(j, kf * b.t, _float(sp.sympify(data["scaled"][j]).subs(self.values)), "at the bound")]
+        self.figures(motion, pieces, U, kf, "Torques of the nominal and of the scaled motion, with the bounds.",
+                     marks)
 
     def uniform(self, pieces: list[Piece], U: list[sp.Expr], T: sp.Expr, n: int) -> dict:
         """k_i = 1/min_t y_i(t), k = max_i k_i, exact where the minimum is at a break."""
@@ -668,11 +689,12 @@ class _Job:
         if T_given is not None:
             self.add("k", sp.simplify(T_min / T_given), label="k = T_{\\min}/T")
         self.law_params(motion)
-        self.sol.step("minimum_time", how=how, per=per, T_min=T_min, T=T_given, V=V, A=A, motion=motion,
+        shown = motion.subs(self.values)
+        self.sol.step("minimum_time", how=how, per=per, T_min=T_min, T=T_given, V=V, A=A, view=motion_view(shown),
                       names=motion.names, Tf=Tf)
         if self.options.plots and not sp.sympify(T_min).subs(self.values).free_symbols:
             self.sol.figures.append(law_figure("motion", "The minimum-time motion: position, velocity, acceleration.",
-                                               motion, self.values))
+                                               motion, self.values, labels=coordinate_labels(self.problem, motion)))
 
     def minimum_time_torque(self, robot, T_given: Optional[sp.Expr]) -> None:  # type: ignore[no-untyped-def]
         _, dm, Ginv = self.model()
@@ -696,11 +718,16 @@ class _Job:
         full = torque_pieces(motion.subs(self.values), dm, robot, self.values, Ginv)
         times = self.times(T_min)
         rows = self.at_rows(full, times)
-        self.sol.step("minimum_time_torque", **data, U=U, motion=motion, pieces=pieces, dm=dm, robot=robot,
-                      names=motion.names, t_peak=tpk, rows=rows)
+        shown = motion.subs(self.values)
+        self.sol.step("minimum_time_torque", **data, U=U, unit=motion_view(unit, pieces),
+                      view=motion_view(shown, full) if not _numeric_ready([shown.T], {}, self.t) else None,
+                      dm=dm, names=motion.names, t_peak=tpk, rows=rows)
         if self.options.plots:
             Tn = _float(sp.sympify(T_min).subs(self.values))
-            self.figures(motion.subs({**self.values}), full, U, None,
+            tv = _float(sp.sympify(tpk).subs(self.values))
+            marks = [(data["joint"], tv, _float(sp.sympify(data["scaled"][data["joint"]]).subs(self.values)),
+                      "at the bound")]
+            self.figures(motion.subs({**self.values}), full, U, None, marks=marks, caption=
                          f"Torques of the minimum-time motion ($T = {Tn:.4g}$), with the bounds.")
 
     def uniform_min_time(self, pieces: list[Piece], U: list[sp.Expr], n: int) -> dict:
@@ -710,6 +737,23 @@ class _Job:
         return data
 
     # -- time-optimal -----------------------------------------------------------------------------------------
+    def display_law(self, law: Law, qi: sp.Expr, qf: sp.Expr, sign: sp.Expr, coast: Optional[bool],
+                    sym: bool) -> Law:
+        """The optimal law written with the symbols A (A_+, A_-), V (or V_p) and T* (shorter than the values)."""
+        t = self.t
+        if sym:
+            A1 = A2 = sp.Symbol("A", positive=True)
+        else:
+            A1, A2 = sp.Symbol("A_+", positive=True), sp.Symbol("A_-", positive=True)
+        V = sp.Symbol("V" if (coast or coast is None) else "V_p", positive=True)
+        T = sp.Symbol("T^*", positive=True)
+        p1 = qi + sign * A1 * t ** 2 / 2
+        p3 = qf - sign * A2 * (T - t) ** 2 / 2
+        if len(law.pieces) == 3:
+            p2 = qi + sign * (V ** 2 / (2 * A1) + V * (t - V / A1))
+            return Law(t, [sp.Integer(0), V / A1, T - V / A2, T], [p1, p2, p3])
+        return Law(t, [sp.Integer(0), V / A1, T], [p1, p3])
+
     def time_optimal(self) -> None:
         robot, dm, Ginv = self.model()
         for key in ("moving", "initial", "final", "torque_max"):
@@ -814,6 +858,9 @@ class _Job:
             margin = sp.simplify(aD - Vb ** 2 * (1 / A1 + 1 / A2) / 2)
             mnum = margin.subs(self.values)
             coast = bool(mnum > 0) if mnum.is_number else None
+        T_bang = assume_positive(T_bang, self.positives)
+        if T_coast is not None:
+            T_coast, margin = assume_positive(T_coast, self.positives), assume_positive(margin, self.positives)
         if coast is None:
             T_min = T_coast
             note = "coast"
@@ -854,6 +901,9 @@ class _Job:
         self.sol.step("time_optimal", rows=rows, A1=A1, A2=A2, V=Vb, sym=sym, D=D, aD=aD, T_min=T_min,
                       T_coast=T_coast, T_bang=T_bang, margin=margin, coast=coast, note=note, x=x, v=v, a=a, tau=tau,
                       U=U, peaks=peaks, at_rows=at_rows, names=motion.names, qi=qi, qf=qf, hold=hold,
-                      law=law, Vp=Vp)
-        if self.options.plots and not _numeric_ready([T_min] + list(tau), self.values, t):
+                      lawv=_law_view(self.display_law(law, qi, qf, sign, coast, sym)), Vp=Vp,
+                      view=motion_view(motion, pieces), j=j)
+        state = set(robot.q) | set(robot.dq) | set(robot.ddq)
+        if self.options.plots and not _numeric_ready([T_min] + [e.subs({z: 0 for z in state}) for e in tau] + U,
+                                                     self.values, t):
             self.figures(motion, pieces, U, None, "Time-optimal torques, with the bounds.")

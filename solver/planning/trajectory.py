@@ -12,11 +12,12 @@ from typing import Any, Literal, Optional, Union
 import numpy as np
 import sympy as sp
 from pydantic import Field
+from sympy.matrices.common import ShapeError
 
 from solver.planning.laws import Extremum, LawError, extremum, less, sample
 from solver.planning.motion import Motion, MotionSpec, read_motion
-from solver.planning.paths import IK_TOL, Path, arc, follow, is_rotation, line, with_orientation
-from solver.registry import ask_kind
+from solver.planning.paths import IK_TOL, Path, arc, follow, is_rotation, line, rot_axis_angle, with_orientation
+from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution, Step
 from solver.spec.errors import UserError
 from solver.spec.expr import shape_of
@@ -77,6 +78,14 @@ def assume_positive(e: Any, positives: list[sp.Expr]) -> Any:
         return e
     facts = sp.And(*[sp.Q.positive(p) for p in positives])
     return sp.simplify(sp.refine(e, facts))
+
+
+def time_labels(problem, path: tuple) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
+    """The instants of ``at:`` as written (T a symbol), for the report."""
+    names = dict(problem.names)
+    names.setdefault("T", sp.Symbol("T", positive=True))
+    val = problem.parse_at(path, names)
+    return val if isinstance(val, list) else [val]
 
 
 def parse_times(problem, path: tuple, raw: Any, T: sp.Expr | None) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
@@ -151,13 +160,13 @@ def law_results(sol: Solution, motion: Motion, values: dict, positives: list[sp.
 
 
 def evaluate(sol: Solution, motion: Motion, times: list[sp.Expr], values: dict, positives: list[sp.Expr],
-             sfx: str, var: str) -> list[dict]:
+             sfx: str, var: str, labels: list[sp.Expr]) -> list[dict]:
     """q, q̇, q̈ at each instant (results <var>_at, d<var>_at, dd<var>_at, numbered when several, and _num with
     the parameter values)."""
     rows = []
     for j, tau in enumerate(times, 1):
         tag = "_at" + (str(j) if len(times) > 1 else "")
-        row = {"t": tau, "vals": [], "nums": []}
+        row = {"t": tau, "label": labels[j - 1], "vals": [], "nums": []}
         for k, pre in enumerate(("", "d", "dd")):
             try:
                 v = assume_positive(vec_or_scalar(list(motion.vector(k, tau))), positives)
@@ -173,10 +182,21 @@ def evaluate(sol: Solution, motion: Motion, times: list[sp.Expr], values: dict, 
     return rows
 
 
-def law_figure(name: str, caption: str, motion: Motion, values: dict, extra_unit: list[str] | None = None,
-               var: str = "q", tex_names: list[str] | None = None) -> Figure:
+def coordinate_labels(problem, motion: Motion) -> list[str]:  # type: ignore[no-untyped-def]
+    """$q_1$, $\\theta$, $s$: the coordinates' LaTeX names (the problem's, for a robot's coordinates)."""
+    by_name = {s.name: s for s in (problem.robot.q if problem.robot else [])}
+    out = []
+    for n in motion.names:
+        sym = by_name.get(n)
+        tex = problem.latex_names.get(sym) if sym is not None else None
+        out.append(f"${tex or sp.latex(sp.Symbol(n))}$")
+    return out
+
+
+def law_figure(name: str, caption: str, motion: Motion, values: dict, var: str = "q",
+               labels: list[str] | None = None) -> Figure:
     """Position, velocity and acceleration against time, one curve per coordinate."""
-    labels = tex_names or [f"${n}$" for n in motion.names]
+    labels = labels or [f"${sp.latex(sp.Symbol(n))}$" for n in motion.names]
     syms: set = set()
     for law in motion.laws:
         for p in law.pieces:
@@ -187,7 +207,8 @@ def law_figure(name: str, caption: str, motion: Motion, values: dict, extra_unit
 
     def sample_all() -> list[Panel]:
         panels = []
-        for k, ylab in enumerate((f"${var}$", f"$\\dot {var}$", f"$\\ddot {var}$")):
+        single = labels[0].strip("$") if len(labels) == 1 else var
+        for k, ylab in enumerate((f"${single}$", f"$\\dot {{{single}}}$", f"$\\ddot {{{single}}}$")):
             curves = []
             for law, lab in zip(motion.derivative(k) if k else motion.laws, labels):
                 xs, ys = sample(law, values)
@@ -291,7 +312,7 @@ def build_path(problem, ctx, spec: PathSpec, s: sp.Symbol) -> Path:  # type: ign
 
 
 def path_results(sol: Solution, path: Path, motion: Motion, times: list[sp.Expr], values: dict,
-                 positives: list[sp.Expr], sfx: str) -> list[dict]:
+                 positives: list[sp.Expr], sfx: str, labels: list[sp.Expr]) -> list[dict]:
     def add(name: str, value: Any, label: str = "") -> None:
         sol.add(name + sfx, assume_positive(value, positives), label=label)
 
@@ -317,7 +338,7 @@ def path_results(sol: Solution, path: Path, motion: Motion, times: list[sp.Expr]
             vals["omega_A"] = wA
             vals["omega"] = (path.R_A * wA).applyfunc(sp.simplify)
             vals["R"] = path.R(s_v)
-        row = {"t": tau, "vals": vals, "nums": {}}
+        row = {"t": tau, "label": labels[j - 1], "vals": vals, "nums": {}}
         for k, v in vals.items():
             add(f"{k}{tag}", v)
             num = substitute(v, values)
@@ -354,7 +375,7 @@ def path_figure(path: Path, values: dict) -> Figure:
 
 
 def joint_motion(sol: Solution, problem, ctx, options: TrajectoryAsk, path: Path, motion: Motion,  # type: ignore[no-untyped-def]
-                 times: list[sp.Expr], values: dict, sfx: str) -> dict:
+                 times: list[sp.Expr], values: dict, sfx: str, labels: list[sp.Expr]) -> dict:
     """q(t) through numerical inverse kinematics of the task function along the path."""
     robot = problem.robot
     place = problem.located.place(ctx.path + ("task",))
@@ -412,7 +433,7 @@ def joint_motion(sol: Solution, problem, ctx, options: TrajectoryAsk, path: Path
         vals = [sp.Matrix([sp.Float(x, 10) for x in arr[idx]]) for arr in (jm.q, jm.dq, jm.ddq)]
         for name, v in zip(("q", "dq", "ddq"), vals):
             sol.add(f"{name}{tag}{sfx}", v, "vector", label=f"{name}({tau})")
-        rows.append({"t": tau, "vals": vals})
+        rows.append({"t": tau, "label": labels[j - 1], "vals": vals})
     if jm.error > 1e-6:
         raise UserError(f"the inverse kinematics did not converge along the path (task error {jm.error:.2g})",
                         problem.located.place(ctx.path + ("q_start",)),
@@ -476,20 +497,21 @@ def solve_trajectory(problem, options: TrajectoryAsk, ctx) -> Solution:  # type:
     data = law_results(sol, motion, values, positives, sfx, var)
     sol.step("derivatives", motion=motion, var=var, t=t, **data)
     times = parse_times(problem, ctx.path + ("at",), options.at, motion.T) if options.at is not None else []
+    labels = time_labels(problem, ctx.path + ("at",)) if times else []
     if times:
-        rows = evaluate(sol, motion, times, values, positives, sfx, var)
+        rows = evaluate(sol, motion, times, values, positives, sfx, var, labels)
         sol.step("at", rows=rows, var=var, names=motion.names, values=_used(values, motion))
     if path is not None:
-        prows = path_results(sol, path, motion, times, values, positives, sfx)
+        prows = path_results(sol, path, motion, times, values, positives, sfx, labels)
         sol.steps.insert(0, Step("path", {"path": path}))
         if prows:
             sol.step("path_at", path=path, rows=prows, values=_used(values, motion))
         if options.task is not None:
-            jdata = joint_motion(sol, problem, ctx, options, path, motion, times, values, sfx)
+            jdata = joint_motion(sol, problem, ctx, options, path, motion, times, values, sfx, labels)
             sol.step("joints", **jdata, names=[x.name for x in problem.robot.q])
     if options.plots and motion.T is not None:
         sol.figures.insert(0, law_figure("law", "Position, velocity and acceleration against time.", motion,
-                                         values, var=var))
+                                         values, var=var, labels=coordinate_labels(problem, motion)))
         if path is not None:
             sol.figures.insert(1, path_figure(path, values))
     return sol
@@ -515,3 +537,31 @@ def _used(values: dict, motion: Motion) -> dict:
             syms |= p.free_symbols
     return {k: v for k, v in values.items() if k in syms or (motion.T is not None and k in
                                                              sp.sympify(motion.T).free_symbols)}
+
+
+@property_check("axis_AB", "theta_AB")
+def check_axis_angle(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """(r, θ) is not unique, (−r, −θ) describes the same rotation: accepted when Rot(r, θ) = ᴬR_B, ‖r‖ = 1
+    (with the other item of the pair answered, else the reference one)."""
+    ref = results.get("R_AB")
+    if ref is None:
+        return None
+    if name == "axis_AB":
+        r, th = value, other("theta_AB")
+        th = th if th is not None else results["theta_AB"].value
+    else:
+        r, th = other("axis_AB"), value
+        if r is None:
+            return None  # θ alone: compared with the reference
+    try:
+        r = sp.Matrix(r).reshape(3, 1)
+        if isinstance(th, list):
+            return None
+        R = rot_axis_angle(r, sp.sympify(th))
+        err = max(abs(complex(sp.N(x, 20))) for x in (R - ref.value))
+        unit = abs(complex(sp.N((r.T * r)[0] - 1, 20)))
+    except (ValueError, TypeError, AttributeError, ShapeError):
+        return None
+    if err < 1e-9 and unit < 1e-9:
+        return PropertyVerdict(True, 1.0, ["Rot(r, θ) equals the relative rotation: a valid axis-angle pair"])
+    return None
