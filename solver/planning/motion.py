@@ -51,8 +51,9 @@ class MotionSpec(Strict):
     T: Optional[Scalar] = Field(None, description="duration (the law runs on [0, T]); other fields may use T")
     initial: Optional[Boundary] = Field(None, description="values at t = 0: {q: ..., dq: ..., ddq: ...}")
     final: Optional[Boundary] = Field(None, description="values at t = T")
-    via: Optional[list[Via]] = Field(None, description="via points {t: ..., q: ..., dq: ...} (spline knots between "
-                                                       "0 and T; inner conditions of a polynomial)")
+    via: Optional[list[Via]] = Field(None, max_length=40,
+                                     description="via points {t: ..., q: ..., dq: ...} (spline knots between 0 and "
+                                                 "T; inner conditions of a polynomial); at most 40")
     degree: Optional[int] = Field(None, ge=1, le=9, description="polynomial/spline degree (spline default 3)")
     continuity: Optional[int] = Field(None, ge=0, le=8,
                                       description="spline: continuous derivatives at the knots (default degree - 1)")
@@ -152,6 +153,7 @@ def read_motion(problem: Any, path: tuple, spec: MotionSpec, t: sp.Symbol, *, n:
     ``T_override``: a duration replacing the spec's (minimum-time searches); ``defaults``: initial/final
     positions when not given (paths: 0 and L)."""
     r = Reader(problem, path, spec)
+    r.names.setdefault("t", t)
     T: sp.Expr | None = T_override
     if T is None and spec.T is not None:
         T = r.scalar("T")

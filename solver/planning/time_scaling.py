@@ -647,7 +647,8 @@ class _Job:
         if law in ("trapezoidal", "bang_coast_bang") and V is not None and A is not None:
             if spec.Ts is not None or spec.V is not None or spec.A is not None:
                 raise self.fail(("motion", "law"), "the bounds define the trapezoidal law: remove Ts/V/A from it")
-            base = read_motion(self.problem, self.ctx.path + ("motion",), spec, self.t, n=n,
+            ends = spec.model_copy(update={"law": "cubic"})  # only to read the end positions
+            base = read_motion(self.problem, self.ctx.path + ("motion",), ends, self.t, n=n,
                                names=[x.name for x in robot.q], T_override=Tf)
             qi = [law_.pieces[0].subs(self.t, 0) for law_ in base.laws]
             qf = [law_.pieces[-1].subs(self.t, Tf) for law_ in base.laws]
