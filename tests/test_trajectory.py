@@ -238,6 +238,21 @@ def test_joint_motion_follows_the_path_on_a_robot_no_exercise_uses():
     assert np.allclose(np.array(r["dq_at1"].value.evalf(), dtype=float).ravel(), dq_fd, atol=1e-5)
 
 
+def test_joint_motion_from_the_dh_table_matches_the_task_function():
+    """task: dh (a planar RRR, links 0.5, 0.4, 0.3, tracing an arc) gives the same joint motion as the task
+    function written out."""
+    robot = ("robot:\n  joints: [R, R, R]\n  dh:\n    table: [{a: 0.5, theta: q1}, {a: 0.4, theta: q2}, "
+             "{a: 0.3, theta: q3}]\n    links: [{}, {}, {}]\n")
+    base = "path: {type: arc, center: [0.6, 0.2], radius: 0.25, phase: 0, angle: pi}\nlaw: quintic\nT: 1\n" \
+           "q_start: [0.3, 0.4, 0.2]\nat: [0.5, 1]\n"
+    f = "[0.5*cos(q1) + 0.4*cos(q1 + q2) + 0.3*cos(q1 + q2 + q3), 0.5*sin(q1) + 0.4*sin(q1 + q2) + 0.3*sin(q1 + q2 + q3)]"
+    r1 = solve_text(spec(base + "task: dh", robot=robot))
+    r2 = solve_text(spec(base + f"task: {f}", robot=robot))
+    for k in ("q_at1", "dq_at1", "ddq_at2"):
+        assert np.allclose(np.array(r1[k].value.evalf(), dtype=float), np.array(r2[k].value.evalf(), dtype=float),
+                           atol=1e-8)
+
+
 # ------------------------------------------------------------------------------------------------ bad input
 BAD = [
     ("law: cubic\nT: 1\ninitial: {q: 0, dddq: 1}\nfinal: {q: 1, dddq: 2}", "law:", "dependent"),

@@ -52,7 +52,8 @@ class TrajectoryAsk(MotionSpec):
     title: Optional[str] = Field(None, description="heading of this part in the report")
     path: Optional[PathSpec] = Field(None, description="a Cartesian path; the law is then s(t) from 0 to L")
     task: Optional[ExprT] = Field(None, description="with a path: the robot's task function r = f(q) (as many "
-                                                    "components as the path), for the joint motion (numerical IK)")
+                                                    "components as the path), or `dh` for the position of the last "
+                                                    "DH frame, for the joint motion (numerical IK)")
     q_start: Optional[ExprT] = Field(None, description="with task: initial guess of q for the inverse kinematics at "
                                                        "the start of the path (default all 0)")
     at: Optional[Union[Scalar, list[Scalar]]] = Field(
@@ -381,8 +382,11 @@ def joint_motion(sol: Solution, problem, ctx, options: TrajectoryAsk, path: Path
     place = problem.located.place(ctx.path + ("task",))
     if robot is None:
         raise UserError("task: needs the robot's coordinates", place, "add robot: {joints: [...]}")
-    raw = ctx.expr("task")
-    f = sp.Matrix(raw if isinstance(raw, list) else [raw])
+    if isinstance(options.task, str) and options.task.strip() == "dh" and "dh" not in problem.names:
+        f = dh_position(problem, place)[:path.p.shape[0], :]
+    else:
+        raw = ctx.expr("task")
+        f = sp.Matrix(raw if isinstance(raw, list) else [raw])
     if f.shape[0] != path.p.shape[0]:
         raise UserError(f"the task has {f.shape[0]} components, the path {path.p.shape[0]}", place,
                         "give r = f(q) with as many components as the path's points")
@@ -452,6 +456,29 @@ def joint_motion(sol: Solution, problem, ctx, options: TrajectoryAsk, path: Path
     sol.figures.append(Figure("joints", "Joint motion along the path (numerical inverse kinematics).",
                               sample_joints))
     return {"task": f, "rows": rows, "error": jm.error, "tol": IK_TOL, "q_start": q0.tolist()}
+
+
+def dh_position(problem, place) -> sp.Matrix:  # type: ignore[no-untyped-def]
+    """Position of the last DH frame, ⁰A_n(q)[:3, 3] (with the base transform), from the robot's DH table."""
+    from solver.math.rigid import dh_chain
+
+    data = problem.located.data.get("robot", {}) if isinstance(problem.located.data, dict) else {}
+    dh = data.get("dh") if isinstance(data, dict) else None
+    if not isinstance(dh, dict) or not dh.get("table"):
+        raise UserError("task: dh needs the robot's DH table (robot: {dh: {table: ...}})", place,
+                        "give the task function r = f(q), or a DH table")
+    base = ("robot", "dh")
+    rows = []
+    for i in range(len(dh["table"])):
+        row = []
+        for key in ("a", "alpha", "d", "theta"):
+            v = problem.parse_at(base + ("table", i, key))
+            row.append(v)
+        rows.append(tuple(row))
+    A = dh_chain(rows, dh.get("convention", "standard"))[-1]
+    if dh.get("base") is not None:
+        A = sp.Matrix(problem.parse_at(base + ("base",))) * A
+    return A[:3, 3].applyfunc(sp.simplify)
 
 
 # ------------------------------------------------------------------------------------------------ the ask
