@@ -8,7 +8,7 @@ import pytest
 import sympy as sp
 from conftest import PROBLEMS
 
-from solver.planning.laws import Cond, extremum, piecewise_polynomial, rest_defaults
+from solver.planning.laws import Cond, piecewise_polynomial, rest_defaults
 from solver.planning.paths import axis_angle, rot_axis_angle
 from solver.publish.render import render
 from solver.solve import all_results, solve_problem

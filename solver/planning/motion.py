@@ -6,7 +6,7 @@ of n (one entry per coordinate; a scalar next to lists is the same for every coo
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, Literal, Optional, Union
+from typing import Any, Literal, Optional, Union
 
 import sympy as sp
 from pydantic import Field

@@ -20,7 +20,7 @@ Minima over time are searched on a grid refined by a bounded scalar search; one 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Literal, Optional, Union
 
 import numpy as np
@@ -28,9 +28,9 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import DynamicModel, derive, require_model
-from solver.planning.laws import Law, LawError, extremum, less, sample
+from solver.planning.laws import Law, LawError, extremum, sample
 from solver.planning.motion import Motion, MotionSpec, coordinated_trapezoids, read_motion
-from solver.planning.trajectory import (_law_view, assume_positive, coordinate_labels, law_figure, parse_times,
+from solver.planning.trajectory import (law_view, assume_positive, coordinate_labels, law_figure, parse_times,
                                         substitute, time_labels,
                                         time_symbol, vec_or_scalar)
 from solver.registry import ask_kind
@@ -119,8 +119,8 @@ def torque_pieces(motion: Motion, dm: DynamicModel, robot, values: dict, Ginv: O
         try:
             allb.sort(key=lambda b: float(sp.sympify(b).subs(values)))
         except TypeError:
-            raise UserError("the coordinates' laws switch at times that cannot be ordered without parameter "
-                            "values", None, "give values: for the parameters") from None
+            raise LawError("the coordinates' laws switch at times that cannot be ordered without parameter values",
+                           "law", "give values: for the parameters") from None
         spans = []
         for k in range(len(allb) - 1):
             mid = (allb[k] + allb[k + 1]) / 2
@@ -207,8 +207,9 @@ class Binding:
     end: Optional[sp.Expr] = None
 
 
-def scaling_search(pieces: list[Piece], U: list[sp.Expr], values: dict, t: sp.Symbol) -> tuple[list[Binding], dict]:
-    """min over t of y_i(t) for each joint i (numeric, refined), and the nominal samples for the figures."""
+def scaling_search(pieces: list[Piece], U: list[sp.Expr], values: dict, t: sp.Symbol) -> list[Binding]:
+    """min over t of y_i(t) for each joint i: on a grid of each piece, refined by a bounded scalar search; a
+    minimum within EDGE of a piece end is attributed to that end (evaluated exactly later)."""
     from scipy.optimize import minimize_scalar
 
     n = len(U)
@@ -241,7 +242,7 @@ def scaling_search(pieces: list[Piece], U: list[sp.Expr], values: dict, t: sp.Sy
                     end = e
             if yb < res[i].y - 1e-14 * max(1.0, yb):
                 res[i] = Binding(i, k, tb, yb, end)
-    return res, {}
+    return res
 
 
 # ------------------------------------------------------------------------------------------------ helpers
@@ -307,10 +308,10 @@ def _float(x: Any) -> float:
 
 def motion_view(motion: Motion, pieces: Optional[list[Piece]] = None) -> dict:
     """What the templates show of a motion: each coordinate's law and, when short, each joint's torque."""
-    view: dict = {"motion": motion, "var": "q", "laws": [_law_view(law) for law in motion.laws], "taus": None,
+    view: dict = {"motion": motion, "var": "q", "laws": [law_view(law) for law in motion.laws], "taus": None,
                   "symbols": [sp.Symbol(n, real=True) for n in motion.names]}
     if pieces:
-        taus = [_law_view(tau_law(pieces, i, motion.t)) for i in range(len(pieces[0].tau))]
+        taus = [law_view(tau_law(pieces, i, motion.t)) for i in range(len(pieces[0].tau))]
         if all(sp.count_ops(p) < 60 for v in taus for p, _, _ in v["pieces"]):
             view["taus"] = taus
     return view
@@ -412,6 +413,13 @@ class _Job:
             raise self.fail(("find",), f"{what} is searched numerically: every parameter needs a value",
                             "add values: for " + ", ".join(missing))
 
+    def torques(self, motion: Motion, dm: DynamicModel, robot, values: dict,  # type: ignore[no-untyped-def]
+                Ginv: Optional[sp.Matrix]) -> list[Piece]:
+        try:
+            return torque_pieces(motion, dm, robot, values, Ginv)
+        except LawError as exc:
+            raise self.fail(("motion",), str(exc), exc.hint) from None
+
     def probe(self, exprs: list[sp.Expr]) -> dict:
         """The parameter values, and 1 for every parameter without one: they only choose between the branches
         of a formula (which root, which joint), the results stay symbolic."""
@@ -449,7 +457,7 @@ class _Job:
     def torque(self) -> None:
         robot, dm, Ginv = self.model()
         motion = self.motion()
-        pieces = torque_pieces(motion, dm, robot, self.values, Ginv)
+        pieces = self.torques(motion, dm, robot, self.values, Ginv)
         self.sol.step("motion", view=motion_view(motion, pieces), dm=dm, G=Ginv is not None)
         self.law_params(motion)
         times = self.times(motion.T)
@@ -504,7 +512,7 @@ class _Job:
         robot, dm, Ginv = self.model()
         motion = self.motion()
         U = _bounds(self.problem, self.ctx, "torque_max", robot.n)
-        pieces = torque_pieces(motion, dm, robot, self.values, Ginv)
+        pieces = self.torques(motion, dm, robot, self.values, Ginv)
         self.sol.step("motion", view=motion_view(motion, pieces), dm=dm, G=Ginv is not None)
         self.law_params(motion)
         peaks = self.peak_results(pieces, robot.n, U)
@@ -528,7 +536,7 @@ class _Job:
         """k_i = 1/min_t y_i(t), k = max_i k_i, exact where the minimum is at a break."""
         self.check_numeric([e for p in pieces for e in list(p.tau)] + [p.b for p in pieces] + U,
                            "the largest scaling need")
-        binds, _ = scaling_search(pieces, U, self.values, self.t)
+        binds = scaling_search(pieces, U, self.values, self.t)
         for i, b in enumerate(binds):
             if b.y == 0:
                 raise self.fail(("torque_max",), f"the gravity torque of joint {i + 1} exceeds its bound along the "
@@ -706,7 +714,7 @@ class _Job:
                             "find: scaling for a given T")
         unit = self.motion(sp.Integer(1))
         U = _bounds(self.problem, self.ctx, "torque_max", robot.n)
-        pieces = torque_pieces(unit, dm, robot, self.values, Ginv)
+        pieces = self.torques(unit, dm, robot, self.values, Ginv)
         data = self.uniform_min_time(pieces, U, robot.n)
         T_min = data["k"]
         motion = self.motion(T_min)
@@ -716,7 +724,7 @@ class _Job:
         b = data["binds"][data["joint"]]
         tpk = (b.end if b.end is not None else sp.Float(b.t, 12)) * T_min
         self.add("t_peak", sp.simplify(tpk), label="t^*")
-        full = torque_pieces(motion.subs(self.values), dm, robot, self.values, Ginv)
+        full = self.torques(motion.subs(self.values), dm, robot, self.values, Ginv)
         times = self.times(T_min)
         rows = self.at_rows(full, times)
         shown = motion.subs(self.values)
@@ -895,14 +903,14 @@ class _Job:
         for i, q_i in enumerate(robot.q):
             laws.append(law if i == j else Law(t, list(law.breaks), [hold[q_i]] * len(law.pieces)))
         motion = Motion(t, "time_optimal", laws, T_min, [x.name for x in robot.q])
-        pieces = torque_pieces(motion, dm, robot, self.values, Ginv)
+        pieces = self.torques(motion, dm, robot, self.values, Ginv)
         peaks = self.peak_results(pieces, robot.n, U)
         times = self.times(T_min)
         at_rows = self.at_rows(pieces, times)
         self.sol.step("time_optimal", rows=rows, A1=A1, A2=A2, V=Vb, sym=sym, D=D, aD=aD, T_min=T_min,
                       T_coast=T_coast, T_bang=T_bang, margin=margin, coast=coast, note=note, x=x, v=v, a=a, tau=tau,
                       U=U, peaks=peaks, at_rows=at_rows, names=motion.names, qi=qi, qf=qf, hold=hold,
-                      lawv=_law_view(self.display_law(law, qi, qf, sign, coast, sym)), Vp=Vp,
+                      lawv=law_view(self.display_law(law, qi, qf, sign, coast, sym)), Vp=Vp,
                       view=motion_view(motion, pieces), j=j)
         state = set(robot.q) | set(robot.dq) | set(robot.ddq)
         if self.options.plots and not _numeric_ready([T_min] + [e.subs({z: 0 for z in state}) for e in tau] + U,

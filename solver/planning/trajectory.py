@@ -14,7 +14,7 @@ import sympy as sp
 from pydantic import Field
 from sympy.matrices.common import ShapeError
 
-from solver.planning.laws import Extremum, LawError, extremum, less, sample
+from solver.planning.laws import LawError, extremum, less, sample
 from solver.planning.motion import Motion, MotionSpec, read_motion
 from solver.planning.paths import IK_TOL, Path, arc, follow, is_rotation, line, rot_axis_angle, with_orientation
 from solver.registry import PropertyVerdict, ask_kind, property_check
@@ -156,7 +156,7 @@ def law_results(sol: Solution, motion: Motion, values: dict, positives: list[sp.
         add(f"max_{pre}{var}", vec_or_scalar([e.abs for e in ext]), label=f"\\max|{ACCENT[k]}{var}|")
         if all(e.time is not None for e in ext):
             add(f"t_max_{pre}{var}", vec_or_scalar([e.time for e in ext]), label="t^*")
-    dlaws = [(_law_view(law.diff(1)), _law_view(law.diff(2))) for law in laws]
+    dlaws = [(law_view(law.diff(1)), law_view(law.diff(2))) for law in laws]
     return {"params": params, "exprs": exprs, "maxima": maxima, "dlaws": dlaws}
 
 
@@ -169,10 +169,7 @@ def evaluate(sol: Solution, motion: Motion, times: list[sp.Expr], values: dict, 
         tag = "_at" + (str(j) if len(times) > 1 else "")
         row = {"t": tau, "label": labels[j - 1], "vals": [], "nums": []}
         for k, pre in enumerate(("", "d", "dd")):
-            try:
-                v = assume_positive(vec_or_scalar(list(motion.vector(k, tau))), positives)
-            except LawError as exc:
-                raise UserError(str(exc)) from None
+            v = assume_positive(vec_or_scalar(list(motion.vector(k, tau))), positives)
             sol.add(f"{pre}{var}{tag}{sfx}", v, label=f"{pre}{var}({tau})")
             num = substitute(v, values)
             if num is not None:
@@ -519,17 +516,20 @@ def solve_trajectory(problem, options: TrajectoryAsk, ctx) -> Solution:  # type:
         if robot is not None and motion.n == robot.n:
             motion.names = [x.name for x in robot.q] if robot.n > 1 else [robot.q[0].name]
         var = "q"
-    sol.step("law", motion=motion, var=var, t=t, laws=[_law_view(law) for law in motion.laws],
+    sol.step("law", motion=motion, var=var, t=t, laws=[law_view(law) for law in motion.laws],
              T=motion.T, notes=motion.notes, path=path is not None)
     data = law_results(sol, motion, values, positives, sfx, var)
     sol.step("derivatives", motion=motion, var=var, t=t, **data)
     times = parse_times(problem, ctx.path + ("at",), options.at, motion.T) if options.at is not None else []
     labels = time_labels(problem, ctx.path + ("at",)) if times else []
-    if times:
-        rows = evaluate(sol, motion, times, values, positives, sfx, var, labels)
-        sol.step("at", rows=rows, var=var, names=motion.names, values=_used(values, motion))
+    try:
+        if times:
+            rows = evaluate(sol, motion, times, values, positives, sfx, var, labels)
+            sol.step("at", rows=rows, var=var, names=motion.names, values=_used(values, motion))
+        prows = path_results(sol, path, motion, times, values, positives, sfx, labels) if path is not None else []
+    except LawError as exc:
+        raise UserError(str(exc), problem.located.place(ctx.path + ("at",)), exc.hint) from None
     if path is not None:
-        prows = path_results(sol, path, motion, times, values, positives, sfx, labels)
         sol.steps.insert(0, Step("path", {"path": path}))
         if prows:
             sol.step("path_at", path=path, rows=prows, values=_used(values, motion))
@@ -547,7 +547,7 @@ def solve_trajectory(problem, options: TrajectoryAsk, ctx) -> Solution:  # type:
 SIGMA = sp.Symbol("sigma", nonnegative=True)
 
 
-def _law_view(law) -> dict:  # type: ignore[no-untyped-def]
+def law_view(law) -> dict:  # type: ignore[no-untyped-def]
     """What the templates show of one law: its pieces with their intervals, its parameters and, for a
     polynomial, its normalized form Σ a_j σ^j."""
     view = {"pieces": [(p, law.breaks[k], law.breaks[k + 1]) for k, p in enumerate(law.pieces)],
