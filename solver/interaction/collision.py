@@ -37,8 +37,6 @@ from solver.spec.models import Strict
 Scalar = Union[str, int, float]
 ExprT = Union[str, int, float, list[Any]]
 MAX_CONTACTS = 12          # result names carry the contact's index _1.._12 (property checks are registered for them)
-SOLVE_UNKNOWNS = 4         # F and the location are solved for symbolically up to this many unknowns
-SOLVE_OPS = 400            # ... and equations of at most this many operations
 EXACT_ENTRIES = 24         # numeric matrices with at most this many entries are handled exactly (sympy)
 
 
@@ -270,29 +268,51 @@ def estimate_symbolic(JcT: sp.Matrix, r: sp.Matrix, rank: int) -> sp.Matrix | No
     return sol.applyfunc(lambda x: sp.factor(sp.cancel(sp.together(x))))
 
 
-def identify_with_location(JcT: sp.Matrix, F: sp.Matrix, rho: sp.Symbol, r: sp.Matrix,
+def identify_with_location(point: sp.Matrix, q: list[sp.Symbol], F: sp.Matrix, rho: sp.Symbol, r: sp.Matrix,
                            link: int) -> tuple[sp.Matrix, sp.Expr] | None:
-    """Solve J_c(q, ρ)ᵀ F = r for (F, ρ) with m + 1 of the first ``link`` equations (the last independent ones);
-    None when sympy finds no unique solution within the size bounds."""
+    """Solve J_c(q, ρ)ᵀ F = r for (F, ρ), for a point affine in ρ, p_c = a(q) + ρ b(q), J_c = J_a + ρ J_b:
+    the combinations c of the first ``link`` equations with J_b c = 0 are free of ρ and give F (linear, the m
+    last independent ones); then ρ = (r_k − j_{a,k}ᵀF)/(j_{b,k}ᵀF) from the last equation k with j_{b,k} ≠ 0.
+    None when the point is not affine in ρ or the combinations do not determine F."""
     m = F.rows
-    eqs = (JcT * F - r)[:link, 0]
-    if m + 1 > SOLVE_UNKNOWNS or sum(sp.count_ops(e) for e in eqs) > SOLVE_OPS:
+    if any(not _zero(x) for x in point.diff(rho, 2)):
         return None
-    unknowns = list(F) + [rho]
-    Jx = sp.Matrix(eqs).jacobian(unknowns)
-    idx = last_independent(Jx, m + 1)
-    if not idx:
+    b = point.diff(rho)
+    a = (point - rho * b).applyfunc(tidy)
+    Ja = a.jacobian(q)[:, :link]
+    Jb = b.jacobian(q)[:, :link].applyfunc(tidy)
+    combos = Jb.nullspace(simplify=True) if any(not _zero(x) for x in Jb) else \
+        [sp.eye(link)[:, j] for j in range(link)]
+    if len(combos) < m:
         return None
-    try:
-        sols = sp.solve([eqs[i] for i in idx], unknowns, dict=True)
-    except (NotImplementedError, ValueError):
+    C = sp.Matrix.hstack(*combos).T.applyfunc(lambda x: sp.factor(sp.cancel(x)))  # rows: ρ-free combinations
+    A = (C * Ja.T).applyfunc(tidy)
+    rows = last_independent(A, m)
+    if not rows:
         return None
-    sols = [s for s in sols if all(u in s for u in unknowns) and not _zero(s[rho])]
-    if len(sols) != 1:
+    A2, rhs = A.extract(rows, list(range(m))), (C * r[:link, 0]).extract(rows, [0])
+    Fs = (A2.adjugate() * rhs / tidy(A2.det())).applyfunc(lambda x: _tidy_quotient(sp.factor(sp.cancel(x))))
+    ks = [k for k in range(link) if not all(_zero(x) for x in Jb[:, k])]
+    if not ks:
         return None
-    s = sols[0]
-    Fs = sp.Matrix([sp.factor(sp.cancel(s[u])) for u in F])
-    return Fs.applyfunc(_tidy_quotient), _tidy_quotient(sp.factor(sp.cancel(s[rho])))
+    k = ks[-1]
+    den = (Jb[:, k].T * Fs)[0]
+    if _zero(den):
+        return None
+    loc = (r[k] - (Ja[:, k].T * Fs)[0]) / den
+    return Fs, _tidy_quotient(sp.factor(sp.cancel(sp.together(loc))))
+
+
+def collect_linear(e: sp.Expr, syms: list[sp.Symbol]) -> sp.Expr:
+    """e = Σ c_k s_k + c_0 with each coefficient tidied (τ_c as the teacher writes it: grouped by F_x, F_y)."""
+    e = sp.expand(e)
+    if not any(s in e.free_symbols for s in syms):
+        return tidy(e)
+    parts = sp.collect(e, syms, evaluate=False)
+    out = sp.Integer(0)
+    for k, coef in parts.items():
+        out += tidy(coef) * k
+    return out
 
 
 def _tidy_quotient(e: sp.Expr) -> sp.Expr:
@@ -313,6 +333,11 @@ def _num(x: sp.Expr) -> sp.Expr:
     if x.atoms(sp.Float):
         return sp.Float(sp.N(x, 15), 15) if not x.is_Integer else x
     return sp.radsimp(sp.nsimplify(sp.expand(x))) if sp.count_ops(x) > 0 else x
+
+
+def _decimal(x: sp.Expr) -> sp.Expr:
+    """A rational read from a decimal datum (0.7585 -> 1517/2000) back to a decimal for display."""
+    return sp.Float(x, 15) if x.is_Rational and x.q > 12 else x
 
 
 def _num_matrix(M: sp.Matrix) -> sp.Matrix:
@@ -652,7 +677,7 @@ def _contact(c: _Ctx, k: int, spec: Contact) -> ContactCase:
         given = False
     if spec.residual is not None and spec.torque is not None:
         raise c.fail(P + ("torque",), "give either residual: or torque: (the data F is estimated from), not both")
-    label = spec.name or f"contact {k + 1}"
+    label = spec.name or f"contact {k + 1} on link {spec.link}"
     return ContactCase(k + 1, label, spec.link, tidy_matrix(point), m, F, given, location,
                        R.applyfunc(tidy) if R is not None else None)
 
@@ -668,10 +693,17 @@ def _analyze(c: _Ctx, cc: ContactCase, r: sp.Matrix, K: sp.Matrix, dm: DynamicMo
     d["local"] = (cc.R.T * Jc).applyfunc(tidy) if cc.R is not None else None
     d["rank"] = rank = generic_rank(Jc)
     d["null"] = null_basis(Jc.T, rank)
-    d["tau"] = tau = tidy_matrix(Jc.T * cc.F)
-    d["rdot_tc"] = tidy_matrix(K * tau)
-    d["v"] = v = tidy_matrix(Jc * sp.Matrix(c.dq))
-    d["power"] = tidy((v.T * cc.F)[0])
+    fsyms = sorted(cc.F.free_symbols, key=lambda s: s.name)
+    d["tau"] = tau = (Jc.T * cc.F).applyfunc(lambda x: collect_linear(x, fsyms))
+    d["rdot_tc"] = (K * tau).applyfunc(lambda x: collect_linear(x, fsyms))
+    d["v"] = v = (Jc * sp.Matrix(c.dq)).applyfunc(lambda x: collect_linear(x, list(c.dq)))
+    d["power"] = collect_linear((v.T * cc.F)[0], fsyms)
+    d["minors"] = []
+    if m == 2 and i >= 3 and rank == 2:
+        J = d["local"] if d["local"] is not None else Jc
+        d["minors"] = [((a + 1, b + 1), tidy(J[0, a] * J[1, b] - J[0, b] * J[1, a]))
+                       for a, b in combinations(range(i), 2)]
+        d["minors"] = [x for x in d["minors"] if x[1] != 0]
     d["zero_cols"] = list(range(i + 1, n + 1))
     nonzero = [j + 1 for j in range(n) if not _zero(tau[j])]
     d["detected"] = bool(nonzero)
@@ -679,10 +711,12 @@ def _analyze(c: _Ctx, cc: ContactCase, r: sp.Matrix, K: sp.Matrix, dm: DynamicMo
     col = Jc[:, i - 1]
     d["col"] = col
     d["col_zero"] = all(_zero(x) for x in col)
-    d["misisolated"] = [] if d["col_zero"] else null_basis(col.T, 1)
+    d["misisolated"] = [] if (d["col_zero"] or i == 1) else null_basis(col.T, 1)
     d["identifiable"] = rank == m
     d["det"] = tidy(Jc.det()) if Jc.rows == Jc.cols else None
     d["gram"] = tidy((Jc * Jc.T).det()) if Jc.rows < Jc.cols and m <= 3 else None
+    dg = d["det"] if d["det"] is not None else d["gram"]
+    d["never_singular"] = dg is not None and not (dg.free_symbols & set(q)) and bool(dg.is_nonzero)
     # identification from r (steady state: r = τ_ext = J_cᵀ F)
     d["F_id"] = d["F_id_local"] = d["loc_id"] = None
     d["loc_rank"] = None
@@ -692,7 +726,7 @@ def _analyze(c: _Ctx, cc: ContactCase, r: sp.Matrix, K: sp.Matrix, dm: DynamicMo
         d["loc_rank"] = lr = generic_rank(jac) if i else 0
         Fsym = sp.Matrix([c.symbol(s, f"F_{{{s[1]}}}") for s in ("Fx", "Fy", "Fz")[:m]])
         if lr == m + 1:
-            sol = identify_with_location(Jc.T, Fsym, cc.location, r, i)
+            sol = identify_with_location(cc.point, q, Fsym, cc.location, r, i)
             if sol is not None:
                 d["F_id"], d["loc_id"] = sol
     if d["F_id"] is None and rank > 0:
@@ -701,7 +735,7 @@ def _analyze(c: _Ctx, cc: ContactCase, r: sp.Matrix, K: sp.Matrix, dm: DynamicMo
             d["F_id"] = d["F_id"].applyfunc(_tidy_quotient)
     if d["F_id"] is not None and cc.R is not None:
         d["F_id_local"] = (cc.R.T * d["F_id"]).applyfunc(lambda x: _tidy_quotient(sp.factor(sp.cancel(x))))
-    if dm is not None and dm.G is None:
+    if dm is not None and dm.G is None and cc.force_given:
         fric = dm.Fv * sp.Matrix(c.dq) if dm.Fv is not None else sp.zeros(n, 1)
         d["u_hold"] = tidy_matrix(dm.c + dm.g + fric - tau)
     else:
@@ -714,7 +748,7 @@ def _torque_law(c: _Ctx, cc: ContactCase, spec: Contact, dm: DynamicModel | None
     t = spec.torque
     n = c.n
     if not isinstance(t, TorqueLaw):
-        return c.vector(P, n, "torque").subs(subs)
+        return c.vector(P, n, "torque").subs(subs).applyfunc(_decimal)
     u = sp.zeros(n, 1)
     if t.joint is not None:
         u += c.vector(P + ("joint",), n, "torque.joint")
@@ -743,6 +777,8 @@ def _numbers(c: _Ctx, cc: ContactCase, spec: Contact, K: sp.Matrix, kE: sp.Expr 
     at["rank"] = numeric_rank(Jn) if numeric else None
     if numeric and at["rank"] is not None and at["rank"] < cc.m:
         at["null"] = [_num_matrix(v) for v in null_basis(Jn.T, at["rank"])]
+    at["J_numeric"] = not Jn.free_symbols
+    at["has_dq"] = all(v in state for v in c.dq)
     at["tau"] = _num_matrix(d["tau"].subs(subs))
     at["rdot_tc"] = _num_matrix(d["rdot_tc"].subs(subs))
     at["v"] = _num_matrix(d["v"].subs(subs))
@@ -762,7 +798,7 @@ def _numbers(c: _Ctx, cc: ContactCase, spec: Contact, K: sp.Matrix, kE: sp.Expr 
     P = ("contacts", cc.index - 1)
     text = None
     if spec.residual is not None:
-        text = c.vector(P + ("residual",), c.n, "the residual").subs(subs)
+        text = c.vector(P + ("residual",), c.n, "the residual").subs(subs).applyfunc(_decimal)
         at["source"] = "residual"
     elif spec.torque is not None:
         if any(not _zero(state.get(v, 0)) for v in c.dq):
@@ -783,11 +819,13 @@ def _numbers(c: _Ctx, cc: ContactCase, spec: Contact, K: sp.Matrix, kE: sp.Expr 
             raise c.fail(P + (at["source"],), "the residual/torque must be numeric at the at: state",
                          "give every coordinate in at: and numeric values of the parameters")
         at["tau_ext"] = text
+        nz = [j + 1 for j in range(c.n) if abs(complex(text[j])) > 1e-9 * max(1.0, max(abs(complex(x)) for x in text))]
+        at["isolated_data"] = max(nz) if nz else 0
         loc = cc.location
         loc_known = loc is None or loc in values
         Jsub = d["Jc"].subs(subs)
         if not loc_known and d.get("loc_rank") == cc.m + 1:
-            est = _estimate_with_location(Jsub, text, loc, cc.m, cc.link)
+            est = _estimate_with_location(cc.point, c.q, subs, text, loc, cc.m, cc.link)
             if est is not None:
                 at["F_hat"], at["loc_hat"] = est
                 Jsub = Jsub.subs(loc, at["loc_hat"])
@@ -804,6 +842,8 @@ def _numbers(c: _Ctx, cc: ContactCase, spec: Contact, K: sp.Matrix, kE: sp.Expr 
             at["consistent"] = all(abs(complex(x)) < 1e-6 * max(1.0, float(max(abs(complex(y)) for y in text)))
                                    for x in at["residual_error"])
             at["rank_used"] = numeric_rank(Jn2)
+            if "loc_hat" in at:
+                at["Jc_hat"] = Jn2
             at["F_norm"] = _num(sp.sqrt(sum(x ** 2 for x in at["F_hat"])))
             if cc.R is not None:
                 Rn = _num_matrix(cc.R.subs(subs))
@@ -812,30 +852,31 @@ def _numbers(c: _Ctx, cc: ContactCase, spec: Contact, K: sp.Matrix, kE: sp.Expr 
     d["at"] = at
 
 
-def _estimate_with_location(J: sp.Matrix, tau: sp.Matrix, loc: sp.Symbol, m: int,
-                            link: int) -> tuple[sp.Matrix, sp.Expr] | None:
-    """Numeric (F, ρ) with J_c(ρ)ᵀ F = τ_ext: exact solution of the first ``link`` equations (rationalized)."""
-    F = sp.Matrix(sp.symbols(f"_F0:{m}", real=True))
-    tr = tau.applyfunc(lambda x: sp.nsimplify(x, rational=True) if x.atoms(sp.Float) else x)
-    Jr = J.applyfunc(lambda x: sp.nsimplify(x, rational=True) if x.atoms(sp.Float) else x)
-    eqs = list((Jr.T * F - tr)[:link, 0])
-    try:
-        sols = sp.solve(eqs, list(F) + [loc], dict=True)
-    except (NotImplementedError, ValueError):
+def _estimate_with_location(point: sp.Matrix, q: list[sp.Symbol], subs: dict, tau: sp.Matrix, loc: sp.Symbol,
+                            m: int, link: int) -> tuple[sp.Matrix, sp.Expr] | None:
+    """Numeric (F, ρ) with J_c(ρ)ᵀ F = τ_ext for a point affine in ρ (J_c = J_a + ρ J_b): F by least squares from
+    the ρ-free combinations of the first ``link`` equations (the null space of J_b), then ρ by least squares."""
+    if any(not _zero(x) for x in point.diff(loc, 2)):
         return None
-    good = []
-    for s in sols:
-        if not all(u in s for u in list(F) + [loc]):
-            continue
-        vals = [complex(sp.N(s[u])) for u in list(F) + [loc]]
-        if all(abs(v.imag) < 1e-9 for v in vals) and abs(vals[-1].real) > 1e-12:
-            good.append(s)
-    if len(good) != 1:
+    b = point.diff(loc)
+    a = point - loc * b
+    Ja = np.array(a.jacobian(q)[:, :link].subs(subs).evalf(30).tolist(), dtype=float).reshape(m, link)
+    Jb = np.array(b.jacobian(q)[:, :link].subs(subs).evalf(30).tolist(), dtype=float).reshape(m, link)
+    t = np.array([float(x) for x in tau[:link, 0]])
+    u, sv, vt = np.linalg.svd(Jb)
+    rank = int(np.sum(sv > 1e-9 * max(1.0, sv[0] if sv.size else 1.0)))
+    C = vt[rank:]  # rows c with J_b c = 0
+    if C.shape[0] < m:
         return None
-    s = good[0]
-    exact = not (tau.atoms(sp.Float) or J.atoms(sp.Float))
-    conv = (lambda x: _num(x)) if exact else (lambda x: sp.Float(sp.N(x, 15), 15))
-    return sp.Matrix([conv(s[u]) for u in F]), conv(s[loc])
+    A = C @ Ja.T
+    if np.linalg.matrix_rank(A, tol=1e-9) < m:
+        return None
+    F = np.linalg.lstsq(A, C @ t, rcond=None)[0]
+    w = Jb.T @ F
+    if np.max(np.abs(w)) < 1e-12:
+        return None
+    rho = float(w @ (t - Ja.T @ F) / (w @ w))
+    return sp.Matrix([sp.Float(x, 15) for x in F]), sp.Float(rho, 15)
 
 
 @ask_kind("collision", CollisionAsk, "collision detection and isolation: momentum and energy residuals, contact "
@@ -888,7 +929,8 @@ def solve_collision(problem, options: CollisionAsk, ctx) -> Solution:  # type: i
         fric = dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1)
         Gu = generalized_input(dm)
         rows = [[x for x in (Gu[i], mr.STdq[i], -dm.g[i], -tidy(fric[i])) if x != 0] for i in range(n)]
-        sol.step("momentum", mr=mr, dm=dm, robot=robot, n=n, rows=rows)
+        sol.step("momentum", mr=mr, dm=dm, robot=robot, n=n, rows=rows,
+                 Kdiag=[K[i, i] for i in range(n)] if K.is_diagonal() else None)
     if "energy" in wanted and dm is not None and kE is not None:
         sigma = c.symbol("sigma", "\\sigma")
         er = energy_residual(dm, c.q, c.dq, kE, sigma, tau)
@@ -967,7 +1009,8 @@ def _add_contact_results(sol: Solution, cc: ContactCase) -> None:
                             ("sdot_tc", "rdot_energy_tc_at", "number"), ("u_hold", "u_hold_at", "vector"),
                             ("u_eq", "u_eq", "vector"), ("tau_ext", "tau_ext", "vector"),
                             ("F_hat", "F_hat", "vector"), ("F_hat_local", "F_hat_local", "vector"),
-                            ("F_norm", "F_hat_norm", "number"), ("loc_hat", "location_hat", "number")):
+                            ("F_norm", "F_hat_norm", "number"), ("loc_hat", "location_hat", "number"),
+                            ("Jc_hat", "Jc_hat", "matrix")):
         if at.get(key) is not None:
             sol.add(name + k, at[key], kind, label=name.replace("_", "\\_"))
     if at.get("tau_ext") is not None:
@@ -976,6 +1019,9 @@ def _add_contact_results(sol: Solution, cc: ContactCase) -> None:
         sol.add("rank_Jc_at" + k, sp.Integer(at["rank"]), "number", label="\\operatorname{rank} J_c\\big|_{*}")
     if at.get("null"):
         sol.add("null_JcT_at" + k, sp.Matrix.hstack(*at["null"]), "matrix", label="\\mathcal{N}(J_c^T)\\big|_{*}")
+    if "isolated_data" in at:
+        sol.add("isolated_link_data" + k, sp.Integer(at["isolated_data"]), "number",
+                label="\\text{link from the data}")
     for key in ("detected", "isolated", "detected_energy"):
         if key in at:
             name = {"detected": "detected_at", "isolated": "isolated_link_at",
