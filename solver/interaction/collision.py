@@ -340,6 +340,27 @@ def _decimal(x: sp.Expr) -> sp.Expr:
     return sp.Float(x, 15) if x.is_Rational and x.q > 12 else x
 
 
+def _nice(x: sp.Expr) -> bool:
+    """An exact number a student reads at a glance: a small fraction, possibly times one √k or π."""
+    if not x.is_number or x.atoms(sp.Float):
+        return True
+    coeff, rest = x.as_coeff_Mul()
+    if not coeff.is_Rational or coeff.q > 12:
+        return False
+    return rest == 1 or rest == sp.pi or (rest.is_Pow and rest.exp == sp.Rational(1, 2) and rest.base.is_Integer)
+
+
+def _display(v: Any) -> Any:
+    """A numeric value as the report shows it: exact when nice, else 5 significant digits."""
+    if isinstance(v, sp.MatrixBase):
+        if all(_nice(x) for x in v):
+            return v
+        return v.applyfunc(lambda x: sp.Float(sp.N(x, 15), 5) if x.is_number and x != 0 else x)
+    if isinstance(v, sp.Expr) and not _nice(v):
+        return sp.Float(sp.N(v, 15), 5)
+    return v
+
+
 def _num_matrix(M: sp.Matrix) -> sp.Matrix:
     if all(x.is_number for x in M) and not _exact(M):
         a = np.array(M.evalf(30).tolist(), dtype=float)
@@ -721,10 +742,10 @@ def _analyze(c: _Ctx, cc: ContactCase, r: sp.Matrix, K: sp.Matrix, dm: DynamicMo
     d["F_id"] = d["F_id_local"] = d["loc_id"] = None
     d["loc_rank"] = None
     if cc.location is not None:
-        JF = (Jc.T * cc.F)[:i, 0]
-        jac = sp.Matrix(JF).jacobian(list(cc.F) + [cc.location]) if i else sp.zeros(0, m + 1)
-        d["loc_rank"] = lr = generic_rank(jac) if i else 0
         Fsym = sp.Matrix([c.symbol(s, f"F_{{{s[1]}}}") for s in ("Fx", "Fy", "Fz")[:m]])
+        JF = (Jc.T * Fsym)[:i, 0]
+        jac = sp.Matrix(JF).jacobian(list(Fsym) + [cc.location]) if i else sp.zeros(0, m + 1)
+        d["loc_rank"] = lr = generic_rank(jac) if i else 0
         if lr == m + 1:
             sol = identify_with_location(cc.point, q, Fsym, cc.location, r, i)
             if sol is not None:
@@ -771,6 +792,7 @@ def _numbers(c: _Ctx, cc: ContactCase, spec: Contact, K: sp.Matrix, kE: sp.Expr 
     at: dict[str, Any] = {}
     Jn = _num_matrix(d["Jc"].subs(subs))
     at["Jc"] = Jn
+    at["p"] = _num_matrix(cc.point.subs(subs))
     if d["local"] is not None:
         at["local"] = _num_matrix(d["local"].subs(subs))
     numeric = all(x.is_number for x in Jn)
@@ -849,6 +871,7 @@ def _numbers(c: _Ctx, cc: ContactCase, spec: Contact, K: sp.Matrix, kE: sp.Expr 
                 Rn = _num_matrix(cc.R.subs(subs))
                 if not Rn.free_symbols:
                     at["F_hat_local"] = _num_matrix(Rn.T * at["F_hat"])
+    at["show"] = {k: _display(v) for k, v in at.items() if isinstance(v, (sp.MatrixBase, sp.Expr))}
     d["at"] = at
 
 
@@ -888,7 +911,10 @@ def solve_collision(problem, options: CollisionAsk, ctx) -> Solution:  # type: i
     u_hold_k; at a state: *_at_k, tau_ext_k, r_ss_k, u_eq_k, F_hat_k, F_hat_local_k, F_hat_norm_k, location_hat_k."""
     c = _Ctx(problem, options, ctx)
     robot = c.robot
-    model_ok = has_model(robot)
+    dm = derive(robot) if has_model(robot) else None
+    if dm is not None and all(x == 0 for x in dm.B):
+        dm = None  # massless links: a kinematic description only
+    model_ok = dm is not None
     wanted = options.residuals
     if wanted is None:
         wanted = ["momentum", "energy"] if model_ok else []
@@ -899,7 +925,6 @@ def solve_collision(problem, options: CollisionAsk, ctx) -> Solution:  # type: i
         raise c.fail(("simulate",), "a simulation needs the robot's dynamic model (masses)")
     if len(options.contacts) > MAX_CONTACTS:
         raise c.fail(("contacts",), f"at most {MAX_CONTACTS} contacts per ask")
-    dm = derive(robot) if model_ok else None
     if "momentum" in wanted and dm is not None and dm.S is None:
         raise UserError("the momentum residual needs the factorization S(q, q̇) from the Christoffel symbols, but "
                         "the model gives c(q, q̇) directly", problem.located.place(("robot", "model", "c")),
@@ -952,6 +977,8 @@ def solve_collision(problem, options: CollisionAsk, ctx) -> Solution:  # type: i
         sol.add("residual_integrand_at", at["beta"], "vector", label="(u + S^T\\dot q - g)\\big|_{*}")
         sol.step("momentum_at", state=state, at=at)
 
+    if dm is None and options.contacts:
+        sol.step("generic")
     cases = []
     for k, spec in enumerate(options.contacts):
         cc = _contact(c, k, spec)
@@ -963,8 +990,9 @@ def solve_collision(problem, options: CollisionAsk, ctx) -> Solution:  # type: i
                 raise c.fail(("contacts", k, "residual"), "residual: needs the at: configuration")
             _numbers(c, cc, spec, K, kE, dm, state, values)
         _add_contact_results(sol, cc)
-        sol.step("contact", cc=cc, d=cc.data, n=n, q=c.q, r=r, K=K, kE=kE, momentum=mr is not None,
-                 energy=er is not None, state=state, friction=dm is not None and dm.Fv is not None)
+        sol.step("contact", cc=cc, d=cc.data, n=n, q=c.q, r=r, K=K, kE=kE,
+                 momentum=mr is not None or dm is None, energy=er is not None or dm is None, state=state,
+                 friction=dm is not None and dm.Fv is not None)
         cases.append(cc)
 
     if options.simulate is not None:
@@ -1003,7 +1031,7 @@ def _add_contact_results(sol: Solution, cc: ContactCase) -> None:
     at = d.get("at")
     if not at:
         return
-    for key, name, kind in (("Jc", "Jc_at", "matrix"), ("local", "Jc_local_at", "matrix"),
+    for key, name, kind in (("p", "p_c_at", "vector"), ("Jc", "Jc_at", "matrix"), ("local", "Jc_local_at", "matrix"),
                             ("tau", "tau_c_at", "vector"), ("rdot_tc", "rdot_tc_at", "vector"),
                             ("v", "v_c_at", "vector"), ("power", "power_at", "number"),
                             ("sdot_tc", "rdot_energy_tc_at", "number"), ("u_hold", "u_hold_at", "vector"),
