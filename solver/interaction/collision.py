@@ -1127,6 +1127,12 @@ def _add_simulation(sol: Solution, c: _Ctx, sim: Simulation, dm: DynamicModel | 
         data = simulate_collision(dm, c.q, c.dq, point, values, F, sim.start, end, sim.duration, Kd, kEn, q0, dq0,
                                   sim.control, sim.kp, sim.kd, sim.profile)
         t = [float(x) for x in data.t]
+        scale = max(1.0, float(np.max(np.abs(data.tau_ext))) if data.tau_ext.size else 1.0)
+        for arr in (data.r, data.tau_ext):  # integration noise far below the signal plotted as the zero it is
+            arr[np.abs(arr) < 1e-8 * scale] = 0.0
+        if data.sigma is not None:
+            for arr in (data.sigma, data.power):
+                arr[np.abs(arr) < 1e-8 * max(1.0, float(np.max(np.abs(data.power))))] = 0.0
         panels = []
         for j in range(n):
             panels.append(Panel("$t$ [s]", f"joint {j + 1}", [
