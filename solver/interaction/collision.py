@@ -38,6 +38,7 @@ Scalar = Union[str, int, float]
 ExprT = Union[str, int, float, list[Any]]
 MAX_CONTACTS = 12          # result names carry the contact's index _1.._12 (property checks are registered for them)
 EXACT_ENTRIES = 24         # numeric matrices with at most this many entries are handled exactly (sympy)
+SYMBOLIC_OPS = 120         # beyond this size of J_c the symbolic estimate F(r) is not formed (numbers at a state are)
 
 
 # ------------------------------------------------------------------------------------------------ options
@@ -208,11 +209,12 @@ def _content_free(v: sp.Matrix) -> sp.Matrix:
     nz = [x for x in v if x != 0]
     if not nz:
         return v
-    g = nz[0]
-    for x in nz[1:]:
-        g = sp.gcd(g, x)
+    polys, back = _trig_polys(list(v))
+    g = [p for p in polys if p != 0][0]
+    for x in polys:
+        g = sp.gcd(g, x) if x != 0 else g
     if g != 0 and g != 1:
-        v = v.applyfunc(lambda x: sp.cancel(x / g))
+        v = sp.Matrix([sp.cancel(x / g).xreplace(back) for x in polys])
     first = next(x for x in v if x != 0)
     if first.could_extract_minus_sign():
         v = -v
@@ -250,22 +252,20 @@ def last_independent(M: sp.Matrix, count: int) -> list[int]:
     return []
 
 
-def estimate_symbolic(JcT: sp.Matrix, r: sp.Matrix, rank: int) -> sp.Matrix | None:
+def estimate_symbolic(JcT: sp.Matrix, r: sp.Matrix, rank: int) -> tuple[sp.Matrix, sp.Expr] | None:
     """F̂ ∈ R(J_c) with J_cᵀ F̂ = r for a consistent r: with A the columns of J_c of ``rank`` independent rows of
     J_cᵀ (the last ones), F̂ = A (AᵀA)⁻¹ r_A (the minimum-norm solution; the unique one when rank = m)."""
     if rank == 0:
-        return sp.zeros(JcT.cols, 1)
+        return sp.zeros(JcT.cols, 1), sp.Integer(1)
     idx = last_independent(JcT, rank)
     if not idx:
         return None
     A = JcT.extract(idx, list(range(JcT.cols))).T
     AtA = (A.T * A).applyfunc(tidy)
-    if rank == JcT.cols:  # square A: F = A^-T r_A
+    if rank == JcT.cols:  # square A: F = A^-T r_A = adj(Aᵀ) r_A / det(Aᵀ)
         At = A.T
-        sol = At.adjugate() * r.extract(idx, [0]) / tidy(At.det())
-    else:
-        sol = A * AtA.adjugate() * r.extract(idx, [0]) / tidy(AtA.det())
-    return sol.applyfunc(lambda x: sp.factor(sp.cancel(sp.together(x))))
+        return (At.adjugate() * r.extract(idx, [0])).applyfunc(tidy), tidy(At.det())
+    return (A * AtA.adjugate() * r.extract(idx, [0])).applyfunc(tidy), tidy(AtA.det())
 
 
 def identify_with_location(point: sp.Matrix, q: list[sp.Symbol], F: sp.Matrix, rho: sp.Symbol, r: sp.Matrix,
@@ -315,6 +315,39 @@ def collect_linear(e: sp.Expr, syms: list[sp.Symbol]) -> sp.Expr:
     return out
 
 
+def _trig_polys(exprs: list[sp.Expr]) -> tuple[list[sp.Expr], dict]:
+    """Expressions with sin/cos of single symbols replaced by dummies (after expanding sums of angles), so that
+    polynomial gcds and cancellations apply; returns them and the map back."""
+    ex = [sp.expand_trig(sp.expand(e)) for e in exprs]
+    atoms = set().union(*[e.atoms(sp.sin, sp.cos) for e in ex]) if ex else set()
+    back, fwd = {}, {}
+    for a in sorted(atoms, key=str):
+        if not a.args[0].is_Symbol:
+            return exprs, {}
+        dmy = sp.Dummy(f"{a.func.__name__}_{a.args[0]}")
+        fwd[a], back[dmy] = dmy, a
+    return [e.xreplace(fwd) for e in ex], back
+
+
+def _quotient(n: sp.Expr, d: sp.Expr) -> sp.Expr:
+    """n/d with common (trigonometric) polynomial factors cancelled, numerator and denominator tidied."""
+    if n == 0:
+        return sp.Integer(0)
+    if d == 1:
+        return n
+    if sp.count_ops(n) + sp.count_ops(d) > 400:
+        return n / d
+    (pn, pd), back = _trig_polys([n, d])
+    if back or not (n.atoms(sp.sin, sp.cos) or d.atoms(sp.sin, sp.cos)):
+        g = sp.gcd(pn, pd)
+        if g not in (0, 1):
+            pn, pd = sp.cancel(pn / g), sp.cancel(pd / g)
+        pn, pd = tidy(pn.xreplace(back)), tidy(pd.xreplace(back))
+        num, den = sp.fraction(sp.together(pn / pd))
+        return tidy(num) / tidy(den) if den != 1 else tidy(num)
+    return n / d
+
+
 def _tidy_quotient(e: sp.Expr) -> sp.Expr:
     """n/d with numerator and denominator in teacher form."""
     n, d = sp.fraction(sp.together(e))
@@ -329,7 +362,7 @@ def _exact(M: sp.Matrix) -> bool:
 def _num(x: sp.Expr) -> sp.Expr:
     """An exact number in a short form; a float kept as a float; an expression tidied."""
     if not x.is_number:
-        return tidy(sp.expand(x))
+        return tidy(sp.expand(x)) if sp.count_ops(x) <= 80 else x
     if x.atoms(sp.Float):
         return sp.Float(sp.N(x, 15), 15) if not x.is_Integer else x
     return sp.radsimp(sp.nsimplify(sp.expand(x))) if sp.count_ops(x) > 0 else x
@@ -750,11 +783,15 @@ def _analyze(c: _Ctx, cc: ContactCase, r: sp.Matrix, K: sp.Matrix, dm: DynamicMo
             sol = identify_with_location(cc.point, q, Fsym, cc.location, r, i)
             if sol is not None:
                 d["F_id"], d["loc_id"] = sol
-    if d["F_id"] is None and rank > 0:
-        d["F_id"] = estimate_symbolic(Jc.T, r, rank)
-        if d["F_id"] is not None:
-            d["F_id"] = d["F_id"].applyfunc(_tidy_quotient)
-    if d["F_id"] is not None and cc.R is not None:
+    d["too_big"] = sp.count_ops(Jc) > SYMBOLIC_OPS
+    if d["F_id"] is None and rank > 0 and not d["too_big"]:
+        est = estimate_symbolic(Jc.T, r, rank)
+        if est is not None:
+            N, D = est
+            d["F_id"] = N.applyfunc(lambda x: _quotient(x, D))
+            if cc.R is not None:
+                d["F_id_local"] = (cc.R.T * N).applyfunc(lambda x: _quotient(tidy(x), D))
+    elif d["F_id"] is not None and cc.R is not None:
         d["F_id_local"] = (cc.R.T * d["F_id"]).applyfunc(lambda x: _tidy_quotient(sp.factor(sp.cancel(x))))
     if dm is not None and dm.G is None and cc.force_given:
         fric = dm.Fv * sp.Matrix(c.dq) if dm.Fv is not None else sp.zeros(n, 1)
@@ -801,19 +838,22 @@ def _numbers(c: _Ctx, cc: ContactCase, spec: Contact, K: sp.Matrix, kE: sp.Expr 
         at["null"] = [_num_matrix(v) for v in null_basis(Jn.T, at["rank"])]
     at["J_numeric"] = not Jn.free_symbols
     at["has_dq"] = all(v in state for v in c.dq)
-    at["tau"] = _num_matrix(d["tau"].subs(subs))
-    at["rdot_tc"] = _num_matrix(d["rdot_tc"].subs(subs))
-    at["v"] = _num_matrix(d["v"].subs(subs))
-    at["power"] = _num(d["power"].subs(subs))
-    if kE is not None:
-        at["sdot_tc"] = _num(kE.subs(subs) * at["power"])
-    tau_num = at["tau"]
-    if all(x.is_number for x in tau_num):
-        nz = [j + 1 for j in range(c.n) if abs(complex(tau_num[j])) > 1e-12]
-        at["detected"] = bool(nz)
-        at["isolated"] = max(nz) if nz else 0
-    if at["power"].is_number:
-        at["detected_energy"] = abs(complex(at["power"])) > 1e-12
+    if at["has_dq"]:
+        at["v"] = _num_matrix(d["v"].subs(subs))
+    if cc.force_given:
+        at["tau"] = _num_matrix(d["tau"].subs(subs))
+        at["rdot_tc"] = _num_matrix(d["rdot_tc"].subs(subs))
+        tau_num = at["tau"]
+        if all(x.is_number for x in tau_num):
+            nz = [j + 1 for j in range(c.n) if abs(complex(tau_num[j])) > 1e-12]
+            at["detected"] = bool(nz)
+            at["isolated"] = max(nz) if nz else 0
+        if at["has_dq"]:
+            at["power"] = _num(d["power"].subs(subs))
+            if kE is not None:
+                at["sdot_tc"] = _num(kE.subs(subs) * at["power"])
+            if at["power"].is_number:
+                at["detected_energy"] = abs(complex(at["power"])) > 1e-12
     if d["u_hold"] is not None:
         at["u_hold"] = _num_matrix(d["u_hold"].subs(subs))
     # estimation
