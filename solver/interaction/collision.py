@@ -355,17 +355,22 @@ def _tidy_quotient(e: sp.Expr) -> sp.Expr:
 
 
 # ------------------------------------------------------------------------------------------------ numerics
+def _algebraic(x: sp.Expr) -> bool:
+    """An exact number without floats or unevaluated functions (sin(2/5) is not; sqrt(2)/4 and π/8 are)."""
+    return bool(x.is_number) and not x.atoms(sp.Float) and not x.atoms(sp.Function)
+
+
 def _exact(M: sp.Matrix) -> bool:
-    return all(x.is_number and not x.atoms(sp.Float) for x in M) and M.rows * M.cols <= EXACT_ENTRIES
+    return all(_algebraic(x) for x in M) and M.rows * M.cols <= EXACT_ENTRIES
 
 
 def _num(x: sp.Expr) -> sp.Expr:
     """An exact number in a short form; a float kept as a float; an expression tidied."""
     if not x.is_number:
         return tidy(sp.expand(x)) if sp.count_ops(x) <= 80 else x
-    if x.atoms(sp.Float):
+    if not _algebraic(x):
         return sp.Float(sp.N(x, 15), 15) if not x.is_Integer else x
-    return sp.radsimp(sp.nsimplify(sp.expand(x))) if sp.count_ops(x) > 0 else x
+    return sp.radsimp(sp.expand(x)) if sp.count_ops(x) > 0 else x
 
 
 def _decimal(x: sp.Expr) -> sp.Expr:
@@ -546,13 +551,15 @@ def simulate_collision(dm: DynamicModel, q: list[sp.Symbol], dq: list[sp.Symbol]
                    np.array(PW), [s.name for s in unit])
 
 
-def first_order_filter(t: np.ndarray, u: np.ndarray, k: float) -> np.ndarray:
-    """y with ẏ = k (u − y), y(0) = 0, for a signal u sampled at t (exact for u piecewise linear)."""
+def first_order_filter(t: np.ndarray, u: np.ndarray, k: float, jumps: tuple[float, ...] = ()) -> np.ndarray:
+    """y with ẏ = k (u − y), y(0) = 0, for a signal u sampled at t: exact for u piecewise linear between the
+    samples, and held at its left value over a step ending at one of the ``jumps`` (where u is discontinuous)."""
     y = np.zeros_like(u)
     for j in range(1, len(t)):
         h = t[j] - t[j - 1]
         a = math.exp(-k * h)
-        slope = (u[j] - u[j - 1]) / h if h > 0 else 0.0
+        jump = any(abs(t[j] - tj) < 1e-12 for tj in jumps)
+        slope = (u[j] - u[j - 1]) / h if (h > 0 and not jump) else 0.0
         # exact response over one step to u(t_{j-1}) + slope (t - t_{j-1})
         y[j] = a * y[j - 1] + (1 - a) * (u[j - 1] - slope / k) + slope * h
     return y
