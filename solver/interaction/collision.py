@@ -215,10 +215,11 @@ def _content_free(v: sp.Matrix) -> sp.Matrix:
         g = sp.gcd(g, x) if x != 0 else g
     if g != 0 and g != 1:
         v = sp.Matrix([sp.cancel(x / g).xreplace(back) for x in polys])
+    v = v.applyfunc(tidy)
     first = next(x for x in v if x != 0)
     if first.could_extract_minus_sign():
         v = -v
-    return v.applyfunc(tidy)
+    return v
 
 
 def null_basis(M: sp.Matrix, rank: int) -> list[sp.Matrix]:
