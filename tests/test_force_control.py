@@ -464,3 +464,17 @@ def test_latex_report_compiles(tmp_path):
 def test_encoded_problems_verify(name):
     rep = check_problem(load_problem(PROBLEMS / f"{name}.yaml"))
     assert rep.ok, [(c.name, c.verdict) for c in rep.checks if not c.verdict.ok]
+
+
+def test_force_gains_designed_for_given_poles():
+    text = MASS.replace("symbols: {", "symbols: {k_f: {meaning: g, sign: real}, k_i: {meaning: g, sign: real}, "
+                        "k_v: {meaning: g, sign: real}, ") + \
+        "    law: force\n    contact: {position: x, rest: d, stiffness: k_e}\n    kf: k_f\n    ki: k_i\n    kd: k_v\n" \
+        "    design: {poles: [-1, -2, -3]}\n"
+    p, _, res = solved(text)
+    g = res["gains"].value
+    poly = res["char_poly"].value
+    s = next(x for x in poly.free_symbols if x.name == "s")
+    m, k_e = p.names["m"], p.names["k_e"]
+    assert sp.expand(poly - m * (s + 1) * (s + 2) * (s + 3)) == 0  # the gains are in the closed loop
+    assert sp.simplify(g[2] - 6 * m) == 0  # k_v = 6 m (the s² coefficient)
