@@ -373,7 +373,8 @@ def solve_kinematics(problem, options: KinematicsAsk, ctx) -> Solution:  # type:
         add("det_J", sp.factor_terms(dJ), "scalar", label="\\det J(q)")
         if m <= SYMBOLIC_INVERSE and dJ != 0:
             add("J_inv", _inverse(J, dJ), "matrix", label="J^{-1}(q)")
-    elif not square and geo.n_minors(m, len(spec.wrt)) <= geo.MAX_MINORS and wrt_q and m <= 4:
+    elif not square and geo.n_minors(m, len(spec.wrt)) <= geo.MAX_MINORS and wrt_q and m <= 4 \
+            and options.singularities != "geometric":
         mins = geo.minors(J)
         for cols, v in mins.items():
             add(_minor_name(cols), v, "scalar", label="\\det J_{" + ",".join(map(str, cols)) + "}")
@@ -385,8 +386,13 @@ def solve_kinematics(problem, options: KinematicsAsk, ctx) -> Solution:  # type:
         _singularities(sol, add, spec, J, Jg, dJ, mins, rank_generic)
 
     # ---- manipulability (symbolic, small)
-    if wrt_q and m <= n and (square or sp.count_ops(J) <= SYMBOLIC_MANIP_OPS and m <= 3):
-        w_sym = sp.Abs(sp.factor_terms(dJ)) if dJ is not None else sp.sqrt(sp.factor(geo.det((J * J.T).applyfunc(tidy))))
+    w_sym = None
+    if wrt_q and square and dJ is not None:
+        w_sym = sp.Abs(sp.factor_terms(dJ))
+    elif wrt_q and m < n and m <= 3 and n <= 4 and sp.count_ops(J) <= SYMBOLIC_MANIP_OPS:
+        dd = geo.det((J * J.T).applyfunc(tidy))
+        w_sym = sp.sqrt(sp.factor(dd)) if sp.count_ops(dd) <= SYMBOLIC_MANIP_OPS else None
+    if w_sym is not None:
         add("manipulability", w_sym, "scalar", label="w(q)")
         sol.step("manipulability", w=w_sym, square=square)
 
@@ -416,11 +422,12 @@ def _singularities(sol: Solution, add, spec: _Spec, J, Jg, dJ, mins, rank_generi
         raise spec.fail(("singularities",), "singularities: geometric needs the geometric Jacobian (a DH robot)")
     M = J
     d, mn = dJ, mins
+    gk = gj = None
     if use_geo:
         M = Jg
         if M.shape[0] != M.shape[1]:
             return
-        d, _, _ = geo.geometric_det(spec.robot.frames, spec.joints, spec.robot.dh_convention or "standard")
+        d, gk, gj = geo.geometric_det(spec.robot.frames, spec.joints, spec.robot.dh_convention or "standard")
         mn = {}
     elif d is None and not mn:
         sol.step("singular_skipped", m=M.shape[0], n=M.shape[1])
@@ -432,11 +439,16 @@ def _singularities(sol: Solution, add, spec: _Spec, J, Jg, dJ, mins, rank_generi
         sol.step("singular_skipped", m=M.shape[0], n=M.shape[1])
         return
     sing = geo.singular_configurations(M, spec.q, spec.joints, spec.problem.values, dmat=d, mins=mn or None)
+    if use_geo:
+        add("det_Jg", sing.product, "scalar", label="\\det J_g(q)")
+    elif sing.product is not None and "det_J" + spec.options.suffix in sol.results:
+        sol.results["det_J" + spec.options.suffix].value = sing.product
     configs = [sp.Matrix([f.values[x] for x in spec.q]) for f in sing.families if not f.pending]
     if sing.complete and sing.families:
         add("singularities", configs, "set", label="\\text{singular } q")
     const_f = sp.factor_terms(sing.constant) if sing.constant is not None else None
     sol.step("singular", sing=sing, geometric=use_geo, configs=configs, const=const_f,
+             frame=gk if use_geo else None, point=gj if use_geo else None,
              q=sp.Matrix(spec.q).T, free=[[x for x in f.free] for f in sing.families],
              pending=[f.pending for f in sing.families if f.pending], square=d is not None)
 

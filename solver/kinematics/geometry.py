@@ -27,7 +27,7 @@ from solver.math.trigsolve import Family, Solver, check_families, trig_factors
 if TYPE_CHECKING:
     from solver.spec.robot import Robot
 
-MAX_MINORS = 35      # m×m minors of a non-square Jacobian computed symbolically
+MAX_MINORS = 10      # m×m minors of a non-square Jacobian computed symbolically
 MAX_DET_OPS = 20000  # determinants larger than this are not factored
 
 
@@ -203,6 +203,22 @@ class Singular:
     systems: list[list[sp.Expr]] = field(default_factory=list)
     families: list[Family] = field(default_factory=list)
     complete: bool = True
+    multiplicity: list[int] = field(default_factory=list)
+
+    @property
+    def product(self) -> sp.Expr | None:
+        """det J as constant · Π factors (square J), for display."""
+        if self.det is None:
+            return None
+        return factored(self.constant, list(zip(self.factors, self.multiplicity or [1] * len(self.factors))))
+
+
+def factored(const: sp.Expr, facs: list[tuple[sp.Expr, int]]) -> sp.Expr:
+    """const · Π f^k kept as a product (not expanded)."""
+    parts = [f**k for f, k in facs]
+    if const != 1 or not parts:
+        parts = [const] + parts
+    return sp.Mul(*parts, evaluate=False) if len(parts) > 1 else parts[0]
 
 
 def _param_point(rng: random.Random, syms: Sequence[sp.Symbol], values: dict) -> dict[sp.Symbol, float]:
@@ -229,10 +245,12 @@ def singular_configurations(J: sp.Matrix, q: Sequence[sp.Symbol], joints: Sequen
     m, n = J.shape
     if m == n:
         d = dmat if dmat is not None else det(J)
-        const, facs = trig_factors(d)
-        factors = [f for f, _ in facs if f.free_symbols & set(q)]
         if d == 0:
             return Singular(d, sp.Integer(0), [], [], [], True)
+        const, facs = trig_factors(d)
+        const = const * sp.Mul(*[f**k for f, k in facs if not f.free_symbols & set(q)])
+        mult = [k for f, k in facs if f.free_symbols & set(q)]
+        factors = [f for f, _ in facs if f.free_symbols & set(q)]
         systems = [[f] for f in factors]
         checks = [d]
     else:
@@ -270,7 +288,7 @@ def singular_configurations(J: sp.Matrix, q: Sequence[sp.Symbol], joints: Sequen
     closed = [f for f in families if not f.pending]
     kept = check_families(closed, [c for c in checks if c != 0][:8], q, sampler)
     kept += [f for f in families if f.pending]
-    return Singular(d, const, factors, systems, kept, complete)
+    return Singular(d, const, factors, systems, kept, complete, mult if m == n else [])
 
 
 # ------------------------------------------------------------------------------------------------ at a configuration

@@ -125,7 +125,8 @@ class Solver:
         if not eqs or not node.left:
             out.append(self._family(node, []))
             return
-        for step in (self._linear, self._pair, self._single, self._substitute, self._factor, self._squares):
+        for step in (self._linear, self._pair, self._single, self._substitute, self._factor, self._squares,
+                     self._underdetermined):
             children = step(node)
             if children is not None:
                 for child in children:
@@ -306,6 +307,22 @@ class Solver:
         st = Stage(None, "squares", list(group), [], {"derived": new})
         derived = set(node.derived) | {new}
         return [_Node(node.eqs + [new], list(node.left), dict(node.sol), node.stages + [st], derived)]
+
+    def _underdetermined(self, node: _Node) -> list[_Node] | None:
+        """An equation in several unknowns solved for one of them, the others left free (a singular surface
+        a2 c2 + a3 c23 + d4 s23 = 0 gives q2 as a function of q3)."""
+        for e in node.eqs:
+            u = self.unk(e, node.left)
+            if len(u) < 2 or len(node.eqs) >= len(node.left):
+                continue
+            for x in u:
+                res = self.solve_single(e, x)
+                if res is None or not res[0]:
+                    continue
+                values, data = res
+                st = Stage(x, data.pop("method"), [e], values, data)
+                return [self._assign(node, x, v, st, [e]) for v in values]
+        return None
 
     # ------------------------------------------------------------------ results
     def _family(self, node: _Node, pending: list[sp.Expr]) -> Family:
