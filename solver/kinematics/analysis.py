@@ -349,16 +349,22 @@ def solve_kinematics(problem, options: KinematicsAsk, ctx) -> Solution:  # type:
         sol.step("jdot", Jd=Jd, Jdq=Jdq, dq=sp.Matrix(spec.dq))
 
     # ---- velocities and forces
+    rddot = None
     if options.velocities:
         rdot = (J * sp.Matrix(spec.dq if wrt_q else [sp.Symbol("d" + s.name) for s in spec.wrt])).applyfunc(tidy)
         add("rdot", rdot, "vector", label="\\dot r")
+        if wrt_q:
+            Jd = sol.results["Jdot" + sfx].value if "Jdot" + sfx in sol.results else geo.jacobian_dot(J, q, spec.dq)
+            ddq = sp.Matrix(list(robot.ddq[:n]))
+            rddot = (J * ddq + Jd * sp.Matrix(spec.dq)).applyfunc(lambda e: sp.factor_terms(tidy(e)))
+            add("rddot", rddot, "vector", label="\\ddot r")
         v = w = None
         if Jg is not None:
             v = (Jg[:3, :] * sp.Matrix(spec.dq)).applyfunc(tidy)
             w = (Jg[3:, :] * sp.Matrix(spec.dq)).applyfunc(tidy)
             add("v", v, "vector", label="v")
             add("omega", w, "vector", label="\\omega")
-        sol.step("velocity", rdot=rdot, v=v, w=w, express=spec.express)
+        sol.step("velocity", rdot=rdot, rddot=rddot, v=v, w=w, express=spec.express)
     JtF = None
     if spec.force is not None:
         JtF = (J.T * spec.force).applyfunc(tidy)
@@ -467,6 +473,18 @@ def _at_configuration(sol: Solution, add, spec: _Spec, J, Jg, JtF, dJ, mins) -> 
         Jga = _num(Jg.subs(subs))
         add("Jg_at", Jga, "matrix", label="J_g\\big|_{*}")
         data["Jg"] = Jga
+    dT = sol.results.get("dT" + spec.options.suffix)
+    if dT is not None:
+        dTa = _num(dT.value.subs(subs).applyfunc(tidy))
+        add("dT_at", dTa, "matrix", label=dT.label + "\\big|_{*}")
+        data["dT"] = dTa
+    if spec.options.velocities:
+        for nm in ("rdot", "rddot"):
+            r = sol.results.get(nm + spec.options.suffix)
+            if r is not None:
+                val = r.value.subs(subs).applyfunc(lambda e: sp.factor_terms(tidy(e)))
+                add(nm + "_at", val, "vector", label=r.label + "\\big|_{*}")
+                data[nm] = val
     if JtF is not None:
         JtFa = _num(JtF.subs(subs))
         add("JtF_at", JtFa, "vector", label="J^T F\\big|_{*}")
@@ -558,6 +576,8 @@ def _inverse_kinematics(sol: Solution, add, spec: _Spec) -> list:  # type: ignor
              stages=[_stage_view(s, numeric) for s in stages],
              solutions=sols, numeric=numeric, complete=complete, dropped=len(closed) - len(kept),
              nums=[_display(s) for s in sols], free=[f.free for f in kept],
+             radicals=any(x.atoms(sp.Pow) and any(p.exp.is_Rational and p.exp.q == 2 for p in x.atoms(sp.Pow))
+                          for s in sols for x in s),
              pending=[f.pending for f in fams if f.pending])
     confs = []
     if numeric or not sols:
@@ -592,8 +612,13 @@ def _sketch(sol: Solution, problem, spec: _Spec, ik_confs: list) -> None:  # typ
     confs = []
     if spec.state is not None:
         st = {k: v for k, v in spec.state.items() if k in spec.q}
-        if len(st) == spec.n:
-            confs.append((_config_label(st, problem.latex_names), st))
+        if st:
+            label = _config_label(st, problem.latex_names)
+            missing = [x for x in spec.q if x not in st]
+            st.update({x: sp.Integer(0) for x in missing})  # coordinates the exercise leaves arbitrary: drawn at 0
+            if missing:
+                label += " (" + ", ".join(f"${problem.latex_names.get(x, x.name)} = 0$" for x in missing) + ")"
+            confs.append((label, st))
     confs += ik_confs + extra
     fig = robot_sketch(problem, confs, task=task, points=points, name="sketch" + spec.options.suffix,
                        caption="The robot" + (" at the configurations of the exercise" if confs else ""))
