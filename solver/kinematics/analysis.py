@@ -23,7 +23,7 @@ from pydantic import Field, model_validator
 from solver.kinematics import geometry as geo
 from solver.kinematics.sketch import robot_sketch, skeleton
 from solver.math.simplify import tidy
-from solver.math.trigsolve import Solver, Stage, check_families
+from solver.math.trigsolve import Solver, Stage, check_families, numeric_function
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
 from solver.spec.errors import UserError
@@ -35,6 +35,7 @@ ExprT = Union[str, int, float, list[Any]]
 TASK_WORDS = ("position", "pose")
 SYMBOLIC_INVERSE = 3     # J⁻¹ given symbolically up to this size
 SYMBOLIC_MANIP_OPS = 600
+MINOR_OPS = 160          # maximal minors computed symbolically for Jacobians up to this size
 
 
 class SketchSpec(Strict):
@@ -245,6 +246,15 @@ def _short(e: Any, ops: int = 24) -> Any:
     return e
 
 
+def _nfy(e: sp.Expr) -> sp.Expr:
+    """Every number inside e (also inside atan2, sqrt) to 4 significant digits."""
+    if e.is_number:
+        return e.evalf(4)
+    if not e.args:
+        return e
+    return e.func(*[_nfy(a) for a in e.args])
+
+
 def _stage_view(st: Any, numeric: bool) -> Stage:
     """A stage of the elimination with its long numbers shortened (numeric data: to 4 digits), for the report."""
     ops = 8 if numeric else 40
@@ -380,7 +390,7 @@ def solve_kinematics(problem, options: KinematicsAsk, ctx) -> Solution:  # type:
         if m <= SYMBOLIC_INVERSE and dJ != 0:
             add("J_inv", _inverse(J, dJ), "matrix", label="J^{-1}(q)")
     elif not square and geo.n_minors(m, len(spec.wrt)) <= geo.MAX_MINORS and wrt_q and m <= 4 \
-            and options.singularities != "geometric":
+            and options.singularities != "geometric" and sp.count_ops(J) <= MINOR_OPS:
         mins = geo.minors(J)
         for cols, v in mins.items():
             add(_minor_name(cols), v, "scalar", label="\\det J_{" + ",".join(map(str, cols)) + "}")
@@ -395,7 +405,7 @@ def solve_kinematics(problem, options: KinematicsAsk, ctx) -> Solution:  # type:
     w_sym = None
     if wrt_q and square and dJ is not None:
         w_sym = sp.Abs(sp.factor_terms(dJ))
-    elif wrt_q and m < n and m <= 3 and n <= 4 and sp.count_ops(J) <= SYMBOLIC_MANIP_OPS:
+    elif wrt_q and m < n and m <= 3 and n <= 4 and sp.count_ops(J) <= MINOR_OPS:
         dd = geo.det((J * J.T).applyfunc(tidy))
         w_sym = sp.sqrt(sp.factor(dd)) if sp.count_ops(dd) <= SYMBOLIC_MANIP_OPS else None
     if w_sym is not None:
@@ -441,7 +451,8 @@ def _singularities(sol: Solution, add, spec: _Spec, J, Jg, dJ, mins, rank_generi
     if rank_generic < min(M.shape) and not use_geo:
         sol.step("singular_everywhere", rank=rank_generic, m=M.shape[0], n=M.shape[1])
         return
-    if d is not None and sp.count_ops(d) > geo.MAX_DET_OPS:
+    size = sp.count_ops(d) if d is not None else sum(sp.count_ops(v) for v in mn.values())
+    if size > geo.MAX_DET_OPS or (d is None and size > geo.MAX_DET_OPS // 5):
         sol.step("singular_skipped", m=M.shape[0], n=M.shape[1])
         return
     sing = geo.singular_configurations(M, spec.q, spec.joints, spec.problem.values, dmat=d, mins=mn or None)
@@ -527,64 +538,107 @@ def _at_configuration(sol: Solution, add, spec: _Spec, J, Jg, JtF, dJ, mins) -> 
 
 
 def _inverse_kinematics(sol: Solution, add, spec: _Spec) -> list:  # type: ignore[no-untyped-def]
+    """f(q) = r_d by elimination. With numeric data the system is solved for a symbolic target (and symbolic
+    parameters), then the numbers are substituted in each family: the algebra stays exact and fast, and the
+    families that are not real at the target are the missing solutions."""
     problem = spec.problem
     q = spec.q
     target = spec.target
     params = set(problem.symbols.values())
     numeric = not (target.free_symbols - params) and all(s in problem.values for s in
                                                           (target.free_symbols | spec.r.free_symbols) - set(q))
-    r, tg = spec.r, target
     if numeric:
-        r = r.subs(problem.values)
-        tg = tg.subs(problem.values)
-    eqs = [r[i] - tg[i] for i in range(spec.m)]
+        goal = sp.Matrix([sp.Dummy(f"r{i + 1}", real=True) for i in range(spec.m)])
+    else:
+        goal = target
+    eqs = [spec.r[i] - goal[i] for i in range(spec.m)]
     prismatic = [x for x, j in zip(q, spec.joints) if j == "P"]
-    solver = Solver(q, prismatic)
-    fams = solver.solve(eqs)
+    fams = Solver(q, prismatic).solve(eqs)
     closed = [f for f in fams if not f.pending]
-    symbols_t = [s for s in tg if isinstance(s, sp.Symbol) and s not in params]
-    sampler = None
-    if not numeric:
-        others = sorted(set().union(*[e.free_symbols for e in eqs]) - set(q) - set(symbols_t), key=lambda s: s.name)
-        plain = len(symbols_t) == len(list(tg)) and len(set(symbols_t)) == len(symbols_t)
+    symbols_t = [s for s in goal if isinstance(s, sp.Symbol) and s not in params]
+    others = sorted(set().union(*[e.free_symbols for e in eqs]) - set(q) - set(symbols_t), key=lambda s: s.name)
+    plain = len(symbols_t) == spec.m and len(set(symbols_t)) == spec.m
 
-        def sampler(rng: random.Random) -> dict:  # type: ignore[no-redef]
-            pt = geo._param_point(rng, others, problem.values)
-            if plain:
-                qs = {x: (rng.uniform(-3.0, 3.0) if j == "R" else rng.uniform(-1.5, 1.5))
-                      for x, j in zip(q, spec.joints)}
-                for s, e in zip(tg, spec.r):
-                    pt[s] = float(sp.N(e.subs({**pt, **qs})))
-            return pt
+    def sampler(rng: random.Random) -> dict:
+        pt = geo._param_point(rng, others, {} if numeric else problem.values)
+        if plain:
+            qs = {x: (rng.uniform(-3.0, 3.0) if j == "R" else rng.uniform(-1.5, 1.5)) for x, j in zip(q, spec.joints)}
+            for s_, e in zip(goal, spec.r):
+                pt[s_] = float(sp.N(e.subs({**pt, **qs})))
+        return pt
     kept = check_families(closed, eqs, q, sampler)
-    sols = [sp.Matrix([f.values[x] for x in q]) for f in kept]
+    stages = kept[0].stages if kept else (fams[0].stages if fams else [])
     if numeric:
-        sols = [s.applyfunc(lambda x: _num(sp.sympify(x))) for s in sols]
-        if any(sp.count_ops(x) > 30 for s in sols for x in s):  # exact but unreadable: 15 digits
-            sols = [s.applyfunc(lambda x: sp.Float(sp.N(x, 15), 15)) for s in sols]
+        at = {**problem.values, **dict(zip(goal, target.subs(problem.values)))}
+        sols = _numeric_solutions(kept, q, spec, at)
+        def ev(e: Any) -> Any:  # display: the numbers substituted and evaluated (exact substitution is slow)
+            if isinstance(e, sp.MatrixBase):
+                return e.applyfunc(ev)
+            if isinstance(e, sp.Basic):
+                out = _nfy(e.xreplace(at))
+                return out.xreplace({f: sp.Integer(0) for f in out.atoms(sp.Float) if abs(f) < 1e-12})
+            return e
+        stages = [Stage(st.unknown, st.method, [ev(e) for e in st.equations], [ev(v) for v in st.values],
+                        {k: ev(v) for k, v in st.data.items()}) for st in stages]
+        free = [[] for _ in sols]
+    else:
+        sols = [sp.Matrix([f.values[x] for x in q]) for f in kept]
+        free = [f.free for f in kept]
     complete = all(not f.pending for f in fams)
     if complete:
         add("ik", sols, "set", label="q \\text{ with } f(q) = r_d")
         add("n_ik", sp.Integer(len(sols)), "number", label="\\#\\text{solutions}")
-    stages = kept[0].stages if kept else (fams[0].stages if fams else [])
-    branch_values = {}
-    for f in kept:
-        for st in f.stages:
-            if st.unknown is not None:
-                branch_values.setdefault(st.unknown, st)
     sol.step("ik", target=target, eqs=[sp.Eq(spec.r[i], target[i]) for i in range(spec.m)],
-             stages=[_stage_view(s, numeric) for s in stages],
+             stages=[_stage_view(s_, numeric) for s_ in stages],
              solutions=sols, numeric=numeric, complete=complete, dropped=len(closed) - len(kept),
-             nums=[_display(s) for s in sols], free=[f.free for f in kept],
-             radicals=any(x.atoms(sp.Pow) and any(p.exp.is_Rational and p.exp.q == 2 for p in x.atoms(sp.Pow))
-                          for s in sols for x in s),
+             nums=[_display(s_) for s_ in sols], free=free,
+             radicals=any(any(p.exp.is_Rational and p.exp.q == 2 for p in x.atoms(sp.Pow)) for s_ in sols for x in s_),
              pending=[f.pending for f in fams if f.pending])
     confs = []
-    if numeric or not sols:
-        for k, s in enumerate(sols, 1):
-            if not s.free_symbols:
-                confs.append((f"solution {k}", dict(zip(q, s))))
+    if numeric:
+        for k, s_ in enumerate(sols, 1):
+            confs.append((f"solution {k}", dict(zip(q, s_))))
     return confs
+
+
+def _numeric_solutions(fams: list, q: list, spec: _Spec, at: dict) -> list[sp.Matrix]:
+    """The real solutions at the numeric target: each family evaluated, checked on f(q) = r_d, duplicates (modulo
+    2π) dropped; a value is given exactly when it is a short exact number (π/3, 1/2, √2), else to 15 digits."""
+    out: list[sp.Matrix] = []
+    seen: list[np.ndarray] = []
+    syms = sorted(at, key=lambda s: s.name)
+    point = [complex(sp.N(at[s])) for s in syms]
+    r_num = np.array([complex(sp.N(e.subs(at))) for e in spec.target], dtype=complex)
+    task_f = numeric_function(list(spec.r), list(q) + syms)
+    rev = np.array([j == "R" for j in spec.joints])
+    for fam in fams:
+        zs = numeric_function([fam.values[x] for x in q], syms)(*point)
+        if any(not np.isfinite(z) or abs(z.imag) > 1e-9 * max(1.0, abs(z.real)) for z in zs):
+            continue
+        num = np.array([z.real for z in zs])
+        diff = np.array(task_f(*num, *point)) - r_num
+        for k in range(len(diff)):  # angles in the task (φ) compare modulo 2π
+            d = diff[k].real / (2 * np.pi)
+            if abs(diff[k]) > 1e-7 and abs(d - round(d)) < 1e-9:
+                diff[k] = 0
+        if np.max(np.abs(diff)) > 1e-7 * max(1.0, float(np.max(np.abs(r_num)))):
+            continue
+        if any(np.all(np.where(rev, np.abs(np.angle(np.exp(1j * (num - s0)))), np.abs(num - s0)) < 1e-8) for s0 in seen):
+            continue
+        seen.append(num)
+        out.append(sp.Matrix([_exact_or_float(v) for v in num]))
+    return out
+
+
+def _exact_or_float(x: float) -> sp.Expr:
+    """A short exact number equal to x to 1e-12 (0, π/3, √3/2), else x to 15 digits."""
+    try:
+        e = sp.nsimplify(x, [sp.pi], tolerance=1e-13, rational=False)
+    except (ValueError, TypeError):
+        e = None
+    if e is not None and sp.count_ops(e) <= 6 and abs(float(sp.N(e)) - x) < 1e-12 * max(1.0, abs(x)):
+        return e
+    return sp.Integer(0) if abs(x) < 1e-14 else sp.Float(x, 15)
 
 
 def _sketch(sol: Solution, problem, spec: _Spec, ik_confs: list) -> None:  # type: ignore[no-untyped-def]

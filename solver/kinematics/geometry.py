@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from solver.spec.robot import Robot
 
 MAX_MINORS = 10      # m×m minors of a non-square Jacobian computed symbolically
-MAX_DET_OPS = 20000  # determinants larger than this are not factored
+MAX_DET_OPS = 1500   # determinants (or sums of minors) larger than this are not solved for singularities
 
 
 # ------------------------------------------------------------------------------------------------ frames
@@ -138,8 +138,12 @@ def det(M: sp.Matrix) -> sp.Expr:
         ocols = [j for j in range(n) if j not in cols]
         perm = _signature(rows + orows) * _signature(cols + ocols)
         return tidy(perm * det(M.extract(rows, cols)) * det(M.extract(orows, ocols)))
-    if n <= 3:
-        return tidy(M.det(method="berkowitz"))
+    if n == 2:
+        return tidy(M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0])
+    if n == 3:  # the rule of Sarrus, unexpanded: tidy's canonical form does the algebra
+        a = M
+        return tidy(a[0, 0] * (a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]) - a[0, 1] * (a[1, 0] * a[2, 2] - a[1, 2] * a[2, 0])
+                    + a[0, 2] * (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]))
     # Laplace expansion along the sparsest row or column
     zr = [(sum(1 for j in range(n) if M[i, j] == 0), ("r", i)) for i in range(n)]
     zc = [(sum(1 for i in range(n) if M[i, j] == 0), ("c", j)) for j in range(n)]
@@ -292,8 +296,14 @@ def singular_configurations(J: sp.Matrix, q: Sequence[sp.Symbol], joints: Sequen
 
 
 # ------------------------------------------------------------------------------------------------ at a configuration
+_TRANSCENDENTAL = (sp.sin, sp.cos, sp.tan, sp.atan, sp.atan2, sp.asin, sp.acos, sp.exp, sp.log)
+
+
 def is_exact(M: sp.Matrix) -> bool:
-    return all(not x.free_symbols and not x.atoms(sp.Float) for x in M)
+    """Exact algebraic numbers (rationals, radicals; π only inside trig functions that evaluate away): rank decisions
+    are then exact. A transcendental entry (cos(1/10)) or a float goes to the SVD with a tolerance."""
+    return all(not x.free_symbols and not x.atoms(sp.Float) and not x.atoms(*_TRANSCENDENTAL) and not x.has(sp.pi)
+               for x in M)
 
 
 def to_np(M: sp.Matrix) -> np.ndarray:

@@ -26,6 +26,7 @@ and the work is bounded (number of branches, equation size).
 """
 from __future__ import annotations
 
+import cmath
 import itertools
 import random
 from dataclasses import dataclass, field
@@ -37,6 +38,7 @@ from solver.math.simplify import tidy
 
 MAX_FAMILIES = 32
 MAX_OPS = 400  # equations larger than this are not eliminated symbolically
+MAX_NODES = 120  # elimination steps explored per system
 
 
 @dataclass
@@ -91,7 +93,8 @@ class Solver:
     def clean(e: sp.Expr) -> sp.Expr:
         """An equation in canonical form, numeric factors and common known factors dropped when cheap."""
         e = sp.sympify(e)
-        if e.atoms(sp.sqrt, sp.atan2, sp.Abs) or sp.count_ops(e) > MAX_OPS:
+        if e.atoms(sp.atan2, sp.Abs) or any(p.exp.is_Rational and not p.exp.is_Integer for p in e.atoms(sp.Pow)) \
+                or sp.count_ops(e) > MAX_OPS or not _canonical_trig(e):
             e = sp.expand(e)
         else:
             e = tidy(e)
@@ -106,11 +109,14 @@ class Solver:
         eqs = [self.clean(e) for e in equations]
         eqs = [e for e in eqs if e != 0]
         out: list[Family] = []
+        self.nodes = 0
         self._search(_Node(eqs, list(self.unknowns), {}, []), out)
         return out
 
     def _search(self, node: _Node, out: list[Family]) -> None:
-        if len(out) >= self.max_families:
+        self.nodes += 1
+        if len(out) >= self.max_families or self.nodes > MAX_NODES:
+            out.append(self._family(node, list(node.eqs)))  # out of budget: left implicit
             return
         eqs = []
         for e in node.eqs:
@@ -230,7 +236,11 @@ class Solver:
         poly = _cs_poly(e, x, C, S)
         if poly is None:
             return None
-        factors = [f for f, _ in sp.factor_list(poly)[1]] if poly.free_symbols else [poly]
+        try:
+            linear = sp.Poly(poly, C, S).total_degree() <= 1
+        except sp.PolynomialError:
+            return None
+        factors = [f for f, _ in sp.factor_list(poly)[1]] if poly.free_symbols and not linear else [poly]
         factors = [f for f in factors if f.has(C) or f.has(S)] or [poly]
         values: list[sp.Expr] = []
         data: dict[str, Any] = {"method": "trig"}
@@ -345,6 +355,31 @@ class Solver:
 
 
 # ------------------------------------------------------------------------------------------------ algebra
+def _canonical_trig(e: sp.Expr) -> bool:
+    """Every sin/cos argument is an integer combination of symbols plus a multiple of π/2 (tidy's fast form)."""
+    for f in e.atoms(sp.sin, sp.cos):
+        for t, c in f.args[0].as_coefficients_dict().items():
+            if t is sp.pi:
+                if not (2 * c).is_Integer:
+                    return False
+            elif not (t.is_Symbol and c.is_Integer):
+                return False
+    return True
+
+
+def freeze_constants(eqs: Sequence[sp.Expr]) -> tuple[list[sp.Expr], dict[sp.Symbol, sp.Expr]]:
+    """sin/cos of numbers that are not multiples of π/2 (cos(1/2)) replaced by symbols, so that the elimination
+    stays in exact, fast algebra; returns the equations and {symbol: value}."""
+    back: dict[sp.Symbol, sp.Expr] = {}
+    rep: dict[sp.Expr, sp.Symbol] = {}
+    for e in eqs:
+        for f in e.atoms(sp.sin, sp.cos):
+            if not f.free_symbols and not _canonical_trig(f) and f not in rep:
+                d = sp.Dummy(f"k{len(rep)}", real=True)
+                rep[f], back[d] = d, f
+    return [e.xreplace(rep) for e in eqs], back
+
+
 def _short(v: sp.Expr) -> bool:
     """Values substituted into the remaining equations (else kept as a symbol there)."""
     if v.is_number and not v.atoms(sp.Float):
@@ -772,6 +807,29 @@ def _from_half_tangent(F: sp.Expr, ts: list[sp.Symbol], angles: list[sp.Symbol],
 Sampler = Callable[[random.Random], dict[sp.Symbol, float]]
 
 
+def _atan2c(y: complex, x: complex) -> complex:
+    y, x = complex(y), complex(x)
+    if abs(y.imag) > 1e-9 * max(1.0, abs(y)) or abs(x.imag) > 1e-9 * max(1.0, abs(x)):
+        return complex("nan")
+    return complex(cmath.phase(complex(x.real, y.real)))
+
+
+_MODULES = [{"atan2": _atan2c, "sqrt": cmath.sqrt, "Abs": abs, "atan": cmath.atan, "acos": cmath.acos,
+             "asin": cmath.asin}, "cmath"]
+
+
+def numeric_function(exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> Callable[..., list[complex]]:
+    """exprs as a fast complex-valued function of ``symbols`` (cmath; atan2 of non-real arguments is nan)."""
+    f = sp.lambdify(list(symbols), list(exprs), modules=_MODULES)
+
+    def call(*args: float) -> list[complex]:
+        try:
+            return [complex(v) for v in f(*args)]
+        except (ValueError, ZeroDivisionError, TypeError, OverflowError):
+            return [complex("nan")] * len(exprs)
+    return call
+
+
 def evaluate(v: sp.Expr, point: dict[sp.Symbol, float]) -> complex | None:
     try:
         val = complex(sp.N(v.subs(point), 20))
@@ -786,32 +844,29 @@ def check_families(families: list[Family], equations: Sequence[sp.Expr], unknown
     them when the data are numbers: then at the one point), each marked ``verified``; duplicates dropped."""
     rng = random.Random(2024)
     points = [sampler(rng) for _ in range(trials)] if sampler else [{}]
+    syms = sorted(set().union(*[e.free_symbols for e in equations], *[set(p) for p in points]) - set(unknowns),
+                  key=lambda s: s.name)
+    eq_f = numeric_function(equations, list(unknowns) + syms)
     kept: list[tuple[Family, list]] = []
     for fam in families:
+        free_syms = [x for x in fam.free]
+        val_f = numeric_function([fam.values[x] for x in unknowns], syms + free_syms)
         ok, sig = False, []
         for pt in points:
             pt = dict(pt)
-            for x in fam.free:
+            for x in free_syms:
                 pt.setdefault(x, rng.uniform(-2.5, 2.5))
-            vals = {}
-            real = True
-            for x in unknowns:
-                z = evaluate(fam.values[x], pt)
-                if z is None or abs(z.imag) > 1e-9 * max(1.0, abs(z.real)):
-                    real = False
-                    break
-                vals[x] = z.real
-            if not real:
+            zs = val_f(*[pt.get(s, 0.0) for s in syms], *[pt[x] for x in free_syms])
+            if any(not cmath.isfinite(z) or abs(z.imag) > 1e-9 * max(1.0, abs(z.real)) for z in zs):
                 sig.append(None)
                 continue
-            full = {**pt, **vals}
-            res = [evaluate(e, full) for e in equations]
-            good = all(r is not None and abs(r) < tol * max(1.0, _scale(e, full)) for r, e in zip(res, equations))
+            vals = [z.real for z in zs]
+            res = eq_f(*vals, *[pt.get(s, 0.0) for s in syms])
+            scale = max([1.0] + [abs(v) for v in vals] + [abs(pt.get(s, 0.0)) for s in syms]) ** 3
+            good = all(cmath.isfinite(r) and abs(r) < tol * scale for r in res)
             ok = ok or good
-            sig.append(tuple(vals[x] for x in unknowns) if good else None)
-        if sampler is None and not ok:
-            continue
-        if sampler is not None and not ok:
+            sig.append(tuple(vals) if good else None)
+        if not ok:
             continue
         fam.verified = True
         if any(_same(sig, s2, unknowns) for _, s2 in kept):
