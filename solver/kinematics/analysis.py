@@ -23,7 +23,7 @@ from pydantic import Field, model_validator
 from solver.kinematics import geometry as geo
 from solver.kinematics.sketch import robot_sketch, skeleton
 from solver.math.simplify import tidy
-from solver.math.trigsolve import Solver, Stage, check_families, numeric_function
+from solver.math.trigsolve import Solver, Stage, check_families, numeric_function, trig_factors
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
 from solver.spec.errors import UserError
@@ -407,7 +407,10 @@ def solve_kinematics(problem, options: KinematicsAsk, ctx) -> Solution:  # type:
         w_sym = sp.Abs(sp.factor_terms(dJ))
     elif wrt_q and m < n and m <= 3 and n <= 4 and sp.count_ops(J) <= MINOR_OPS:
         dd = geo.det((J * J.T).applyfunc(tidy))
-        w_sym = sp.sqrt(sp.factor(dd)) if sp.count_ops(dd) <= SYMBOLIC_MANIP_OPS else None
+        if sp.count_ops(dd) <= SYMBOLIC_MANIP_OPS:
+            c, facs = trig_factors(dd)
+            w_sym = sp.sqrt(geo.factored(c, facs))
+            w_sym = w_sym if len(str(w_sym)) <= 90 else None  # a long radicand says nothing: only at a configuration
     if w_sym is not None:
         add("manipulability", w_sym, "scalar", label="w(q)")
         sol.step("manipulability", w=w_sym, square=square)

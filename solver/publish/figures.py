@@ -43,7 +43,9 @@ def draw(fig: Figure, path: Path) -> None:
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     f.tight_layout()
-    kwargs = {"metadata": {"CreationDate": None}} if path.suffix == ".pdf" else {}
+    kwargs: dict = {"metadata": {"CreationDate": None}} if path.suffix == ".pdf" else {}
+    if any(p.sketch is not None for p in fig.panels):
+        kwargs["bbox_inches"] = "tight"  # the legend sits above the drawing
     f.savefig(path, dpi=130, **kwargs)
     plt.close(f)
 
@@ -93,7 +95,9 @@ def _draw_pose(ax, pose: RobotPose, color: str, L: float, z: int) -> None:  # ty
         if kind == "P":
             ux, uy = pose.slides[i] or _unit(x1 - x0, y1 - y0)
             ax.plot([x0, x1], [y0, y1], color=color, lw=2.6, solid_capstyle="butt", zorder=z)
-            # the sleeve: a box along the sliding direction at the joint
+            # the sleeve: a box along the sliding direction at the joint (a first joint: the cart on the rail)
+            if i == 0:
+                x0, y0 = x1, y1
             h, w = 0.09 * L, 0.035 * L
             nx, ny = -uy, ux
             box = [(x0 - ux * h / 2 + nx * w, y0 - uy * h / 2 + ny * w), (x0 + ux * h / 2 + nx * w, y0 + uy * h / 2 + ny * w),
@@ -177,5 +181,5 @@ def draw_sketch(ax, sk: Sketch) -> None:  # type: ignore[no-untyped-def]
     ax.grid(True, alpha=0.25)
     if handles or any(c.label for c in sk.paths):
         extra = [h for h in ax.get_lines() if h.get_label() and not h.get_label().startswith("_")]
-        ax.legend(handles=handles + extra, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13),
-                  ncol=min(3, len(handles) + len(extra)), frameon=False)
+        ax.legend(handles=handles + extra, fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.01),
+                  ncol=min(2, len(handles) + len(extra)), frameon=False)
