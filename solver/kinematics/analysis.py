@@ -327,7 +327,7 @@ def solve_kinematics(problem, options: KinematicsAsk, ctx) -> Solution:  # type:
                  convention=robot.dh_convention, point=options.point is not None, planar=spec.planar,
                  p=spec.point_base)
     add("p", spec.r, "vector", label="r(q)" if spec.task_kind == "expressions" else "p(q)")
-    wrt_q = options.wrt is None
+    wrt_q = list(spec.wrt) == list(q)  # derivatives with respect to the joint coordinates
     J = geo.analytic_jacobian(spec.r, spec.wrt)
     add("J", J, "matrix", label="J(q)")
     sol.step("task", r=spec.r, J=J, kind=spec.task_kind, wrt=sp.Matrix(spec.wrt), m=m, nw=len(spec.wrt),
@@ -384,7 +384,7 @@ def solve_kinematics(problem, options: KinematicsAsk, ctx) -> Solution:  # type:
     square = m == len(spec.wrt)
     dJ = None
     mins: dict = {}
-    if square and (m <= 4 or wrt_q):
+    if square and wrt_q:
         dJ = geo.det(J)
         add("det_J", sp.factor_terms(dJ), "scalar", label="\\det J(q)")
         if m <= SYMBOLIC_INVERSE and dJ != 0:
