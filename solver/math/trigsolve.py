@@ -830,14 +830,6 @@ def numeric_function(exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> 
     return call
 
 
-def evaluate(v: sp.Expr, point: dict[sp.Symbol, float]) -> complex | None:
-    try:
-        val = complex(sp.N(v.subs(point), 20))
-    except (TypeError, ValueError, ZeroDivisionError):
-        return None
-    return val
-
-
 def check_families(families: list[Family], equations: Sequence[sp.Expr], unknowns: Sequence[sp.Symbol],
                    sampler: Sampler | None, trials: int = 6, tol: float = 1e-7) -> list[Family]:
     """Keep the families whose values satisfy every equation at some sample point where they are real (all of
@@ -873,12 +865,6 @@ def check_families(families: list[Family], equations: Sequence[sp.Expr], unknown
             continue
         kept.append((fam, sig))
     return [f for f, _ in kept]
-
-
-def _scale(e: sp.Expr, pt: dict) -> float:
-    vals = [abs(v) for v in pt.values()]
-    return max(vals + [1.0]) ** max(1, int(sp.Poly(e, *e.free_symbols).total_degree())
-                                     if not e.atoms(sp.sin, sp.cos, sp.sqrt, sp.atan2) and e.free_symbols else 2)
 
 
 def _same(a: list, b: list, unknowns: Sequence[sp.Symbol]) -> bool:
