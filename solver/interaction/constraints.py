@@ -20,6 +20,7 @@ Freezing coordinates (``freeze: {q_b: q_b,d}``) is the special case h = q_b − 
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass, field
 from typing import Any, Literal, Optional, Union
@@ -69,6 +70,7 @@ class ConstrainedDynamicsAsk(Strict):
         None, description="frozen coordinates {q3: q3d, ...}: h = q_b - q_b,d, D selects the other coordinates")
     D: Optional[ExprT] = Field(None, description="the complement D(q), (n-k) x n with [A; D] invertible; default: "
                                                  "chosen by selecting n-k coordinates (said in the report)")
+    multiplier: bool = Field(True, description="give λ(q, dq, u), A_B^# and the projected model symbolically")
     reduced: bool = Field(True, description="derive the reduced model (D, E, F, pseudo-velocities)")
     v: Optional[list[str]] = Field(None, description="names of the pseudo-velocities (default v, or v1..; the "
                                                      "selected joint velocities when D selects coordinates)")
@@ -94,33 +96,101 @@ class ConstrainedDynamicsAsk(Strict):
 
 
 # ------------------------------------------------------------------------------------------------ algebra
+MAX_CANCEL_OPS = 150  # denominators factored (to cancel their factors in the numerator) up to this size
+
+
+def _atom_power(terms: list[sp.Expr], f: sp.Expr) -> int:
+    """The largest k with f^k dividing every term (f a symbol or a sin/cos)."""
+    k = None
+    for t in terms:
+        e = t.as_powers_dict().get(f, 0)
+        if not (isinstance(e, sp.Integer) or isinstance(e, int)) or e <= 0:
+            return 0
+        k = int(e) if k is None else min(k, int(e))
+    return k or 0
+
+
+def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
+    """(n / f^j, j) for the largest j <= e with f^j dividing n: for an atom f (symbol, sin, cos) by exponents of
+    the terms of n (in its own form, then in product form for sin/cos when n is small), otherwise by polynomial
+    division (small n only)."""
+    small = sp.count_ops(n) <= MAX_CANCEL_OPS * 4
+    forms = [n] + ([sp.expand(sp.expand_trig(n))] if small and isinstance(f, (sp.sin, sp.cos)) else [])
+    for form in forms:
+        terms = list(sp.Add.make_args(sp.expand(form)))
+        if f.is_Symbol or isinstance(f, (sp.sin, sp.cos)):
+            j = min(_atom_power(terms, f), e)
+            if j:
+                return sp.Add(*[t / f ** j for t in terms]), j
+            continue
+        if not small:
+            break
+        out, j = sp.Add(*terms), 0
+        while j < e:
+            try:
+                quo, rem = sp.div(out, f)
+            except (sp.PolynomialError, sp.CoercionFailed, sp.GeneratorsNeeded, sp.ComputationFailed):
+                break
+            if sp.expand(rem) != 0:
+                break
+            out, j = quo, j + 1
+        if j:
+            return out, j
+    return n, 0
+
+
+def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
+    """n/d for trigonometric polynomials n, d: both tidied, the factors of d that divide n cancelled (d factored
+    when small; no multivariate gcd, which is far too slow on these expressions), the sign in the numerator."""
+    n1, n2 = sp.fraction(sp.together(sp.sympify(n)))
+    d1, d2 = sp.fraction(sp.together(sp.sympify(d)))
+    n = tidy(sp.expand(n1 * d2))
+    if n == 0:
+        return sp.Integer(0)
+    d = tidy(sp.expand(n2 * d1))
+    if d == 1:
+        return n
+    if d.is_number:
+        return tidy(n / d)
+    if sp.count_ops(d) <= MAX_CANCEL_OPS and sp.count_ops(n) <= MAX_CANCEL_OPS * 10:
+        coeff, factors = sp.factor_list(d)
+        rest = sp.Integer(coeff)
+        for f, e in factors:
+            j = 0
+            if f.free_symbols:
+                n, j = _divide_out(n, f, e)
+            rest *= f ** (e - j)
+        n = tidy(sp.expand(n))
+        d = rest
+        if d.is_number:
+            return tidy(n / d)
+    if d.could_extract_minus_sign():
+        n, d = -n, -d
+    return _common(n) / _common(d)
+
+
+def _common(e: sp.Expr) -> sp.Expr:
+    """Common factors pulled out (factor_terms), the arguments of sin/cos kept expanded (2 q1 + 2 q2)."""
+    return sp.factor_terms(e).replace(lambda x: isinstance(x, (sp.sin, sp.cos)) and not x.args[0].is_Add
+                                      and not x.args[0].is_Symbol, lambda x: x.func(sp.expand(x.args[0])))
+
+
 def rtidy(e: sp.Expr) -> sp.Expr:
-    """A ratio of trigonometric polynomials: numerator and denominator tidied, common factors cancelled."""
+    """A ratio of trigonometric polynomials simplified by :func:`ratio` (small expressions)."""
     e = sp.sympify(e)
     if not e.free_symbols:
         return sp.nsimplify(e) if e.atoms(sp.Float) else sp.simplify(e)
     num, den = sp.fraction(sp.together(e))
-    n, d = tidy(sp.expand(num)), tidy(sp.expand(den))
-    if n == 0:
-        return sp.Integer(0)
-    if d == 1:
-        return n
-    try:
-        g = sp.gcd(n, d)
-    except (sp.PolynomialError, sp.CoercionFailed, sp.GeneratorsNeeded):
-        g = sp.Integer(1)
-    if g != 1 and g != 0:
-        n2, d2 = sp.fraction(sp.cancel(n / g) / sp.cancel(d / g))
-        n, d = tidy(sp.expand(n2)), tidy(sp.expand(d2))
-    if d.could_extract_minus_sign():
-        n, d = -n, -d
-    if d == 1:
-        return n
-    return sp.factor_terms(n) / sp.factor_terms(d)
+    return ratio(num, den)
 
 
 def rtidy_matrix(M: sp.Matrix) -> sp.Matrix:
     return M.applyfunc(rtidy)
+
+
+def over(N: sp.Matrix, d: sp.Expr) -> sp.Matrix:
+    """The matrix N/d, entry by entry with :func:`ratio`."""
+    return N.applyfunc(lambda x: ratio(x, d))
 
 
 def time_derivative(M: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol]) -> sp.Matrix:
@@ -133,9 +203,12 @@ def _ops(*mats: sp.Matrix | None) -> int:
 
 
 def _zero(e: sp.Expr) -> bool:
-    z = is_zero(e)
+    """Identically zero: the randomized exact test (rational points, trigonometric identities exact), else
+    30-digit evaluation at random points (:mod:`solver.math.equivalence`)."""
+    from solver.math.equivalence import exact_zero, numeric_zero
+    z = exact_zero(e)
     if z is None:
-        z = sp.simplify(e) == 0
+        z = numeric_zero(e)
     return bool(z)
 
 
@@ -152,18 +225,20 @@ class Multiplier:
 
 def multiplier(B: sp.Matrix, nvec: sp.Matrix, Gu: sp.Matrix, A: sp.Matrix, Adot: sp.Matrix, dq: list[sp.Symbol],
                ddq: list[sp.Symbol]) -> Multiplier:
-    """λ = adj(W')(A adj(B)(n − G u) − det(B) Ȧ q̇)/det(W'), A_B^# = adj(B) Aᵀ adj(W')/det(W'), W' = A adj(B) Aᵀ."""
-    adjB, detB = B.adjugate(), tidy(B.det())
-    Wp = (A * adjB * A.T).applyfunc(tidy)
-    detW = tidy(Wp.det())
+    """With W' = A adj(B) Aᵀ = det(B) A B⁻¹ Aᵀ (every entry a polynomial):
+    λ = adj(W')(A adj(B)(n − G u) − det(B) Ȧ q̇)/det W',  A_B^# = adj(B) Aᵀ adj(W')/det W',
+    P = (det W' I − Aᵀ (adj(B) Aᵀ adj(W'))ᵀ)/det W'."""
+    adjB, detB = B.adjugate().applyfunc(tidy), tidy(B.det())
+    Wp = (A * adjB * A.T).applyfunc(lambda x: tidy(sp.expand(x)))
+    detW = tidy(sp.expand(Wp.det()))
     adjW = Wp.adjugate() if Wp.rows > 1 else sp.Matrix([[1]])
-    lam = (adjW * (A * adjB * (nvec - Gu) - detB * Adot * sp.Matrix(dq))).applyfunc(lambda x: rtidy(x / detW))
-    pinv = (adjB * A.T * adjW).applyfunc(lambda x: rtidy(x / detW))
+    dqv = sp.Matrix(dq)
+    lam = over(adjW * (A * adjB * (nvec - Gu) - detB * Adot * dqv), detW)
+    Npinv = (adjB * A.T * adjW).applyfunc(lambda x: tidy(sp.expand(x)))
     n = B.rows
-    P = rtidy_matrix(sp.eye(n) - A.T * pinv.T)
-    model = (B * sp.Matrix(ddq) - P * (Gu - nvec) + B * pinv * Adot * sp.Matrix(dq)).applyfunc(rtidy)
-    W = (Wp / detB).applyfunc(rtidy)
-    return Multiplier(W, lam, pinv, P, model)
+    NP = (detW * sp.eye(n) - A.T * Npinv.T).applyfunc(lambda x: tidy(sp.expand(x)))
+    model = over(detW * B * sp.Matrix(ddq) - NP * (Gu - nvec) + B * Npinv * Adot * dqv, detW)
+    return Multiplier(over(Wp, detB), lam, over(Npinv, detW), over(NP, detW), model)
 
 
 def multiplier_numeric(B: sp.Matrix, nvec: sp.Matrix, Gu: sp.Matrix, A: sp.Matrix, Adot: sp.Matrix,
@@ -232,43 +307,68 @@ class Reduction:
     Etu: sp.Matrix
     on_v: dict[sp.Symbol, sp.Expr]   # q̇ -> F v
     model: sp.Matrix        # FᵀBF v̇ + Fᵀ(n + BḞv) − FᵀGu with q̇ = F v
+    vdot: sp.Matrix         # (FᵀBF)⁻¹ Fᵀ(Gu − n − BḞv) with q̇ = F v (the reduced model solved for v̇)
     lam: sp.Matrix          # Eᵀ(BFv̇ + BḞv + n − Gu) with q̇ = F v
+    NF: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 0))   # δ F
+    Fdv: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 0))  # δ³ Ḟ v along the constraint
+    n2: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 0))   # δ² n along the constraint
     singular: list[sp.Matrix] = field(default_factory=list)
     singular_every: bool = False
     singular_done: bool = False
 
 
-def reduce_model(B: sp.Matrix, nvec: sp.Matrix, Gu: sp.Matrix, A: sp.Matrix, D: sp.Matrix, q: list[sp.Symbol],
-                 dq: list[sp.Symbol], ddq: list[sp.Symbol], v: sp.Matrix, dv: sp.Matrix,
-                 frozen: dict[sp.Symbol, sp.Expr] | None = None) -> Reduction:
-    """The reduced model with the complement D (see the module doc). ``frozen``: q_b -> q_b,d substituted in the
-    reduced terms (on the constraint)."""
+def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None, Gu: sp.Matrix, A: sp.Matrix,
+                 D: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol], ddq: list[sp.Symbol], v: sp.Matrix,
+                 dv: sp.Matrix, frozen: dict[sp.Symbol, sp.Expr] | None = None) -> Reduction:
+    """The reduced model with the complement D (see the module doc), n = c + g + F_v q̇. ``frozen``: q_b -> q_b,d
+    substituted in the reduced terms (on the constraint).
+
+    Everything is written over powers of δ = det [A; D]: E = N_E/δ, F = N_F/δ, Ḟ = (Ṅ_F δ − N_F δ̇)/δ²; along the
+    constraint q̇ = N_F v/δ, so (with primes for Ṅ_F, δ̇ evaluated at q̇ = N_F v) Ḟ v = (Ṅ_F' δ − N_F δ̇') v/δ³ and
+    δ² n = δ² g + δ F_v N_F v + c(q, N_F v), whence numerators that are polynomials."""
     k = A.rows
     AD = A.col_join(D)
-    det = tidy(AD.det())
-    adj = AD.adjugate()
-    E = adj[:, :k].applyfunc(lambda x: rtidy(x / det))
-    F = adj[:, k:].applyfunc(lambda x: rtidy(x / det))
+    det = tidy(sp.expand(AD.det()))
+    adj = AD.adjugate().applyfunc(lambda x: tidy(sp.expand(x)))
+    NE, NF = adj[:, :k], adj[:, k:]
     dqv, ddqv = sp.Matrix(dq), sp.Matrix(ddq)
-    Fdot = rtidy_matrix(time_derivative(F, q, dq))
-    v_def = (D * dqv).applyfunc(tidy)
-    dv_def = (D * ddqv + time_derivative(D, q, dq) * dqv).applyfunc(tidy)
-    qddot = (F * dv + Fdot * v).applyfunc(rtidy)
     fz = frozen or {}
 
-    def on(M: sp.Matrix) -> sp.Matrix:
-        return rtidy_matrix(M.xreplace(fz)) if fz else rtidy_matrix(M)
+    def z(M: sp.Matrix | sp.Expr) -> Any:
+        return M.xreplace(fz) if fz else M
 
-    BF = on(B * F)
-    FtBF, FtBFdot, Ftn, Ftu = on(F.T * B * F), on(F.T * B * Fdot), on(F.T * nvec), on(F.T * Gu)
-    EtBF, EtBFdot, Etn, Etu = on(E.T * B * F), on(E.T * B * Fdot), on(E.T * nvec), on(E.T * Gu)
+    E, F = over(NE, det), over(NF, det)
+    NFd, detd = time_derivative(NF, q, dq), tidy(sp.expand(time_derivative(sp.Matrix([[det]]), q, dq)[0]))
+    NFdot = NFd * det - NF * detd                       # Ḟ = NFdot/δ²
+    Fdot = over(NFdot, det ** 2)
+    v_def = (D * dqv).applyfunc(tidy)
+    dv_def = (D * ddqv + time_derivative(D, q, dq) * dqv).applyfunc(tidy)
+    qddot = over(NF * det * dv + NFdot * v, det ** 2)
+    nvec = c + g + (Fv * dqv if Fv is not None else sp.zeros(B.rows, 1))
+    Bz, NFz, NEz, detz, NFdotz = z(B), z(NF), z(NE), z(det), z(NFdot)
+    BF = over(Bz * NFz, detz)
+    FtBF = over(NFz.T * Bz * NFz, detz ** 2)
+    FtBFdot, EtBFdot = over(NFz.T * Bz * NFdotz, detz ** 3), over(NEz.T * Bz * NFdotz, detz ** 3)
+    Ftn, Ftu, Etn, Etu = over(z(NF.T * nvec), detz), over(z(NF.T * Gu), detz), over(z(NE.T * nvec), detz), \
+        over(z(NE.T * Gu), detz)
+    EtBF = over(NEz.T * Bz * NFz, detz ** 2)
+    # along the constraint: q̇ = N_F v/δ
+    w = NF * v
+    on_w = dict(zip(dq, w))
+    Fdv = z((NFd.xreplace(on_w) * det - NF * detd.xreplace(on_w)) * v)          # δ³ Ḟ v
+    n2 = z(det ** 2 * g + (det * Fv * w if Fv is not None else sp.zeros(B.rows, 1)) + c.xreplace(on_w))  # δ² n
+    Gz = z(Gu)
+    model = over(detz ** 2 * NFz.T * Bz * NFz * dv + NFz.T * Bz * Fdv + detz * NFz.T * n2
+                 - detz ** 3 * NFz.T * Gz, detz ** 4)
+    lam = over(detz ** 2 * NEz.T * Bz * NFz * dv + NEz.T * Bz * Fdv + detz * NEz.T * n2
+               - detz ** 3 * NEz.T * Gz, detz ** 4)
+    M = (NFz.T * Bz * NFz).applyfunc(lambda x: tidy(sp.expand(x)))   # δ² FᵀBF
+    adjM = M.adjugate() if M.rows > 1 else sp.eye(1)
+    vdot = over(adjM * (detz ** 3 * NFz.T * Gz - detz * NFz.T * n2 - NFz.T * Bz * Fdv),
+                tidy(sp.expand(M.det())) * detz ** 2)
     on_v = dict(zip(dq, F * v))
-    model = (FtBF * dv + FtBFdot * v + Ftn - Ftu).xreplace(on_v)
-    lam = (EtBF * dv + EtBFdot * v + Etn - Etu).xreplace(on_v)
-    if fz:
-        model, lam = model.xreplace(fz), lam.xreplace(fz)
     return Reduction(D, AD, det, E, F, v, dv, v_def, dv_def, Fdot, qddot, BF, FtBF, FtBFdot, Ftn, Ftu, EtBF,
-                     EtBFdot, Etn, Etu, on_v, rtidy_matrix(model), rtidy_matrix(lam))
+                     EtBFdot, Etn, Etu, on_v, model, vdot, lam, NF, Fdv, n2)
 
 
 @dataclass
@@ -474,14 +574,80 @@ def _singular(M: sp.Matrix, q: list[sp.Symbol], k: int) -> tuple[list[sp.Matrix]
     return configs, every, True
 
 
+class Atoms:
+    """Parameter-only sums and radicals ((yA - yB), sqrt(a^2 + b^2), I2 + m2 d2^2) replaced by symbols while
+    computing, so that they stay factors instead of being expanded into long polynomials; ``restore`` puts them
+    back into results and steps."""
+
+    def __init__(self, params: set[sp.Symbol]) -> None:
+        self.params = params
+        self.found: dict[sp.Expr, sp.Expr] = {}
+        self.back: dict[sp.Symbol, sp.Expr] = {}
+
+    def _atom(self, e: sp.Expr) -> sp.Expr:
+        if e.is_Add and e.could_extract_minus_sign():
+            return -self._atom(-e)
+        if e not in self.found:
+            d = sp.Dummy(f"p{len(self.found) + 1}", real=True, positive=True if e.is_positive else None)
+            self.found[e], self.back[d] = d, e
+        return self.found[e]
+
+    def _visit(self, e: sp.Expr) -> sp.Expr:
+        if not e.args:
+            return e
+        fs = e.free_symbols
+        if fs and fs <= self.params and (e.is_Add or (e.is_Pow and not e.exp.is_Integer)):
+            return self._atom(e)
+        return e.func(*[self._visit(a) for a in e.args])
+
+    def __call__(self, M: Any) -> Any:
+        if M is None:
+            return None
+        if isinstance(M, sp.MatrixBase):
+            return M.applyfunc(self._visit)
+        return self._visit(sp.sympify(M))
+
+    def restore(self, obj: Any) -> Any:
+        """``obj`` (sympy objects, dataclasses, dicts, lists) with the parameters put back."""
+        if not self.back:
+            return obj
+        if isinstance(obj, (sp.Basic, sp.MatrixBase)):
+            return obj.xreplace(self.back)
+        if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+            return dataclasses.replace(obj, **{f.name: self.restore(getattr(obj, f.name))
+                                               for f in dataclasses.fields(obj) if f.init})
+        if isinstance(obj, dict):
+            return {self.restore(k): self.restore(v) for k, v in obj.items()}
+        if isinstance(obj, (list, tuple)):
+            return type(obj)(self.restore(v) for v in obj)
+        return obj
+
+
+@dataclass
+class SymModel:
+    """The pieces of the symbolic computation (parameters atomized): B q̈ + c + g + F_v q̇ = G u, A, Ȧ, D."""
+
+    B: sp.Matrix
+    c: sp.Matrix
+    g: sp.Matrix
+    Fv: sp.Matrix | None
+    G: sp.Matrix
+    Gu: sp.Matrix
+    nvec: sp.Matrix
+    A: sp.Matrix
+    Adot: sp.Matrix
+    D: sp.Matrix | None
+    frozen: dict[sp.Symbol, sp.Expr]
+
+
 @ask_kind("constrained_dynamics", ConstrainedDynamicsAsk,
           "dynamics under holonomic or Pfaffian constraints: A(q), λ(q, q̇, u), projected and reduced models")
 def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (each with the ask's suffix): n_constraints, h, A, rank_A, A_singular, Adot, W, lambda, A_pinv_B,
     P, constrained_model; reduced: D, AD, det_AD, E, F, v, dv, Fdot, qddot, BF, reduced_inertia, FtBFdot, Ftn,
-    Ftu, EtBF, EtBFdot, Etn, Etu, reduced_model, lambda_reduced, reduction_singular, u_dv, u_dv_check,
-    u_eq, u_eq_min, lambda_eq, u_eq_lambda0; with at: A_at, q_at, lambda_at, F_at, u_eq_at, lambda_eq_at,
-    u_dv_at."""
+    Ftu, EtBF, EtBFdot, Etn, Etu, reduced_model, vdot, lambda_reduced, reduction_singular, u_dv, u_dv_check
+    (lambda_dv), u_eq, u_eq_min, lambda_eq, u_eq_lambda0; with at: A_at, q_at, lambda_at, F_at, u_eq_at,
+    u_eq_min_at, lambda_eq_at, u_eq_lambda0_at, u_dv_at."""
     spec = _Spec(problem, options, ctx)
     robot, q, dq, ddq, n, k = spec.robot, spec.q, spec.dq, spec.ddq, spec.n, spec.k
     dm = derive(robot)
@@ -489,13 +655,14 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
     u = list(robot.inputs)
     for s in u:  # the inputs appear in λ and in u_dv: answers and expected values may use their names
         problem.names.setdefault(s.name, s)
-    Gu = G * sp.Matrix(u)
     nvec = dm.c + dm.g + (dm.Fv * sp.Matrix(dq) if dm.Fv is not None else sp.zeros(n, 1))
     nvec = nvec.applyfunc(tidy)
     sfx = options.suffix
     sol = Solution("constrained_dynamics", title=options.title or "Constrained dynamics")
+    atoms = Atoms(set(problem.symbols.values()))
 
     def add(name: str, value: Any, kind: str | None = None, label: str = "") -> None:
+        value = atoms.restore(value)
         if isinstance(value, sp.MatrixBase) and value.shape == (1, 1):  # one constraint, one pseudo-velocity
             value, kind = value[0], "scalar"
         sol.add(name + sfx, value, kind, label=label)
@@ -515,22 +682,27 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
     h_at_sing = [spec.h.xreplace(dict(zip(q, c))).applyfunc(tidy) for c in sing] if spec.h is not None else []
     sol.step("model", B=dm.B, nvec=nvec, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, u=sp.Matrix(u), n=n,
              friction=dm.Fv is not None, gravity=any(x != 0 for x in dm.g))
-    sol.step("constraints", h=spec.h, A=A, Adot=Adot, k=k, n=n, G=dm.G, frozen=spec.frozen, pfaffian=options.A is not None,
-             singular=sing, every=sing_every, done=sing_done, h_at=h_at_sing, q=sp.Matrix(q))
+    sol.step("constraints", h=spec.h, A=A, Adot=Adot, k=k, n=n, G=dm.G, frozen=spec.frozen,
+             pfaffian=options.A is not None, singular=sing, every=sing_every, done=sing_done, h_at=h_at_sing,
+             q=sp.Matrix(q))
+    X = atoms
+    sm = SymModel(X(dm.B), X(dm.c), X(dm.g), X(dm.Fv), X(G), X(G) * sp.Matrix(u), X(nvec), X(A), X(Adot),
+                  X(spec.D), {x: X(val) for x, val in spec.frozen.items()})
     mult = None
-    if symbolic:
-        mult = multiplier(dm.B, nvec, Gu, A, Adot, dq, ddq)
+    if symbolic and options.multiplier:
+        mult = atoms.restore(multiplier(sm.B, sm.nvec, sm.Gu, sm.A, sm.Adot, dq, ddq))
         add("W", mult.W, "matrix", label="A B^{-1} A^T")
         add("lambda", mult.lam, "vector", label="\\lambda(q,\\dot q,u)")
         add("A_pinv_B", mult.pinv, "matrix", label="A_B^{\\#}")
         add("P", mult.P, "matrix", label="I - A^T (A_B^{\\#})^T")
         add("constrained_model", mult.model, "vector",
             label="B\\ddot q - (I - A^T A_B^{\\#T})(Gu - n) + B A_B^{\\#}\\dot A\\dot q")
-    sol.step("multiplier", m=mult, k=k, G=dm.G, too_big=not symbolic, n=n)
+    if options.multiplier:
+        sol.step("multiplier", m=mult, k=k, G=dm.G, too_big=not symbolic, n=n)
 
     red = None
     if options.reduced and symbolic:
-        red = _reduce(problem, spec, sol, add, dm, nvec, Gu, G, u)
+        red = _reduce(problem, spec, sol, add, sm, atoms, dm, u)
     elif options.reduced:
         sol.step("too_big", n=n)
 
@@ -541,15 +713,18 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
     return sol
 
 
-def _reduce(problem, spec: _Spec, sol: Solution, add, dm, nvec, Gu, G, u) -> Reduction:  # type: ignore[no-untyped-def]
+def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms, dm, u) -> Reduction:  # type: ignore[no-untyped-def]
+    """The reduced-model results and steps, computed on the atomized model ``sm``; returns the (restored) reduction."""
     q, dq, ddq, n, k = spec.q, spec.dq, spec.ddq, spec.n, spec.k
     chosen = spec.D is None
     if chosen:
         D, free, det_S = choose_complement(spec.A, q)
+        Dx = atoms(D)
     else:
-        D, free, det_S = spec.D, selected_coordinates(spec.D), None
+        D, Dx, free, det_S = spec.D, sm.D, selected_coordinates(spec.D), None
     v, dv = _pseudo(problem, spec, D)
-    red = reduce_model(dm.B, nvec, Gu, spec.A, D, q, dq, ddq, v, dv, spec.frozen)
+    redx = reduce_model(sm.B, sm.c, sm.g, sm.Fv, sm.Gu, sm.A, Dx, q, dq, ddq, v, dv, sm.frozen)
+    red = atoms.restore(redx)
     sing, every, done = _singular(sp.Matrix([[red.det]]), q, 1)
     red.singular, red.singular_every, red.singular_done = sing, every, done
     add("D", D, "matrix", label="D(q)")
@@ -571,6 +746,7 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, dm, nvec, Gu, G, u) -> Red
     add("Etn", red.Etn, "vector", label="E^T n")
     add("Etu", red.Etu, "vector", label="E^T G u")
     add("reduced_model", red.model, "vector", label="F^T B F\\dot v + F^T(n + B\\dot F v) - F^T G u")
+    add("vdot", red.vdot, "vector", label="\\dot v(q, v, u)")
     add("lambda_reduced", red.lam, "vector", label="\\lambda(q, v, \\dot v, u)")
     if done:
         add("reduction_singular", sing, "set", label="q:\\ \\det [A; D] = 0")
@@ -585,36 +761,42 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, dm, nvec, Gu, G, u) -> Red
         [_fresh_symbol(problem, f"dvd{i + 1}", f"\\dot v_{{d,{i + 1}}}") for i in range(r)]
     dv_d = _vector_option(spec, "dv_d", r, default)
     lam_d = _vector_option(spec, "lambda_d", k, [0] * k)
-    fz = spec.frozen
-    rhs = (dm.B * (red.F * dv_d + red.Fdot * red.v) + nvec).xreplace(red.on_v)
-    if fz:
-        rhs = rhs.xreplace(fz)
+    fz = sm.frozen
+    det = redx.det.xreplace(fz) if fz else redx.det
+    Bz, NF = (sm.B.xreplace(fz), redx.NF.xreplace(fz)) if fz else (sm.B, redx.NF)
+    Az = sm.A.xreplace(fz) if fz else sm.A
+    rhs_num = det ** 2 * Bz * NF * atoms(dv_d) + Bz * redx.Fdv + det * redx.n2     # δ³ (B(F v̇_d + Ḟ v) + n)
+    lamx = atoms(lam_d)
     m = len(u)
     lam_given = m >= n
-    if lam_given:
-        sys_M, sys_b = G.xreplace(fz) if fz else G, rhs - spec.A.T.xreplace(fz) * lam_d if fz else rhs - spec.A.T * lam_d
+    if lam_given and dm.G is None:  # u = B(F v̇_d + Ḟ v) + n − Aᵀλ_d
+        sol_dv = Inputs(over(rhs_num - det ** 3 * Az.T * lamx, det ** 3), [], None, True)
+    elif lam_given:
+        Gz = sm.G.xreplace(fz) if fz else sm.G
+        sol_dv = solve_inputs(Gz, over(rhs_num - det ** 3 * Az.T * lamx, det ** 3), u)
     else:  # fewer inputs than coordinates: λ cannot be assigned, u from the reduced model only
-        FtG = (red.F.T * G).xreplace(fz) if fz else red.F.T * G
-        sys_M, sys_b = FtG, (red.F.T.xreplace(fz) if fz else red.F.T) * rhs
-    sys_M, sys_b = rtidy_matrix(sys_M), sys_b.applyfunc(rtidy)
-    sol_dv = solve_inputs(sys_M, sys_b, u)
-    check = None
-    lam_dv = None
-    u_dv = None
+        Fz = redx.F.xreplace(fz) if fz else redx.F
+        Gz = sm.G.xreplace(fz) if fz else sm.G
+        sol_dv = solve_inputs(rtidy_matrix(Fz.T * Gz), over(NF.T * rhs_num, det ** 4), u)
+    sol_dv = atoms.restore(sol_dv)
+    check, lam_dv, u_dv = None, None, None
     if sol_dv.exists:
         u_dv = sol_dv.u_min if sol_dv.free and sol_dv.u_min is not None else sol_dv.u
-        add("u_dv", u_dv, "vector", label="u\\,(\\dot v = \\dot v_d" + (", \\lambda = \\lambda_d)" if lam_given else ")"))
+        add("u_dv", u_dv, "vector",
+            label="u\\,(\\dot v = \\dot v_d" + (", \\lambda = \\lambda_d)" if lam_given else ")"))
         back = dict(zip(u, u_dv)) | dict(zip(list(red.dv), list(dv_d)))
-        acc = [rtidy(x) for x in red.model.xreplace(back)]
-        lam_dv = red.lam.xreplace(back).applyfunc(rtidy)
-        check = all(x == 0 or _zero(x) for x in acc) and (not lam_given or all(_zero(a - b) for a, b in
-                                                                              zip(lam_dv, lam_d)))
+        lam_dv = red.lam.xreplace(back)
+        check = all(_zero(x) for x in red.model.xreplace(back)) and (
+            not lam_given or all(_zero(a - b) for a, b in zip(lam_dv, lam_d)))
         add("u_dv_check", bool(check), "bool", label="\\text{reduced model gives } \\dot v = \\dot v_d")
         if not lam_given:
+            lam_dv = lam_dv.applyfunc(rtidy)
             add("lambda_dv", lam_dv, "vector", label="\\lambda\\ (u = u_{dv})")
-    sol.step("u_dv", u=u_dv, dv_d=dv_d, lam_d=lam_d, lam_given=lam_given, s=sol_dv, check=check, lam_dv=lam_dv, m=m, n=n,
-             rhs=rhs.applyfunc(rtidy), G=dm.G)
-    eq = _equilibrium(spec, red, dm, G, u, None)
+        else:
+            lam_dv = None
+    sol.step("u_dv", u=u_dv, dv_d=dv_d, lam_d=lam_d, lam_given=lam_given, s=sol_dv, check=check, lam_dv=lam_dv,
+             m=m, n=n, G=dm.G)
+    eq = _equilibrium(spec, red, dm, dm.G if dm.G is not None else sp.eye(n), u, None)
     if eq["s"].exists:
         add("u_eq", eq["s"].u, "vector", label="u_{eq}(q)")
         if eq["s"].u_min is not None:
@@ -659,7 +841,7 @@ def _evaluate(M: sp.Matrix, subs: dict) -> sp.Matrix:
 def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, red) -> None:  # type: ignore[no-untyped-def]
     """λ, A, F, the equilibrium inputs and u_dv at the ``at:`` state (parameter values substituted)."""
     state = spec.state or {}
-    subs = {**problem.values, **state}
+    subs = {**problem.values, **{x: val.xreplace(problem.values) for x, val in state.items()}}
     q, dq = spec.q, spec.dq
     A_at = spec.A.xreplace(subs)
     bad = []
@@ -895,7 +1077,7 @@ def check_reduction(problem, results, name, value, other, options) -> PropertyVe
     frozen = {}
     if ask.options.freeze:
         frozen = {problem.names[nm]: ask.ctx.expr("freeze", nm) for nm in ask.options.freeze}
-    red = reduce_model(dm.B, nvec, G * sp.Matrix(robot.inputs), A, D, q, dq, ddq, v, dv, frozen)
+    red = reduce_model(dm.B, dm.c, dm.g, dm.Fv, G * sp.Matrix(robot.inputs), A, D, q, dq, ddq, v, dv, frozen)
     want = {"E": red.E, "F": red.F, "reduced_inertia": red.FtBF, "FtBFdot": red.FtBFdot, "Ftn": red.Ftn,
             "Ftu": red.Ftu, "EtBF": red.EtBF, "EtBFdot": red.EtBFdot, "Etn": red.Etn, "Etu": red.Etu,
             "BF": red.BF, "Fdot": red.Fdot}[base]
