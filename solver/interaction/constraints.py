@@ -883,7 +883,8 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
         res = sol.results.get("u_dv" + spec.options.suffix)
         if res is not None:
             vsubs = dict(zip(list(red.v), list((red.D * sp.Matrix(dq)).xreplace(subs))))
-            u_at = res.value.xreplace(vsubs).xreplace(subs).applyfunc(
+            val = res.value if isinstance(res.value, sp.MatrixBase) else sp.Matrix([res.value])
+            u_at = val.xreplace(vsubs).xreplace(subs).applyfunc(
                 lambda x: _num(sp.nsimplify(x)) if x.is_number and not x.atoms(sp.Float) else _num(rtidy(x)))
             add("u_dv_at", u_at, "vector", label="u_{dv}\\big|_{*}")
             data["u_dv"] = u_at
