@@ -81,6 +81,10 @@ class ConstrainedDynamicsAsk(Strict):
         None, description="a state {q1: ..., dq1: ...} (some coordinates may stay symbolic) where λ, the "
                           "equilibrium inputs and u_dv are evaluated (parameter values used)")
     simulate: Optional[SimulateOptions] = Field(None, description="plot λ(t) along a simulated constrained motion")
+    show: list[Literal["model", "constraints", "multiplier", "reduced", "reduced_model", "u_dv", "equilibrium",
+                       "at", "simulation"]] = Field(
+        ["model", "constraints", "multiplier", "reduced", "reduced_model", "u_dv", "equilibrium", "at", "simulation"],
+        description="which parts to explain in the report (the results are computed anyway)")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
                         description="appended to every result name (several asks in one problem)")
 
@@ -487,7 +491,7 @@ class _Spec:
         if generic_rank(AD) < n:
             raise self.fail(("D",), "D does not complete A: det [A; D] = 0 at every configuration",
                             "choose rows independent of those of A (e.g. select n - k coordinates)")
-        return D.applyfunc(tidy)
+        return D
 
     def _state(self) -> dict[sp.Symbol, sp.Expr] | None:
         if self.options.at is None:
@@ -596,6 +600,8 @@ class Atoms:
         if not e.args:
             return e
         fs = e.free_symbols
+        if fs and fs <= self.params and e.is_Pow and e.exp.is_Rational and not e.exp.is_Integer:
+            return self._atom(e.base ** sp.Rational(1, e.exp.q)) ** e.exp.p  # √X and 1/√X share one atom
         if fs and fs <= self.params and (e.is_Add or (e.is_Pow and not e.exp.is_Integer)):
             return self._atom(e)
         return e.func(*[self._visit(a) for a in e.args])
@@ -710,6 +716,8 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
         _at_state(problem, spec, sol, add, dm, nvec, G, u, Adot, red)
     if options.simulate is not None:
         _simulation(problem, spec, sol, dm, nvec, G, u, Adot)
+    shown = set(options.show) | {"too_big"}
+    sol.steps = [st for st in sol.steps if st.name in shown]  # the report explains only these parts
     return sol
 
 
@@ -823,12 +831,16 @@ def _equilibrium(spec: _Spec, red: Reduction, dm, G: sp.Matrix, u: list[sp.Symbo
 
 
 def _num(e: Any) -> Any:
-    """An exact value with floats for irrational numbers (for display)."""
+    """A value at a numeric state: exact when rational, otherwise with 15-digit floats (also as the coefficients
+    of the symbols left, e.g. the inputs)."""
     if isinstance(e, sp.MatrixBase):
         return e.applyfunc(_num)
-    if isinstance(e, sp.Expr) and not e.is_Rational and e.is_number:
+    if not isinstance(e, sp.Expr) or e.is_Rational:
+        return e
+    if e.is_number:
         return sp.Float(e.evalf(15), 15)
-    return e
+    irrational = [a for a in e.atoms(sp.Pow, sp.Function) if a.is_number]
+    return sp.expand(e.evalf(15)) if irrational else e
 
 
 def _evaluate(M: sp.Matrix, subs: dict) -> sp.Matrix:
