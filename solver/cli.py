@@ -2,10 +2,11 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 from enum import Enum
 from pathlib import Path
-from typing import Optional
+from typing import Any, Callable, Optional
 
 import typer
 
@@ -26,6 +27,53 @@ def _fail(exc: UserError) -> None:
     raise typer.Exit(2)
 
 
+SPEC_LIMITS = (600.0, 4096)  # seconds and MB to read and solve one spec (solve, grade, handout, answer-template)
+
+
+def _bounded(fn: Callable[[], Any], limits: tuple[float, int] = SPEC_LIMITS) -> Any:
+    """``fn()`` in a bounded worker process (solver.sandbox): its value, or a UserError saying why it stopped."""
+    from solver.sandbox import USER, Limits, run_one
+    out = run_one(fn, Limits(*limits))
+    if out.ok:
+        return out.value
+    if out.failure == USER:
+        raise _Reported(out.message)
+    raise UserError(out.message if out.failure != "exception" else f"internal error: {out.message}")
+
+
+class _Reported(UserError):
+    """A UserError already formatted in the worker (its text is printed as is)."""
+
+    def __str__(self) -> str:
+        return self.message
+
+
+def _output_file(path: Path) -> Path:
+    """Check an output file before any work: not a folder, its folder creatable and writable."""
+    if path.is_dir():
+        raise UserError(f"-o {path} is a folder; give a file name", None, f"e.g. -o {path / 'solution.md'}")
+    anc = path.parent
+    while not anc.exists():
+        anc = anc.parent
+    if not anc.is_dir():
+        raise UserError(f"-o {path} is under {anc}, which is a file", None, "give a path in a folder")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"-o {path}: cannot create its folder ({exc.strerror})", None,
+                        "choose a place you can write") from None
+    if not os.access(path.parent, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise UserError(f"-o {path}: cannot write there", None, "choose a place you can write")
+    return path
+
+
+def _write(path: Path, text: str) -> None:
+    try:
+        path.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise UserError(f"cannot write {path} ({exc.strerror})", None, "choose a place you can write") from None
+
+
 @app.command()
 def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
           format: Fmt = typer.Option(Fmt.md, "--format", "-f", help="md, tex or json"),
@@ -37,67 +85,96 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
     from solver.publish.render import render
     from solver.solve import solve_problem
     from solver.spec import load_problem
-    try:
+
+    def work() -> tuple[str, int]:
         problem = load_problem(spec)
         solutions = solve_problem(problem)
-        figures = []
-        if output and format is not Fmt.json:
-            output.parent.mkdir(parents=True, exist_ok=True)
-            figures = write_figures(solutions, output, format.value)
-        text = render(problem, solutions, format.value, fragment=fragment, template_dir=templates)
+        figures = write_figures(solutions, output, format.value) if output and format is not Fmt.json else []
+        return render(problem, solutions, format.value, fragment=fragment, template_dir=templates), len(figures)
+    try:
+        if output:
+            _output_file(output)
+        text, n_figures = _bounded(work)
+        if output:
+            _write(output, text)
     except UserError as exc:
         _fail(exc)
         return
     if output:
-        output.parent.mkdir(parents=True, exist_ok=True)
-        output.write_text(text, encoding="utf-8")
-        typer.echo(f"wrote {output}" + (f" and {len(figures)} figure(s) beside it" if figures else ""), err=True)
+        typer.echo(f"wrote {output}" + (f" and {n_figures} figure(s) beside it" if n_figures else ""), err=True)
     else:
         sys.stdout.write(text)
 
 
 @app.command()
-def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam files) to validate")) -> None:
-    """Validate specs or exam files without solving: 'ok' or a clear error (exit code 2)."""
-    from solver.publish.handout import is_exam_data, load_exam
-    from solver.spec.loader import SpecLoader
-    from solver.spec.yamlpos import load_file
-    from solver.verify import parse_expected
+def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam files) to validate"),
+          time_limit: float = typer.Option(120.0, "--time-limit", min=1, help="seconds per file (reading and solving)")
+          ) -> None:
+    """Validate specs or exam files: 'ok', or every error found (file:line, what, how to fix; exit code 2).
+    A spec with expected: values is solved, to find entries that name no result or cannot be read."""
+    from solver.sandbox import Limits, run_many
+    outcomes = run_many(_check_file, specs, 0, Limits(time_limit, 4096))
     bad = 0
-    for s in specs:
-        try:
-            located = load_file(s)
-            if is_exam_data(located.data):
-                exam = load_exam(s, located)
-                typer.echo(f"{s}: ok (exam file, {len(exam.parts)} problem(s))")
-                continue
-            parse_expected(SpecLoader(located).load())
-            typer.echo(f"{s}: ok")
-        except UserError as exc:
-            typer.echo(str(exc), err=True)
+    for s, out in zip(specs, outcomes):
+        lines = out.value if out.ok else [f"{s}: error: {out.message}"]
+        if lines and lines[0].startswith(f"{s}: ok"):
+            typer.echo(lines[0])
+        else:
             bad += 1
+            for line in lines:
+                typer.echo(line, err=True)
     if bad:
         raise typer.Exit(2)
 
 
+def _check_file(path: Path) -> list[str]:
+    """`check` of one file (in a bounded worker): ["<file>: ok ..."] or the error messages."""
+    from solver.grading.grader import grading_spec
+    from solver.publish.handout import is_exam_data, load_exam
+    from solver.spec.loader import SpecLoader
+    from solver.spec.yamlpos import load_file
+    from solver.verify import ERROR, check_problem
+    try:
+        located = load_file(path)
+        if is_exam_data(located.data):
+            exam = load_exam(path, located)
+            return [f"{path}: ok (exam file, {len(exam.parts)} problem(s))"]
+        problem = SpecLoader(located).load()
+        grading_spec(problem)
+        if not problem.expected:
+            return [f"{path}: ok"]
+        rep = check_problem(problem, compare=False)
+    except UserError as exc:
+        return [str(exc)]
+    errors = [c.verdict.detail for c in rep.checks if c.verdict.verdict == ERROR]
+    return errors or [f"{path}: ok"]
+
+
 @app.command()
 def verify(paths: list[Path] = typer.Argument(..., help="spec files or directories"),
-           quiet: bool = typer.Option(False, "--quiet", "-q", help="only failures and the summary")) -> None:
+           quiet: bool = typer.Option(False, "--quiet", "-q", help="only failures and the summary"),
+           jobs: int = typer.Option(0, "--jobs", "-j", min=0, help="worker processes (0: one per core)"),
+           time_limit: float = typer.Option(900.0, "--time-limit", min=1, help="seconds per problem"),
+           seed: int = typer.Option(2024, help="seed of the random points of the equivalence tests")) -> None:
     """Solve every problem and compare with its expected (printed) values; non-zero exit on any mismatch."""
+    from solver.math import equivalence
+    from solver.sandbox import Limits
     from solver.verify import describe, verify_paths
+    equivalence.SEED = seed
+
+    def show(rep) -> None:  # type: ignore[no-untyped-def]
+        if not quiet or not rep.ok:
+            typer.echo("\n".join(describe(rep)))
     try:
-        reports = verify_paths(paths)
+        reports = verify_paths(paths, jobs, Limits(time_limit, 8192), on_done=show)
     except UserError as exc:
         _fail(exc)
         return
-    for rep in reports:
-        lines = describe(rep)
-        if not quiet or not rep.ok:
-            typer.echo("\n".join(lines))
     n_ok = sum(r.ok for r in reports)
     checks = sum(len(r.checks) for r in reports)
     errata = sum(c.erratum is not None for r in reports for c in r.checks)
-    typer.echo(f"\n{n_ok}/{len(reports)} problems ok, {checks} results checked, {errata} errata recorded")
+    typer.echo(f"\n{n_ok}/{len(reports)} problems ok, {checks} results checked, {errata} errata recorded "
+               f"(random points: seed {seed})")
     if n_ok != len(reports) or not reports:
         raise typer.Exit(1)
 
@@ -107,39 +184,47 @@ def grade(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
           submissions: Path = typer.Argument(..., help="a submission file (YAML/JSON) or a directory of them"),
           out: Optional[Path] = typer.Option(None, "--out", "-o", help="write summary.csv and per-student feedback here"),
           gradescope: bool = typer.Option(False, help="also write Gradescope results.json"),
-          jobs: int = typer.Option(0, "--jobs", "-j", help="worker processes (0: one per core)")) -> None:
+          jobs: int = typer.Option(0, "--jobs", "-j", min=0, help="worker processes (0: one per core)")) -> None:
     """Grade submitted answers: feedback on stdout for one file; a class with --out."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from solver.grading.gradebook import feedback_markdown, grade_files, submission_files, write_outputs
+    from solver.grading.gradebook import (ResultsFolder, feedback_markdown, grade_files, submission_entries,
+                                          write_outputs)
     from solver.grading.grader import prepare
     from solver.spec import load_problem
+    folder = None
     try:
-        problem = load_problem(spec)
-        ref = prepare(problem)
+        if not submissions.exists() and not submissions.is_symlink():
+            raise UserError(f"no such file or directory: {submissions}", None, "give a submission file or a directory")
+        entries = submission_entries(submissions)
+        if not entries:
+            raise UserError(f"no submissions (*.yaml, *.yml, *.json) in {submissions}", None, "check the directory")
+        single = not submissions.is_dir()
+        if single and entries[0].problem:
+            raise UserError(f"{submissions}: {entries[0].problem}", None, "give a submission file (YAML or JSON)")
+        folder = ResultsFolder(out) if out else None  # a bad --out is refused before any work
+        ref = _bounded(lambda: prepare(load_problem(spec)), SPEC_LIMITS)
+        if single:
+            reports = grade_files(ref, entries, 1)
+        else:
+            with Progress(TextColumn("grading"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
+                          transient=True) as bar:
+                task = bar.add_task("grading", total=len(entries))
+                reports = grade_files(ref, entries, jobs, progress=lambda r: bar.advance(task))
+        if folder:
+            written = write_outputs(ref.problem, ref, reports, folder, gradescope)
+            typer.echo(f"graded {len(reports)} submission(s); wrote {len(written)} files under {out}/ "
+                       f"(summary.csv)", err=True)
     except UserError as exc:
         _fail(exc)
         return
-    if not submissions.exists():
-        _fail(UserError(f"no such file or directory: {submissions}", None, "give a submission file or a directory"))
-    files = submission_files(submissions)
-    if not files:
-        _fail(UserError(f"no submissions (*.yaml, *.yml, *.json) in {submissions}", None, "check the directory"))
-    if len(files) == 1 and not submissions.is_dir():
-        reports = grade_files(ref, files, 1)
-    else:
-        with Progress(TextColumn("grading"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                      transient=True) as bar:
-            task = bar.add_task("grading", total=len(files))
-            reports = grade_files(ref, files, jobs, progress=lambda r: bar.advance(task))
-    if out:
-        written = write_outputs(problem, ref, reports, out, gradescope)
-        typer.echo(f"graded {len(reports)} submission(s); wrote {len(written)} files under {out}/ "
-                   f"(summary.csv)", err=True)
+    finally:
+        if folder:
+            folder.close()
     if not out or len(reports) == 1:
         for r in reports:
-            sys.stdout.write(feedback_markdown(problem, r))
-    elif out:
+            sys.stdout.write(feedback_markdown(ref.problem, r))
+    else:
         for r in reports:
             typer.echo(f"{r['student']:<30} {r['total']:g}/{r['max']:g}")
 
@@ -151,7 +236,7 @@ def answer_template_(spec: Path = typer.Argument(..., help="problem spec (YAML)"
     from solver.grading.grader import prepare
     from solver.spec import load_problem
     try:
-        sys.stdout.write(answer_template(prepare(load_problem(spec))))
+        sys.stdout.write(_bounded(lambda: answer_template(prepare(load_problem(spec)))))
     except UserError as exc:
         _fail(exc)
 
@@ -181,7 +266,9 @@ def handout(sources: list[Path] = typer.Argument(..., help="an exam file (exams/
     from solver.publish.handout import build, load_sources
     fmt = format.value if format else {".tex": "tex", ".md": "md", ".html": "html"}.get(output.suffix, "pdf")
     try:
-        result = build(load_sources(sources), kind.value, fmt, output, templates)
+        _output_file(output)
+        result = _bounded(lambda: build(load_sources(sources), kind.value, fmt, output, templates),
+                          (SPEC_LIMITS[0] * max(1, len(sources)), SPEC_LIMITS[1]))
     except UserError as exc:
         _fail(exc)
         return
@@ -202,20 +289,24 @@ def schema() -> None:
 def list_(paths: list[Path] = typer.Argument(..., help="spec files or directories")) -> None:
     """One line per problem: id, title, topics, asks."""
     from solver.spec import load_problem
-    files: list[Path] = []
-    for p in paths:
-        files += sorted(p.rglob("*.yaml")) if p.is_dir() else [p]
+    from solver.sandbox import Limits, run_many
+    from solver.verify import spec_files
+    try:
+        files = spec_files(paths)
+    except UserError as exc:
+        _fail(exc)
+        return
+
+    def line(f: Path) -> str:
+        pr = load_problem(f)
+        return f"{pr.id:<32} {pr.title[:50]:<50} [{','.join(pr.topics)}] asks: {','.join(a.kind for a in pr.asks)}"
     bad = 0
-    for f in files:
-        try:
-            pr = load_problem(f)
-        except UserError as exc:
-            typer.echo(f"{f}: {str(exc).splitlines()[0]}", err=True)
+    for f, out in zip(files, run_many(line, files, 0, Limits(60.0, 2048))):
+        if out.ok:
+            typer.echo(out.value)
+        else:
+            typer.echo(f"{f}: {out.message.splitlines()[0]}", err=True)
             bad += 1
-            continue
-        asks = ",".join(a.kind for a in pr.asks)
-        topics = ",".join(pr.topics)
-        typer.echo(f"{pr.id:<32} {pr.title[:50]:<50} [{topics}] asks: {asks}")
     if bad:
         raise typer.Exit(2)
 

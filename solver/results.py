@@ -39,6 +39,9 @@ class Panel:
     ylabel: str
     curves: list[Curve]
     x_is_angle: bool = False  # ticks at multiples of π/2
+    hlines: list[tuple[float, str]] = field(default_factory=list)  # (y, label): bounds, drawn dashed
+    markers: list[tuple[float, float, str]] = field(default_factory=list)  # (x, y, label): points to mark
+    equal_axes: bool = False  # same scale on x and y (a path in the plane)
 
 
 @dataclass

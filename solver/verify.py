@@ -5,16 +5,23 @@ expected:
   B: {value: "[[I0 + m2*q2^2, ...]]", line: 37}
   T2: {value: "<printed>", line: 211, erratum: "<why>", corrected: "<right value>"}
   tau: {value: "[1.5, -0.2]", line: 90, tol: 1e-3}   # relative tolerance for numbers (abs_tol too)
+  g:                                   # a result printed twice, in two forms: a list of entries
+    - {value: "[...]", line: 40}
+    - {value: "[...]", line: 52}
+
+Values are parsed after solving, with the names the solvers create (gains kp1, desired trajectories dqd1, ...).
+Every entry is checked and every failure reported; an entry that names no result or cannot be read fails alone.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import sympy as sp
 
 from solver.math.equivalence import CORRECT, INCORRECT, Verdict, equivalent
+from solver.sandbox import Limits, Outcome, run_many
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem
 from solver.spec.errors import UserError
@@ -22,6 +29,9 @@ from solver.spec.expr import expand_abbreviations
 from solver.spec.problem import Problem
 
 ENTRY_FIELDS = {"value", "line", "erratum", "corrected", "tol", "abs_tol", "note", "where"}
+
+
+ERROR = "error"  # an expected entry that could not be checked (no such result, unreadable value)
 
 
 @dataclass
@@ -50,6 +60,9 @@ def _abbreviations(problem: Problem, path: tuple, names: dict[str, sp.Expr]) -> 
     raw = problem.located.data
     for k in path:
         raw = raw[k]
+    if not isinstance(raw, dict):
+        raise UserError(f"{'.'.join(map(str, path))} must be a mapping of abbreviations (name: value)",
+                        problem.located.place(path), "write where: {I0: I1 + m1*d1^2}")
     names = dict(names)
     subs: dict[sp.Symbol, sp.Expr] = {}
     for key in raw:
@@ -83,57 +96,122 @@ class Expected:
     tol: dict[str, float] = field(default_factory=dict)
 
 
-def parse_expected(problem: Problem) -> list[Expected]:
-    """Every entry of ``expected:`` validated and parsed (no solving): what `check` and `verify` share."""
-    exp = problem.expected
-    names, subs = dict(problem.names), {}
-    if "where" in exp:
-        names, subs = _abbreviations(problem, ("expected", "where"), names)
-    out = []
-    for key, entry in exp.items():
+@dataclass
+class Entry:
+    """One printed result as written under ``expected:`` (a result printed twice is a list of two entries)."""
+
+    key: str
+    path: tuple
+    raw: dict[str, Any]
+
+    @property
+    def line(self) -> int | None:
+        line = self.raw.get("line")
+        return line if isinstance(line, int) and not isinstance(line, bool) else None
+
+
+def expected_entries(problem: Problem) -> tuple[list[Entry], list[UserError]]:
+    """The entries of ``expected:`` with a valid structure, and an error for each entry without one."""
+    entries, errors = [], []
+    for key, value in problem.expected.items():
         if key == "where":
             continue
-        path = ("expected", key)
-        if not isinstance(entry, dict):
-            entry, vpath = {"value": entry}, path
-        else:
-            unknown = set(entry) - ENTRY_FIELDS
+        items = list(enumerate(value)) if isinstance(value, list) and value and all(
+            isinstance(v, dict) for v in value) else [(None, value)]
+        for k, entry in items:
+            path = ("expected", key) if k is None else ("expected", key, k)
+            if not isinstance(entry, dict):
+                entries.append(Entry(key, path, {"value": entry}))
+                continue
+            unknown = sorted(set(entry) - ENTRY_FIELDS)
             if unknown:
-                raise UserError(f"unknown field '{sorted(unknown)[0]}' in expected.{key}",
-                                problem.located.place(path), f"allowed: {', '.join(sorted(ENTRY_FIELDS))}")
-            if "value" not in entry:
-                raise UserError(f"expected.{key} has no value:", problem.located.place(path), "add value: <printed>")
-            vpath = path + ("value",)
-        lnames, lsubs = names, subs
-        if "where" in entry:
-            lnames, extra = _abbreviations(problem, path + ("where",), names)
-            lsubs = {**subs, **extra}
-        tol = {}
-        if "tol" in entry:
-            tol["rel_tol"] = float(entry["tol"])
-        if "abs_tol" in entry:
-            tol["abs_tol"] = float(entry["abs_tol"])
-        item = Expected(key, entry.get("line"), expand_abbreviations(problem.parse_at(vpath, lnames), lsubs), tol=tol)
-        if "erratum" in entry:
-            if "corrected" not in entry:
-                raise UserError(f"expected.{key} has an erratum but no corrected: value",
-                                problem.located.place(path), "add corrected: <the right value>")
-            item.erratum = str(entry["erratum"])
-            item.corrected = expand_abbreviations(problem.parse_at(path + ("corrected",), lnames), lsubs)
-        out.append(item)
-    return out
+                errors.append(UserError(f"unknown field '{unknown[0]}' in expected.{key}",
+                                        problem.located.place(path + (unknown[0],)),
+                                        f"allowed: {', '.join(sorted(ENTRY_FIELDS))}"))
+            elif "value" not in entry:
+                errors.append(UserError(f"expected.{key} has no value:", problem.located.place(path),
+                                        "add value: <printed>"))
+            elif "erratum" in entry and "corrected" not in entry:
+                errors.append(UserError(f"expected.{key} has an erratum but no corrected: value",
+                                        problem.located.place(path), "add corrected: <the right value>"))
+            else:
+                entries.append(Entry(key, path, entry))
+    return entries, errors
 
 
-def check_problem(problem: Problem) -> Report:
-    """Solve ``problem`` and compare every expected value."""
+def _tolerance(problem: Problem, entry: Entry) -> dict[str, float]:
+    tol = {}
+    for field_, key in (("tol", "rel_tol"), ("abs_tol", "abs_tol")):
+        if field_ in entry.raw:
+            v = entry.raw[field_]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < float("inf"):
+                raise UserError(f"expected.{entry.key}.{field_} must be a number >= 0, got {v!r}",
+                                problem.located.place(entry.path + (field_,)), f"write e.g. {field_}: 1e-3")
+            tol[key] = float(v)
+    return tol
+
+
+def parse_entry(problem: Problem, entry: Entry, names: dict[str, sp.Expr], subs: dict) -> Expected:
+    """Parse one entry with ``names`` (the problem's, the solvers' and the abbreviations'); UserError if it cannot."""
+    lnames, lsubs = names, subs
+    if "where" in entry.raw:
+        lnames, extra = _abbreviations(problem, entry.path + ("where",), names)
+        lsubs = {**subs, **extra}
+    node: Any = problem.located.data
+    for k in entry.path:
+        node = node[k]
+    vpath = entry.path + ("value",) if isinstance(node, dict) else entry.path
+    item = Expected(entry.key, entry.line, expand_abbreviations(problem.parse_at(vpath, lnames), lsubs),
+                    tol=_tolerance(problem, entry))
+    if "erratum" in entry.raw:
+        item.erratum = str(entry.raw["erratum"])
+        item.corrected = expand_abbreviations(problem.parse_at(entry.path + ("corrected",), lnames), lsubs)
+    return item
+
+
+def _global_names(problem: Problem) -> tuple[dict, dict]:
+    exp = problem.expected
+    if "where" in exp:
+        return _abbreviations(problem, ("expected", "where"), dict(problem.names))
+    return dict(problem.names), {}
+
+
+def parse_expected(problem: Problem) -> list[Expected]:
+    """Every entry of ``expected:`` parsed; raises the first UserError. Call it after solving, so that the names
+    the solvers create (gains, desired trajectories, estimates) are known."""
+    entries, errors = expected_entries(problem)
+    if errors:
+        raise errors[0]
+    names, subs = _global_names(problem)
+    return [parse_entry(problem, e, names, subs) for e in entries]
+
+
+def _error(entry_name: str, line: int | None, exc: UserError) -> Check:
+    return Check(entry_name, line, Verdict(ERROR, str(exc)))
+
+
+def check_problem(problem: Problem, compare: bool = True) -> Report:
+    """Solve ``problem`` and compare every expected value; every entry is checked and every failure reported
+    (a missing result or an unreadable value fails that entry only). ``compare=False``: only find the entries
+    that cannot be checked (what ``robosolve check`` reports)."""
     rep = Report(problem.id, problem.file)
-    expected = parse_expected(problem)
+    entries, errors = expected_entries(problem)
     results = all_results(solve_problem(problem))
-    for e in expected:
-        if e.key not in results:
-            raise UserError(f"expected.{e.key}: no result of that name",
-                            problem.located.place(("expected", e.key)),
-                            f"results of this problem: {', '.join(results)}")
+    rep.checks += [_error(str(e.place), e.place.line if e.place else None, e) for e in errors]
+    names, subs = _global_names(problem)
+    for entry in entries:
+        if entry.key not in results:
+            rep.checks.append(_error(entry.key, entry.line, UserError(
+                f"expected.{entry.key}: no result of that name", problem.located.place(entry.path),
+                f"results of this problem: {', '.join(results)}")))
+            continue
+        try:
+            e = parse_entry(problem, entry, names, subs)
+        except UserError as exc:
+            rep.checks.append(_error(entry.key, entry.line, exc))
+            continue
+        if not compare:
+            continue
         r = results[e.key]
         printed = _to_value(e.printed, r.kind)
         if e.erratum is not None:
@@ -145,8 +223,8 @@ def check_problem(problem: Problem) -> Report:
     return rep
 
 
-def verify_paths(paths: list[Path]) -> list[Report]:
-    """Reports for every spec under ``paths`` (files or directories)."""
+def spec_files(paths: list[Path]) -> list[Path]:
+    """The spec files under ``paths`` (files, or directories searched for *.yaml / *.yml), sorted."""
     files: list[Path] = []
     for p in paths:
         if p.is_dir():
@@ -155,13 +233,29 @@ def verify_paths(paths: list[Path]) -> list[Report]:
             files.append(p)
         else:
             raise UserError(f"no such file or directory: {p}")
-    reports = []
-    for f in files:
-        try:
-            reports.append(check_problem(load_problem(f)))
-        except UserError as exc:
-            reports.append(Report(f.stem, str(f), error=str(exc)))
-    return reports
+    return files
+
+
+def _verify_file(path: Path) -> Report:
+    try:
+        return check_problem(load_problem(path))
+    except UserError as exc:
+        return Report(path.stem, str(path), error=str(exc))
+
+
+def verify_paths(paths: list[Path], jobs: int = 0, limits: Limits | None = None,
+                 on_done: Callable[[Report], None] | None = None) -> list[Report]:
+    """Reports for every spec under ``paths``, each file solved in a bounded worker process (``jobs`` at a time,
+    0: one per core); a file that exceeds its limits gets a report with the reason."""
+    files = spec_files(paths)
+    limits = limits or Limits()
+
+    def report(i: int, out: Outcome) -> Report:
+        return out.value if out.ok else Report(files[i].stem, str(files[i]), error=out.message)
+
+    outcomes = run_many(_verify_file, files, jobs, limits,
+                        (lambda i, out: on_done(report(i, out))) if on_done else None)
+    return [report(i, out) for i, out in enumerate(outcomes)]
 
 
 def describe(rep: Report) -> list[str]:
@@ -183,4 +277,5 @@ def describe(rep: Report) -> list[str]:
     return lines
 
 
-__all__ = ["check_problem", "parse_expected", "Expected", "verify_paths", "describe", "Report", "Check", "CORRECT"]
+__all__ = ["check_problem", "parse_expected", "Expected", "verify_paths", "describe", "Report", "Check", "CORRECT",
+           "spec_files", "expected_entries", "parse_entry"]

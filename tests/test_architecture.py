@@ -16,7 +16,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("math", ("solver.math",)),
     ("spec", ("solver.spec",)),
     ("chapters", tuple(f"solver.{c}" for c in CHAPTERS)),
-    ("core", ("solver.solve", "solver.verify")),
+    ("core", ("solver.solve", "solver.verify", "solver.sandbox")),
     ("apps", ("solver.grading", "solver.publish")),
     ("cli", ("solver.cli", "solver.__main__", "solver")),
 ]

@@ -60,7 +60,7 @@ def test_grade_and_answer_template(tmp_path):
     r = run("grade", RP, str(subs), "--out", str(out), "--gradescope", "-j", "2")
     assert r.returncode == 0, r.stderr
     assert (out / "summary.csv").read_text().count("\n") == 5  # header + 4 students
-    assert json.loads((out / "gradescope" / "alice" / "results.json").read_text())["score"] == 12
+    assert json.loads((out / "gradescope" / "alice.yaml" / "results.json").read_text())["score"] == 12
     r = run("answer-template", RP)
     assert r.returncode == 0 and '\nB: ""' in r.stdout and "4 points" in r.stdout
     assert run("grade", RP, str(tmp_path / "nothing")).returncode == 2

@@ -200,14 +200,17 @@ class DynamicModelAsk(Strict):
 
 @ask_kind("dynamic_model", DynamicModelAsk, "Euler-Lagrange dynamic model: T, U, B, Christoffel, c, S, g")
 def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """Results: T, U, B, christoffel, c, S, g, model (+ T<i>, U<i>, pc<i>, vc<i>, w<i> per body, skew)."""
+    """Results: T, U, B, christoffel, c, S, g, model (+ T<i>, U<i>, pc<i>, vc<i> in the base frame, w<i> in the frame
+    of the body's inertia and, for a body with a rotation (DH, rotation:), w<i>_0 in the base frame; skew)."""
     robot = require_model(problem)
     dm = derive(robot)
     sol = Solution("dynamic_model", title=options.title or "Dynamic model")
     for i, e in enumerate(dm.bodies, 1):
         sol.add(f"pc{i}", e.pc, label=f"p_{{c{i}}}")
         sol.add(f"vc{i}", e.vc, label=f"v_{{c{i}}}")
-        sol.add(f"w{i}", e.omega, label=f"\\omega_{{{i}}}")
+        sol.add(f"w{i}", e.omega, label=f"\\omega_{{{i}}}")  # in the frame of the body's inertia
+        if e.body.omega_frame == "link" and e.body.rotation is not None:  # also in the base frame: ⁰ω = ⁰R ω
+            sol.add(f"w{i}_0", (e.body.rotation * e.omega).applyfunc(tidy), label=f"{{}}^0\\omega_{{{i}}}")
         sol.add(f"T{i}", e.T, "scalar", label=f"T_{{{i}}}")
         if e.U is not None:
             sol.add(f"U{i}", e.U, "scalar", label=f"U_{{{i}}}")

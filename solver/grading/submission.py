@@ -19,53 +19,53 @@ import sympy as sp
 
 from solver.grading.latex_in import looks_like_latex, parse_latex
 from solver.spec.errors import ExprError, UserError
-from solver.spec.expr import MAX_LENGTH, MAX_LIST, parse
+from solver.spec.expr import MAX_LENGTH, MAX_LIST, expand_abbreviations, parse
 from solver.spec.problem import Problem
-from solver.spec.yamlpos import load_text
+from solver.spec.yamlpos import load_text, read_text_bounded
 
-MAX_FILE_BYTES = 2_000_000
+MAX_FILE_BYTES = 256_000  # an answer sheet is a few kB; parsing YAML costs about 50 s per MB
 RESERVED = {"student", "where", "id", "name"}
 
 
 @dataclass
 class Submission:
     student: str
-    file: str
+    file: str                                            # the name shown (relative to the class folder)
     answers: dict[str, Any]                              # raw values by result name
     where: dict[str, Any] = field(default_factory=dict)  # raw abbreviations
     error: str | None = None                             # the whole file could not be read
 
 
-def safe_stem(text: str) -> str:
-    """A file-name-safe identifier."""
-    s = re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._")
-    return s[:80] or "student"
+def clean_name(text: str, limit: int = 120) -> str:
+    """A student's name as one line of plain text: control characters and line breaks become spaces."""
+    s = "".join(ch if ch.isprintable() else " " for ch in str(text))
+    return " ".join(s.split())[:limit]
 
 
-def load_submission(path: Path) -> Submission:
-    """Read a submission file; a broken file gives a Submission with ``error`` set (never an exception)."""
-    stem = safe_stem(path.stem)
+def load_submission(path: Path, label: str | None = None) -> Submission:
+    """Read a submission file (bounded: a regular file of at most MAX_FILE_BYTES); a broken file gives a
+    Submission with ``error`` set, never an exception. ``label`` is the name shown in feedback (default: the path);
+    messages never carry the grader's own paths."""
+    label = label or str(path)
+    stem = clean_name(Path(label).stem) or "student"
     try:
-        if path.stat().st_size > MAX_FILE_BYTES:
-            return Submission(stem, str(path), {}, error=f"file larger than {MAX_FILE_BYTES // 1000} kB")
-        text = path.read_text(encoding="utf-8")
-        data = load_text(text, str(path)).data
+        text = read_text_bounded(path, MAX_FILE_BYTES, label)
+        data = load_text(text, label).data
     except UserError as exc:
-        return Submission(stem, str(path), {}, error=str(exc))
-    except (OSError, UnicodeDecodeError) as exc:
-        return Submission(stem, str(path), {}, error=f"cannot read the file: {exc.__class__.__name__}")
+        return Submission(stem, label, {}, error=str(exc))
     except RecursionError:
-        return Submission(stem, str(path), {}, error="file nested too deeply")
+        return Submission(stem, label, {}, error="file nested too deeply")
     if data is None:
         data = {}
     if not isinstance(data, dict):
-        return Submission(stem, str(path), {}, error="a submission is a mapping of answers (name: value)")
+        return Submission(stem, label, {}, error="a submission is a mapping of answers (name: value)")
     student = data.get("student") or data.get("name") or data.get("id")
     where = data.get("where") or {}
     if not isinstance(where, dict):
-        return Submission(stem, str(path), {}, error="where: must be a mapping of abbreviations (name: value)")
+        return Submission(stem, label, {}, error="where: must be a mapping of abbreviations (name: value)")
     answers = {str(k): v for k, v in data.items() if k not in RESERVED}
-    return Submission(str(student) if student not in (None, "") else stem, str(path), answers, where)
+    name = clean_name(student) if isinstance(student, (str, int, float)) and not isinstance(student, bool) else ""
+    return Submission(name or stem, label, answers, where)
 
 
 def _check_size(value: Any, depth: int = 0) -> None:
@@ -126,8 +126,13 @@ def answer_names(problem: Problem, submission: Submission) -> tuple[dict[str, sp
             problems.append(f"abbreviation '{key}' ignored: an abbreviation is a scalar")
             continue
         sym = sp.Symbol(f"_abbr_{key}")
+        try:  # kept unexpanded (expanded per answer, where used); too large once expanded: refused now
+            expand_abbreviations(sp.Symbol("_probe") + sym, {**subs, sym: val}, check_only=True)
+        except ExprError as exc:
+            problems.append(f"abbreviation '{key}' ignored: {exc.message}")
+            continue
         names[key] = sym
-        subs[sym] = val.xreplace(subs)
+        subs[sym] = val
     return names, subs, problems
 
 

@@ -26,6 +26,7 @@ from solver.math.fourier import NotTrigPolynomial, split_angle
 from solver.math.simplify import angle_symbols, is_zero
 
 CORRECT, INCORRECT, UNDECIDED = "correct", "incorrect", "undecided"
+SEED = 2024  # every random point derives from it (symbols taken in name order): a run is reproducible
 
 
 @dataclass
@@ -39,29 +40,52 @@ class Verdict:
         return self.verdict == CORRECT
 
 
+def _by_name(symbols: set[sp.Symbol]) -> list[sp.Symbol]:
+    """Symbols in a fixed order (set order follows string hashing, which changes from run to run)."""
+    return sorted(symbols, key=lambda s: (s.name, str(s.assumptions0)))
+
+
 def _random_point(symbols: set[sp.Symbol], rng: random.Random) -> dict[sp.Symbol, sp.Expr]:
     point = {}
-    for s in symbols:
+    for s in _by_name(symbols):
         lo = 0 if (s.is_positive or s.is_nonnegative) else -3
         point[s] = sp.Rational(rng.randint(lo * 1000 + 1 if lo else 137, 3000), 997)
     return point
 
 
-def numeric_zero(expr: sp.Expr, trials: int = 6, seed: int = 12345) -> bool | None:
-    """Is ``expr`` zero at random rational points (30 digits)? None when evaluation fails everywhere."""
-    rng = random.Random(seed)
-    syms = expr.free_symbols
+def _real_value(expr: sp.Expr, point: dict[sp.Symbol, sp.Expr]) -> complex | None:
+    """expr at ``point`` to 30 digits; None where it is undefined or not real (the point is outside the domain
+    where the expression exists, e.g. acos of a number > 1)."""
+    try:
+        val = sp.N(expr.subs(point), 30)
+    except (TypeError, ValueError, ZeroDivisionError):
+        return None
+    if val.has(sp.nan, sp.zoo, sp.oo) or not val.is_number:
+        return None
+    z = complex(val)
+    return z if abs(z.imag) <= 1e-20 * max(1.0, abs(z.real)) else None
+
+
+def numeric_zero(expr: sp.Expr, trials: int = 6, seed: int | None = None,
+                 parts: tuple[sp.Expr, ...] = ()) -> bool | None:
+    """Is ``expr`` zero at random rational points (30 digits)? Points where ``expr`` or one of ``parts`` (the
+    compared results) is undefined or not real are skipped: results are compared where they exist. None when no
+    point of up to 5·trials draws is usable."""
+    rng = random.Random(SEED if seed is None else seed)
+    syms = expr.free_symbols.union(*(p.free_symbols for p in parts))
     seen = 0
-    for _ in range(trials):
-        try:
-            val = sp.N(expr.subs(_random_point(syms, rng)), 30)
-        except (TypeError, ValueError, ZeroDivisionError):
+    for _ in range(trials * 5):
+        point = _random_point(syms, rng)
+        if any(_real_value(p, point) is None for p in parts):
             continue
-        if val.has(sp.nan, sp.zoo, sp.oo) or not val.is_number:
+        val = _real_value(expr, point)
+        if val is None:
             continue
         seen += 1
-        if abs(complex(val)) > 1e-20:
+        if abs(val) > 1e-20:
             return False
+        if seen == trials:
+            break
     return True if seen else None
 
 
@@ -70,6 +94,7 @@ class NotRational(Exception):
 
 
 Complex = tuple[Fraction, Fraction]
+MAX_BITS = 200_000  # larger exact values are not computed (a tower of powers would take minutes)
 
 
 def _cmul(a: Complex, b: Complex) -> Complex:
@@ -126,10 +151,13 @@ class RationalPoint:
             out = Fraction(1)
             for a in e.args:
                 out *= self.value(a)
+                if out.numerator.bit_length() + out.denominator.bit_length() > MAX_BITS:
+                    raise NotRational(e)
         elif e.is_Pow and e.exp.is_Integer:
-            if abs(int(e.exp)) > 1000:
-                raise NotRational(e)
-            out = self.value(e.base) ** int(e.exp)
+            base = self.value(e.base)
+            if abs(int(e.exp)) * max(base.numerator.bit_length(), base.denominator.bit_length()) > MAX_BITS:
+                raise NotRational(e)  # a tower of powers: too large to evaluate exactly
+            out = base ** int(e.exp)
         elif isinstance(e, (sp.sin, sp.cos, sp.tan, sp.cot)):
             c, s = self.phase(e.args[0])
             out = {sp.sin: s, sp.cos: c}.get(type(e)) if isinstance(e, (sp.sin, sp.cos)) else \
@@ -145,12 +173,12 @@ def _random_rational(rng: random.Random, positive: bool) -> Fraction:
     return v if positive or rng.random() < 0.5 else -v
 
 
-def exact_zero(expr: sp.Expr, trials: int = 3, seed: int = 2024) -> bool | None:
+def exact_zero(expr: sp.Expr, trials: int = 3, seed: int | None = None) -> bool | None:
     """Randomized exact zero test (see module doc): True (zero at every point), False (a point where it is
     provably non-zero), None (not evaluable in rational arithmetic)."""
-    angles = set(angle_symbols(expr))
-    params = expr.free_symbols - angles
-    rng = random.Random(seed)
+    angles = _by_name(set(angle_symbols(expr)))
+    params = _by_name(expr.free_symbols - set(angles))
+    rng = random.Random(SEED if seed is None else seed)
     done = 0
     for _ in range(trials * 3):
         point = RationalPoint({s: _random_rational(rng, bool(s.is_positive or s.is_nonnegative)) for s in params},
@@ -186,7 +214,7 @@ def scalar_equiv(a: sp.Expr, b: sp.Expr, rel_tol: float | None = None, abs_tol: 
         return Verdict(CORRECT)
     if z is False and not diff.atoms(sp.Float):
         return Verdict(INCORRECT)
-    nz = numeric_zero(diff)
+    nz = numeric_zero(diff, parts=(a, b))
     if nz is True:
         return Verdict(CORRECT, "numerically")
     if nz is False:
@@ -214,14 +242,13 @@ def matrix_equiv(a: sp.Matrix, b: sp.Matrix, **tol: Any) -> Verdict:
 
 
 def _angle_equal(a: sp.Expr, b: sp.Expr) -> bool:
-    """a ≡ b, or equal up to a multiple of 2π (numeric a - b)."""
+    """a ≡ b modulo 2π: equal, or with equal cosine and sine (compared where both angles exist)."""
     if scalar_equiv(a, b).ok:
         return True
-    d = sp.N(a - b)
-    if d.is_number:
-        k = float(d) / (2 * float(sp.pi))
+    if a.is_number and b.is_number:
+        k = float(sp.N(a - b)) / (2 * float(sp.pi))
         return abs(k - round(k)) < 1e-9
-    return False
+    return scalar_equiv(sp.cos(a), sp.cos(b)).ok and scalar_equiv(sp.sin(a), sp.sin(b)).ok
 
 
 def set_equiv(got: list[sp.Matrix], want: list[sp.Matrix], angles: list[int] | None = None) -> Verdict:

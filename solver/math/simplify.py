@@ -173,6 +173,26 @@ def _nice(c: sp.Expr) -> sp.Expr:
     return f if sp.count_ops(f) < sp.count_ops(c) else c
 
 
+def _sum_denominator(expr: sp.Expr) -> bool:
+    """Whether a denominator of ``expr`` is a sum (a rational function, not a polynomial over monomials)."""
+    den = sp.denom(sp.together(expr))
+    return any(isinstance(f.as_base_exp()[0], sp.Add) for f in sp.Mul.make_args(den))
+
+
+def _rational(expr: sp.Expr) -> sp.Expr:
+    """A rational function without angles, shortest of: one factored fraction, or the terms grouped by
+    denominator (m1 + m3/4 + Iy*(D - 2d)^2/((q1 - q2)^2 + (D - 2d)^2)^2 stays so)."""
+    groups: dict[sp.Expr, list[sp.Expr]] = {}
+    for t in sp.Add.make_args(sp.expand(expr, deep=False)):
+        n, d = sp.fraction(sp.factor(t))
+        groups.setdefault(d, []).append(n)
+    by_den = sp.Add(*[sp.factor(sp.Add(*ns)) / d for d, ns in groups.items()])
+    if len(groups) == 1 or sp.count_ops(expr) > 150:   # one denominator already, or too big to combine cheaply
+        return by_den
+    whole = sp.factor(sp.cancel(expr))
+    return by_den if sp.count_ops(by_den) <= sp.count_ops(whole) else whole
+
+
 @lru_cache(maxsize=20000)
 def tidy(expr: sp.Expr) -> sp.Expr:
     """Simplify ``expr`` to the compact form a teacher prints (canonical for trigonometric polynomials)."""
@@ -181,6 +201,8 @@ def tidy(expr: sp.Expr) -> sp.Expr:
         return sp.nsimplify(expr) if expr.is_Float else sp.simplify(expr)
     if not expr.free_symbols:
         return expr
+    if not angle_symbols(expr) and _sum_denominator(expr):
+        return _rational(expr)
     try:
         return _fourier(expr)
     except NotTrigPolynomial:
@@ -205,16 +227,29 @@ def tidy_matrix(m: sp.Matrix) -> sp.Matrix:
     return m.applyfunc(tidy)
 
 
+def _canonical_coefficients(expr: sp.Expr) -> bool:
+    """Whether the Fourier form of ``expr`` is canonical: no radicals of non-constant expressions and no functions
+    other than sin/cos (sqrt(2)*sqrt(a^2 + b) vs a + ..., tanh vs sinh/cosh have several forms)."""
+    if any(p.base.free_symbols and not p.exp.is_Integer for p in expr.atoms(sp.Pow)):
+        return False
+    return all(isinstance(f, (sp.sin, sp.cos)) for f in expr.atoms(sp.Function))
+
+
 def is_zero(expr: sp.Expr) -> bool | None:
-    """Exact zero test for trigonometric polynomials; None when the canonical form does not decide."""
+    """Exact zero test for trigonometric polynomials; None when the canonical form does not decide (a non-zero
+    form of an expression with radicals or other functions does not prove it non-zero)."""
+    expr = sp.sympify(expr)
+    if not angle_symbols(expr) and _canonical_coefficients(expr):   # a rational function: exact and fast
+        return sp.cancel(expr) == 0
     try:
-        return _fourier(sp.sympify(expr)) == 0
+        z = _fourier(expr) == 0
     except NotTrigPolynomial:
         num, _ = sp.fraction(sp.together(expr))
         try:
-            return _fourier(num) == 0
+            z = _fourier(num) == 0
         except NotTrigPolynomial:
             return None
+    return True if z else (False if _canonical_coefficients(expr) else None)
 
 
 def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:

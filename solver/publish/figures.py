@@ -28,6 +28,14 @@ def draw(fig: Figure, path: Path) -> None:
     for ax, panel in zip(axes.flat, fig.panels):
         for c in panel.curves:
             ax.plot(c.x, c.y, label=c.label, linewidth=1.6)
+        for y, label in panel.hlines:
+            ax.axhline(y, color="tab:red", linestyle="--", linewidth=1.0, label=label or None)
+        for x, y, label in panel.markers:
+            ax.plot([x], [y], "o", color="black", markersize=4)
+            if label:
+                ax.annotate(label, (x, y), textcoords="offset points", xytext=(4, 4), fontsize=8)
+        if panel.equal_axes:
+            ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel(panel.xlabel)
         if panel.ylabel:
             ax.set_ylabel(panel.ylabel)

@@ -19,6 +19,7 @@ pdflatex), tex, md, html (MathJax).
 from __future__ import annotations
 
 import datetime as dt
+import math
 import re
 import shutil
 import subprocess
@@ -36,7 +37,9 @@ from solver.publish.figures import write_figures
 from solver.publish.render import latex_printer, md2html, render_template, template_env
 from solver.spec.errors import Place, UserError
 from solver.spec.loader import SpecLoader, load_problem, validation_error
+from solver.spec.expr import number
 from solver.spec.models import Strict
+from solver.spec.texmath import text_math_problem
 from solver.spec.problem import Problem
 from solver.spec.yamlpos import Located, load_file
 
@@ -96,12 +99,17 @@ def _apply_variant(problem: Problem, values: dict[str, Any], located: Located, i
         if sym is None:
             raise UserError(f"'{name}' is not a parameter of {problem.id}", place,
                             "parameters: " + ", ".join(problem.symbols))
+        text = repr(raw) if isinstance(raw, float) else str(raw).strip()
+        sign, digits = (-1, text[1:]) if text.startswith("-") else (1, text.lstrip("+"))
         try:
-            value = sp.Rational(str(raw)) if not isinstance(raw, str) else sp.Rational(raw)
-        except (TypeError, ValueError):
-            raise UserError(f"value of '{name}' must be a number", place, "write e.g. 0.5") from None
+            if isinstance(raw, bool) or (isinstance(raw, float) and not math.isfinite(raw)):
+                raise UserError("not a finite number")
+            value = sign * number(digits, lambda msg: UserError(msg))
+        except UserError as exc:
+            raise UserError(f"value of '{name}' must be a number ({exc.message})", place,
+                            "write e.g. 0.5 or 2.5e-3") from None
         problem.values[sym] = value
-        shown[name] = raw  # printed as the teacher wrote it (0.25, not 1/4)
+        shown[name] = text  # printed as the teacher wrote it (0.25, not 1/4): a validated numeric literal
     return shown
 
 
@@ -113,6 +121,10 @@ def load_exam(path: Path, located: Located | None = None) -> Handout:
         exam = ExamSpec.model_validate(loc.data if isinstance(loc.data, dict) else {})
     except ValidationError as exc:
         raise validation_error(exc, loc, what="exam", hint="see docs/spec.md, section 'Exam files'") from None
+    why = text_math_problem(exam.instructions)
+    if why:
+        raise UserError(f"instructions: {why}", loc.place(("instructions",)),
+                        "math between $...$ may use symbols, Greek letters, \\frac, \\sqrt, accents, fonts, matrices")
     parts = []
     for i, ep in enumerate(exam.problems):
         problem = load_problem(_find_problem(ep.problem, path.parent, loc.place(("problems", i, "problem"))))
@@ -193,7 +205,8 @@ def build(handout: Handout, kind: str, fmt: str, output: Path, template_dir: Pat
             return {"files": [tex_path, *files], "solve": t_solve, "latex": 0.0}
         t1 = time.perf_counter()
         try:
-            pdf = compile_latex(tex_path, output)
+            pdf = compile_latex(tex_path, output, places=[p.problem.located.place(("statement",))
+                                                          for p in handout.parts])
         finally:
             shutil.rmtree(work, ignore_errors=True)
         return {"files": [pdf], "solve": t_solve, "latex": time.perf_counter() - t1}
@@ -205,18 +218,42 @@ def build(handout: Handout, kind: str, fmt: str, output: Path, template_dir: Pat
 
 
 # ------------------------------------------------------------------------------------------ LaTeX
+PDFLATEX = "pdflatex -no-shell-escape -interaction=nonstopmode -halt-on-error -file-line-error"
+LATEX_TIMEOUT = 120.0   # seconds for a whole build
+LATEX_MEMORY = 2 << 30  # bytes of address space for the compiler
+
+
 def latex_tool() -> list[str] | None:
-    """The compiler command: latexmk (preferred) or pdflatex; None when neither is installed."""
+    """The compiler command: latexmk (preferred, without rc files, driving a paranoid pdflatex) or pdflatex;
+    None when neither is installed."""
     if shutil.which("latexmk"):
-        return ["latexmk", "-pdf", "-interaction=nonstopmode", "-halt-on-error", "-file-line-error"]
+        return ["latexmk", "-norc", "-pdf", f"-pdflatex={PDFLATEX} %O %S"]
     if shutil.which("pdflatex"):
-        return ["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "-file-line-error"]
+        return PDFLATEX.split()
     return None
 
 
-def compile_latex(tex: Path, output: Path, timeout: float = 300) -> Path:
-    """Compile ``tex`` (in its directory) and copy the PDF to ``output``. Without LaTeX the .tex (and its
-    figures) are kept beside ``output`` and a UserError says what to install."""
+def latex_env() -> dict[str, str]:
+    """The compiler's environment: no shell escape, files read and written only in the build directory
+    (kpathsea's paranoid mode refuses absolute paths, '..' and dot files; packages are still found)."""
+    import os
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("TEXINPUTS", "TEXMF", "openin", "openout"))}
+    env.update(openin_any="p", openout_any="p", shell_escape="f", TEXMFOUTPUT="")
+    return env
+
+
+def _limit_compiler() -> None:  # in the compiler's process, before exec
+    import resource
+    resource.setrlimit(resource.RLIMIT_AS, (LATEX_MEMORY, LATEX_MEMORY))
+
+
+def compile_latex(tex: Path, output: Path, timeout: float = LATEX_TIMEOUT, places: list[Place] | None = None) -> Path:
+    """Compile ``tex`` (in its directory) and copy the PDF to ``output``, the compiler paranoid and bounded in
+    time and memory. Without LaTeX the .tex (and its figures) are kept beside ``output`` and a UserError says
+    what to install. On a LaTeX error the .tex is kept beside ``output`` and the error names the exercise and,
+    from ``places`` (one per exercise), the spec it comes from."""
+    import os
+    import signal
     tool = latex_tool()
     if tool is None:
         kept = output.with_suffix(".tex")
@@ -226,19 +263,46 @@ def compile_latex(tex: Path, output: Path, timeout: float = 300) -> Path:
         raise UserError(f"LaTeX is not installed: wrote {kept} (compile it later) but no PDF",
                         None, f"install it with: sudo apt-get install {LATEX_PACKAGES}   (or use --format tex|md|html)")
     runs = 1 if tool[0] == "latexmk" else 2
+    deadline = time.monotonic() + timeout
     for _ in range(runs):
+        proc = subprocess.Popen([*tool, tex.name], cwd=tex.parent, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                stdin=subprocess.DEVNULL, text=True, errors="replace", env=latex_env(),
+                                start_new_session=True, preexec_fn=_limit_compiler)
         try:
-            r = subprocess.run([*tool, tex.name], cwd=tex.parent, capture_output=True, text=True, timeout=timeout)
+            stdout, _ = proc.communicate(timeout=max(1.0, deadline - time.monotonic()))
         except subprocess.TimeoutExpired:
-            raise UserError(f"LaTeX did not finish within {timeout:.0f} s", Place(str(tex)), None) from None
-        if r.returncode != 0:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+            raise UserError(f"LaTeX did not finish within {timeout:.0f} s (a macro that loops?)", None,
+                            "build with --format tex and look at the text of the exercise") from None
+        if proc.returncode != 0:
             log = tex.with_suffix(".log")
-            raise UserError("LaTeX failed:\n" + log_excerpt(log.read_text(errors="replace") if log.exists()
-                                                            else r.stdout),
-                            Place(str(tex)), "fix the template or the text shown above (--format tex keeps the .tex)")
+            text = log.read_text(errors="replace") if log.exists() else stdout
+            kept = output.with_suffix(".failed.tex")
+            shutil.copy2(tex, kept)
+            k = _exercise(tex, text)
+            place = places[k - 1] if places and 0 < k <= len(places) else None
+            raise UserError(f"LaTeX failed{f' in exercise {k}' if k else ''}:\n" + log_excerpt(text), place,
+                            f"the LaTeX is kept in {kept}; fix the text of that exercise or the template")
     pdf = tex.with_suffix(".pdf")
     shutil.copy2(pdf, output)
     return output
+
+
+def _exercise(tex: Path, log: str) -> int:
+    """The exercise (from the \\section*{Exercise k} headings) of the first error line of the log; 0 if none."""
+    m = re.search(r"^[^:\s]+\.tex:(\d+): ", log, re.M) or re.search(r"^l\.(\d+) ", log, re.M)
+    if not m:
+        return 0
+    line = int(m.group(1))
+    k = 0
+    for i, text in enumerate(tex.read_text(errors="replace").splitlines(), 1):
+        if i > line:
+            break
+        h = re.match(r"\\section\*\{Exercise (\d+)", text)
+        if h:
+            k = int(h.group(1))
+    return k
 
 
 def log_excerpt(log: str, context: int = 4, limit: int = 30) -> str:

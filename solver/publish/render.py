@@ -12,6 +12,7 @@ import sympy as sp
 from sympy.printing.latex import LatexPrinter
 
 from solver.results import Result, Solution
+from solver.spec.texmath import safe_math
 from solver.spec.problem import Problem
 
 FORMATS = ("md", "tex", "json")
@@ -69,6 +70,7 @@ class Latex:
     """sympy -> LaTeX with the problem's symbol names (q̇ as \\dot q, m2 as m_{2}, ...)."""
 
     def __init__(self, names: dict[sp.Symbol, str], rank: dict[sp.Symbol, int] | None = None) -> None:
+        names = {s: safe_math(tex) for s, tex in names.items()}
         self.names = names
         self.printer = _Printer(names, rank or {})
 
@@ -101,6 +103,17 @@ def latex_text(text: str) -> str:
     return "".join(_TEX_SPECIAL.get(ch, ch) for ch in str(text))
 
 
+def _math(segment: str) -> str:
+    """A $...$ or $$...$$ segment with its formula through the allow-list (solver.spec.texmath)."""
+    fence = "$$" if segment.startswith("$$") and len(segment) >= 4 else "$"
+    return fence + safe_math(segment[len(fence):len(segment) - len(fence)]) + fence
+
+
+def md_math(text: str) -> str:
+    """Markdown text with every formula through the allow-list (what Markdown reports print from a spec)."""
+    return "".join(_math(p) if k % 2 else p for k, p in enumerate(re.split(r"(\$\$.*?\$\$|\$[^$]*\$)", str(text))))
+
+
 def md2tex(text: str) -> str:
     """Markdown with $...$ math to LaTeX: math kept, **bold**/*italic*, '- ' lists, text escaped."""
     out_lines, in_list = [], False
@@ -117,7 +130,7 @@ def md2tex(text: str) -> str:
         conv = []
         for k, part in enumerate(parts):
             if k % 2:
-                conv.append(part)
+                conv.append(_math(part))
             else:
                 t = latex_text(part)
                 t = re.sub(r"\*\*(.+?)\*\*", r"\\textbf{\1}", t)
@@ -127,6 +140,16 @@ def md2tex(text: str) -> str:
     if in_list:
         out_lines.append("\\end{itemize}")
     return "\n".join(out_lines)
+
+
+def _img(alt_escaped: str, src: str) -> str:
+    """An <img> with both attributes quoted; the source only a relative path or an http(s) address."""
+    import html as _html
+    src = _html.unescape(src)
+    if re.match(r"[A-Za-z][A-Za-z0-9+.-]*:", src) and not re.match(r"https?://", src):
+        src = ""
+    alt = _html.escape(_html.unescape(alt_escaped), quote=True)
+    return f'<img alt="{alt}" src="{_html.escape(src, quote=True)}">'
 
 
 def md2html(text: str) -> str:
@@ -139,10 +162,10 @@ def md2html(text: str) -> str:
         out = []
         for k, part in enumerate(parts):
             if k % 2:
-                out.append(_html.escape(part, quote=False))
+                out.append(_html.escape(_math(part), quote=False))
                 continue
             p = _html.escape(part, quote=False)
-            p = re.sub(r"!\[([^\]]*)\]\(([^)\s]+)\)", r'<img alt="\1" src="\2">', p)
+            p = re.sub(r"!\[([^\]]*)\]\(([^)\s]+)\)", lambda m: _img(m.group(1), m.group(2)), p)
             p = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", p)
             p = re.sub(r"(?<![\w*])\*(?!\s)(.+?)(?<!\s)\*(?![\w*])", r"<em>\1</em>", p)
             p = re.sub(r"`([^`]+)`", r"<code>\1</code>", p)
@@ -156,8 +179,7 @@ def md2html(text: str) -> str:
         head = re.match(r"(#{1,6}) (.*)", block)
         image = re.fullmatch(r"!\[(.*)\]\(([^)\s]+)\)", block.strip(), re.S)
         if image:  # a figure on its own line (its caption may hold math, so before the math split)
-            alt = _html.escape(image.group(1).replace("$", ""), quote=True)
-            html_out.append(f'<p><img alt="{alt}" src="{_html.escape(image.group(2), quote=True)}"></p>')
+            html_out.append(f"<p>{_img(_html.escape(image.group(1).replace('$', ''), quote=False), image.group(2))}</p>")
         elif head and len(lines) == 1:
             n = len(head.group(1))
             html_out.append(f"<h{n}>{inline(head.group(2))}</h{n}>")
@@ -301,7 +323,8 @@ def template_env(subdir: str, custom: Path | None = None, autoescape: bool = Fal
         opts.update(block_start_string="<%", block_end_string="%>", variable_start_string="<<",
                     variable_end_string=">>", comment_start_string="<#", comment_end_string="#>")
     env = jinja2.Environment(**opts)
-    env.filters.update(points=lambda x: f"{x:g}", latex_text=latex_text, md2tex=md2tex, md2html=md2html)
+    env.filters.update(points=lambda x: f"{x:g}", latex_text=latex_text, md2tex=md2tex, md2html=md2html,
+                       md_math=md_math)
     return env
 
 

@@ -28,6 +28,9 @@ MAX_LENGTH = 20_000
 MAX_DEPTH = 60
 MAX_EXPONENT = 100
 MAX_LIST = 400
+MAX_DEGREE = 1000      # polynomial degree an expression may reach once expanded
+MAX_DIGITS = 5000      # decimal digits of the integers it may produce
+MAX_DECIMAL_EXP = 300  # 1e300 is the largest power of ten a number may carry
 
 FUNCTIONS: dict[str, tuple[Callable[..., sp.Expr], int]] = {
     "sin": (sp.sin, 1), "cos": (sp.cos, 1), "tan": (sp.tan, 1), "cot": (sp.cot, 1),
@@ -183,20 +186,19 @@ class Parser:
                     raise self.error(f"exponent too large (|exponent| <= {MAX_EXPONENT})", op)
             if base.is_number and exponent.is_number and base.is_real and base != 0:
                 digits = abs(float(exponent)) * abs(float(sp.log(abs(base), 10).evalf(5)))
-                if digits > 5000:
-                    raise self.error("number too large (more than 5000 digits)", op)
-            return sp.Pow(base, exponent)
+                if digits > MAX_DIGITS:
+                    raise self.error(f"number too large (more than {MAX_DIGITS} digits)", op)
+            value = sp.Pow(base, exponent)
+            check_magnitude(value, {}, lambda msg: self.error(msg, op, "simplify the expression"))
+            return value
         return base
 
     def primary(self) -> Parsed:
         t = self.tok
         if t.kind == "num":
             self.i += 1
-            if re.fullmatch(r"\d+", t.text):
-                if len(t.text) > 30:
-                    raise self.error("number too long", t)
-                return sp.Integer(t.text)
-            return sp.Rational(t.text) if len(t.text) < 30 else sp.Float(t.text)
+            return number(t.text, lambda msg: self.error(msg, t, "write a number of at most 30 digits, "
+                                                                 f"with an exponent within ±{MAX_DECIMAL_EXP}"))
         if t.kind == "name":
             self.i += 1
             if self.at_op("("):
@@ -284,6 +286,69 @@ class Parser:
         return left / right
 
 
+_NUMBER = re.compile(r"(\d*)(?:\.(\d*))?(?:[eE]([+-]?\d+))?\Z")
+
+
+def number(text: str, fail: Callable[[str], Exception]) -> sp.Expr:
+    """A decimal literal as an exact sympy number (1.5 -> 3/2, 2e-3 -> 1/500), refusing more than 30 digits or a
+    decimal exponent beyond ±MAX_DECIMAL_EXP (1e999999999 would take hours to build exactly)."""
+    m = _NUMBER.match(text)
+    if not m:
+        raise fail(f"not a number: {text!r}")
+    whole, frac, exp = m.group(1), m.group(2) or "", m.group(3)
+    if len((whole + frac).lstrip("0")) > 30:
+        raise fail("number too long (more than 30 digits)")
+    if exp is not None and (len(exp.lstrip("+-")) > 4 or abs(int(exp)) > MAX_DECIMAL_EXP):
+        raise fail("number out of range")
+    if frac == "" and exp is None:
+        return sp.Integer(whole)
+    value = sp.Rational(int(whole + frac or "0"), 10 ** len(frac))
+    return value * sp.Integer(10) ** int(exp) if exp is not None else value
+
+
+Magnitude = tuple[int, int]  # (polynomial degree, decimal digits of the integers), upper bounds
+
+
+def magnitude(e: sp.Expr, env: Mapping[sp.Symbol, Magnitude], memo: dict | None = None) -> Magnitude:
+    """Upper bounds of the degree and of the integer digits that expanding ``e`` can produce, with each symbol of
+    ``env`` (an abbreviation) standing for an expression of the given magnitude. Cheap: never expands."""
+    memo = {} if memo is None else memo
+    hit = memo.get(e)
+    if hit is not None:
+        return hit
+    if e.is_Integer:
+        out = (0, int(abs(int(e.p)).bit_length() * 0.302) + 1)
+    elif e.is_Rational:
+        out = (0, int((abs(int(e.p)).bit_length() + int(e.q).bit_length()) * 0.302) + 2)
+    elif e.is_Symbol:
+        out = env.get(e, (1, 0))  # type: ignore[arg-type]
+    elif e.is_Number or not e.args:
+        out = (0, 20)
+    else:
+        parts = [magnitude(a, env, memo) for a in e.args]
+        if e.is_Add:
+            out = (max(p[0] for p in parts), max(p[1] for p in parts) + len(parts).bit_length())
+        elif e.is_Mul:
+            out = (sum(p[0] for p in parts), sum(p[1] for p in parts))
+        elif e.is_Pow and e.exp.is_Integer:
+            k = abs(int(e.exp))
+            out = (parts[0][0] * k, parts[0][1] * k)
+        else:  # functions and other powers: an atom of degree 1, its own numbers inside
+            out = (max(1, max(p[0] for p in parts)), max(p[1] for p in parts))
+    memo[e] = out
+    return out
+
+
+def check_magnitude(e: sp.Expr, env: Mapping[sp.Symbol, Magnitude], fail: Callable[[str], Exception]) -> Magnitude:
+    """``magnitude(e, env)``, raising ``fail(message)`` beyond MAX_DEGREE or MAX_DIGITS."""
+    deg, digits = magnitude(e, env)
+    if deg > MAX_DEGREE:
+        raise fail(f"expression of too high degree once expanded (more than {MAX_DEGREE})")
+    if digits > MAX_DIGITS:
+        raise fail(f"number too large once expanded (more than {MAX_DIGITS} digits)")
+    return deg, digits
+
+
 def split_product(text: str, names: Mapping[str, sp.Expr]) -> list[str] | None:
     """``text`` as a concatenation of two or more known names (m2l1 -> [m2, l1]), or None."""
     if len(text) > 40:
@@ -323,9 +388,13 @@ def parse(text: str | int | float, names: Mapping[str, sp.Expr], allow_lists: bo
     if isinstance(text, bool):
         raise ExprError("expected an expression, got a boolean", str(text), 0)
     if isinstance(text, int):
+        if abs(text).bit_length() > 100:
+            raise ExprError("number too long (more than 30 digits)", "", 0, "write a number of at most 30 digits")
         return sp.Integer(text)
     if isinstance(text, float):
-        return sp.Rational(str(text)) if abs(text) < 1e15 else sp.Float(text)
+        if text != text or text in (float("inf"), float("-inf")):
+            raise ExprError(f"not a finite number: {text}", "", 0, "write a number such as 0.5 or 1e-3")
+        return number(repr(abs(text)), lambda msg: ExprError(msg, "", 0)) * (-1 if text < 0 else 1)
     if not isinstance(text, str):
         raise ExprError(f"expected an expression (text), got {type(text).__name__}", "", 0)
     return Parser(text, names, allow_lists).parse()
@@ -336,16 +405,37 @@ def parse_scalar(text: str | int | float, names: Mapping[str, sp.Expr]) -> sp.Ex
     return parse(text, names, allow_lists=False)  # type: ignore[return-value]
 
 
-def expand_abbreviations(value: Parsed, subs: Mapping[sp.Symbol, sp.Expr]) -> Parsed:
+def expand_abbreviations(value: Parsed, subs: Mapping[sp.Symbol, sp.Expr], check_only: bool = False) -> Parsed:
     """``value`` (or nested lists of them) with abbreviation symbols replaced by their definitions, repeatedly
-    (an abbreviation may use earlier ones)."""
+    (an abbreviation may use earlier ones). Raises ExprError, before expanding, when the result would be too
+    large (a chain a2 = a1^100, a3 = a2^100, ...); ``check_only``: only that check."""
     if isinstance(value, list):
-        return [expand_abbreviations(v, subs) for v in value]
+        return [expand_abbreviations(v, subs, check_only) for v in value]
+    if not (getattr(value, "free_symbols", set()) & set(subs)):
+        return value
+    used, todo = set(), list(value.free_symbols & set(subs))
+    while todo:  # the abbreviations the value needs, directly or through others
+        s = todo.pop()
+        if s not in used:
+            used.add(s)
+            todo += list(subs[s].free_symbols & set(subs))
+    env: dict[sp.Symbol, Magnitude] = {}
+    for _ in range(len(used) + 1):  # in dependency order: each in terms of the ones known so far
+        for s in used:
+            if s not in env and not (subs[s].free_symbols & set(subs)) - set(env):
+                env[s] = check_magnitude(subs[s], env, _too_large)
+    check_magnitude(value, env, _too_large)
+    if check_only:
+        return value
     for _ in range(len(subs) + 1):
         if not (getattr(value, "free_symbols", set()) & set(subs)):
             break
         value = value.xreplace(subs)
     return value
+
+
+def _too_large(message: str) -> ExprError:
+    return ExprError(message, "", 0, "abbreviations expand to this; simplify them")
 
 
 def shape_of(value: Parsed) -> tuple[int, ...]:

@@ -21,6 +21,7 @@ from solver.spec.errors import ExprError, Place, UserError
 from solver.spec.models import DH, Link, RobotSpec, SpecBase, Strict, SymbolInfo, _inner_model, json_schema, spec_model
 from solver.spec.problem import Ask, AskContext, Problem
 from solver.spec.robot import Body, Robot
+from solver.spec.texmath import math_problem, text_math_problem
 from solver.spec.yamlpos import Located, PathT, load_file, load_text
 
 __all__ = ["SpecLoader", "load_problem", "load_problem_text", "validation_error", "latex_of", "Strict", "json_schema",
@@ -168,7 +169,11 @@ class SpecLoader:
                     f"allowed fields: {', '.join(fields)}" if fields else "remove it")
             more = f" (and {len(errors) - 1} more problem(s))" if len(errors) > 1 else ""
             raise self.fail(path, msg + more, hint) from None
-        self.spec = spec
+        why = text_math_problem(spec.statement)
+        if why:
+            raise self.fail(("statement",), f"statement: {why}",
+                            "math between $...$ may use symbols, Greek letters, \\frac, \\sqrt, accents, fonts, "
+                            "matrices; nothing that reads files or defines commands")
         self._symbols(spec)
         robot = self._robot(spec.robot) if spec.robot else None
         values = {}
@@ -248,17 +253,26 @@ class SpecLoader:
                 raise self.fail(path, f"'{name}' is a generalized coordinate/velocity, already defined",
                                 "remove it from symbols:")
             meta = info if isinstance(info, SymbolInfo) else SymbolInfo(meaning=info)
+            if meta.latex is not None:
+                self._check_math(path + ("latex",), meta.latex)
             s = sp.Symbol(name, **_ASSUME[meta.sign])
             self.symbols[name] = s
             self.names[name] = s
             self.meanings[name] = meta.meaning
             self.latex_names[s] = meta.latex or latex_of(name)
         inputs = robot.inputs if robot and robot.inputs else []
-        for u in inputs:
+        for i, u in enumerate(inputs):
             name, tex = (u, None) if isinstance(u, str) else (u.name, u.latex)
+            if tex is not None:
+                self._check_math(("robot", "inputs", i, "latex"), tex)
             s = sp.Symbol(name, real=True)
             self.names.setdefault(name, s)
             self.latex_names[s] = tex or latex_of(name)
+
+    def _check_math(self, path: PathT, tex: str) -> None:
+        why = math_problem(tex)
+        if why:
+            raise self.fail(path, f"LaTeX name refused: {why}", "write plain math, e.g. q_{d,1} or \\theta_1")
 
     def _robot(self, r: RobotSpec) -> Robot:
         q = [c[0] for c in self.coords]

@@ -1,18 +1,27 @@
 """Read YAML (or JSON) into plain Python data, remembering where every value stands in the file."""
 from __future__ import annotations
 
+import datetime
 import io
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ruamel.yaml import YAML
-from ruamel.yaml.comments import CommentedMap, CommentedSeq
+from ruamel.yaml.comments import CommentedMap, CommentedSeq, TaggedScalar
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from solver.spec.errors import Place, UserError
 
 PathT = tuple[Any, ...]
+
+MAX_FILE_BYTES = 1_000_000  # a spec or a submission is a few kB; reading is bounded before parsing
+MAX_NODES = 100_000         # values after expanding YAML aliases (an alias bomb expands to billions)
+MAX_NESTING = 50            # levels of mappings and lists
+
+
+class _TooMuch(Exception):
+    pass
 
 
 @dataclass
@@ -44,34 +53,72 @@ class Located:
         return place, 0
 
 
-def _plain(node: Any, path: PathT, positions: dict[PathT, tuple[int, int]]) -> Any:
-    if isinstance(node, CommentedMap):
-        out = {}
-        for key in node:
-            try:
-                line, col = node.lc.value(key)
-            except (KeyError, TypeError):
-                line, col = node.lc.line, node.lc.col
-            positions[path + (str(key),)] = (line + 1, col + 1)
-            out[str(key)] = _plain(node[key], path + (str(key),), positions)
-        return out
-    if isinstance(node, CommentedSeq):
-        out_l = []
-        for i, item in enumerate(node):
-            try:
-                line, col = node.lc.item(i)
-                positions[path + (i,)] = (line + 1, col + 1)
-            except (KeyError, TypeError, IndexError):
-                pass
-            out_l.append(_plain(item, path + (i,), positions))
-        return out_l
-    if isinstance(node, str):
-        return str(node)
-    return node
+class _Builder:
+    """Plain data from ruamel's round-trip nodes, with positions; bounded in values and nesting."""
+
+    def __init__(self) -> None:
+        self.positions: dict[PathT, tuple[int, int]] = {}
+        self.count = 0
+
+    def plain(self, node: Any, path: PathT) -> Any:
+        self.count += 1
+        if self.count > MAX_NODES:
+            raise _TooMuch(f"more than {MAX_NODES} values (YAML aliases *name expand to copies)")
+        if len(path) > MAX_NESTING:
+            raise _TooMuch(f"nested more than {MAX_NESTING} levels deep")
+        positions = self.positions
+        tag = getattr(getattr(node, "tag", None), "value", None)
+        if tag or isinstance(node, (TaggedScalar, bytes)):
+            raise _TooMuch(f"YAML tags ({tag or '!!binary'}) are not allowed: write plain values")
+        if isinstance(node, CommentedMap):
+            out = {}
+            for key in node:
+                try:
+                    line, col = node.lc.value(key)
+                except (KeyError, TypeError):
+                    line, col = node.lc.line, node.lc.col
+                positions[path + (str(key),)] = (line + 1, col + 1)
+                out[_text(key)] = self.plain(node[key], path + (str(key),))
+            return out
+        if isinstance(node, CommentedSeq):
+            out_l = []
+            for i, item in enumerate(node):
+                try:
+                    line, col = node.lc.item(i)
+                    positions[path + (i,)] = (line + 1, col + 1)
+                except (KeyError, TypeError, IndexError):
+                    pass
+                out_l.append(self.plain(item, path + (i,)))
+            return out_l
+        if isinstance(node, str):
+            return _text(node)
+        if node is None or isinstance(node, (int, float, datetime.date)):
+            return node
+        raise _TooMuch(f"a YAML {type(node).__name__} is not allowed: write plain values")
+
+
+def _text(s: Any) -> str:
+    """A string as valid Unicode: JSON-escaped surrogate pairs (\\ud83d\\udca5) joined, a lone one refused."""
+    s = str(s)
+    try:
+        s.encode("utf-8")
+        return s
+    except UnicodeEncodeError:
+        pass
+    try:
+        joined = s.encode("utf-16", "surrogatepass").decode("utf-16")
+        joined.encode("utf-8")
+        return joined
+    except UnicodeError:
+        raise _TooMuch("a text holds an invalid character (a lone UTF-16 surrogate)") from None
 
 
 def load_text(text: str, file: str = "<input>") -> Located:
-    """Parse YAML text; a syntax error becomes a :class:`UserError` at its line and column."""
+    """Parse YAML text; a syntax error becomes a :class:`UserError` at its line and column. Bounded: the text's
+    size, the number of values after expanding aliases and the nesting depth are limited."""
+    if len(text) > MAX_FILE_BYTES:
+        raise UserError(f"file too large ({len(text) // 1000} kB; at most {MAX_FILE_BYTES // 1000} kB)", Place(file),
+                        "a spec or an answer file is a few kB")
     yaml = YAML(typ="rt")
     yaml.allow_duplicate_keys = False
     try:
@@ -85,23 +132,63 @@ def load_text(text: str, file: str = "<input>") -> Located:
         raise UserError(f"YAML syntax: {problem}", place,
                         "check indentation, a missing ':' or an unclosed quote/bracket") from None
     except YAMLError as exc:
-        raise UserError(f"YAML syntax: {exc}", Place(file)) from None
-    positions: dict[PathT, tuple[int, int]] = {}
+        raise UserError(f"YAML syntax: {str(exc)[:300]}", Place(file)) from None
+    except RecursionError:
+        raise UserError("YAML nested too deeply", Place(file), f"at most {MAX_NESTING} levels") from None
+    except (ValueError, TypeError, OverflowError, AttributeError) as exc:  # e.g. a 5000-digit integer
+        raise UserError(f"a value cannot be read: {str(exc)[:200]}", Place(file),
+                        "numbers have at most 30 digits; quote text") from None
+    builder = _Builder()
     if isinstance(node, (CommentedMap, CommentedSeq)):
-        positions[()] = (node.lc.line + 1, node.lc.col + 1)
-    data = _plain(node, (), positions)
-    return Located(data, file, positions, text.splitlines())
+        builder.positions[()] = (node.lc.line + 1, node.lc.col + 1)
+    try:
+        data = builder.plain(node, ())
+    except _TooMuch as exc:
+        raise UserError(f"cannot read this YAML: {exc}", Place(file),
+                        "write plain values (no aliases *name, no tags !name)") from None
+    except RecursionError:
+        raise UserError("YAML nested too deeply", Place(file), f"at most {MAX_NESTING} levels") from None
+    return Located(data, file, builder.positions, text.splitlines())
+
+
+def read_text_bounded(path: str | Path, max_bytes: int = MAX_FILE_BYTES, label: str | None = None) -> str:
+    """The UTF-8 text of a regular file of at most ``max_bytes``: never blocks on a FIFO, never reads a device or
+    an endless file. Errors are UserErrors naming ``label`` (default: the path)."""
+    import os
+    import stat
+    name = label or str(path)
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except FileNotFoundError:
+        raise UserError(f"no such file: {name}", None, "check the path") from None
+    except IsADirectoryError:
+        raise UserError(f"{name} is a directory, a file was expected", None) from None
+    except OSError as exc:
+        raise UserError(f"cannot read {name}: {exc.strerror}", None) from None
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise UserError(f"{name} is a directory, a file was expected", None)
+        if not stat.S_ISREG(st.st_mode):
+            raise UserError(f"{name} is not a regular file (a pipe, a device or a socket)", None, "give a .yaml file")
+        if st.st_size > max_bytes:
+            raise UserError(f"{name}: file too large ({st.st_size // 1000} kB; at most {max_bytes // 1000} kB)", None)
+        data = b""
+        while len(data) <= max_bytes:
+            chunk = os.read(fd, max_bytes + 1 - len(data))
+            if not chunk:
+                break
+            data += chunk
+        if len(data) > max_bytes:
+            raise UserError(f"{name}: file too large (at most {max_bytes // 1000} kB)", None)
+    finally:
+        os.close(fd)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise UserError("file is not UTF-8 text", Place(name)) from None
 
 
 def load_file(path: str | Path) -> Located:
-    """Read and parse a YAML/JSON file (JSON is YAML)."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UserError(f"no such file: {p}", None, "check the path") from None
-    except UnicodeDecodeError:
-        raise UserError("file is not UTF-8 text", Place(str(p))) from None
-    except IsADirectoryError:
-        raise UserError(f"{p} is a directory, a file was expected", None) from None
-    return load_text(text, str(p))
+    """Read and parse a YAML/JSON file (JSON is YAML), bounded (see :func:`read_text_bounded`)."""
+    return load_text(read_text_bounded(path), str(path))

@@ -1,0 +1,210 @@
+"""Bounded work: each file is read, parsed, solved or graded in a child process with hard limits.
+
+A child gets an address-space limit (RLIMIT_AS = its size at start + ``memory_mb``) and a CPU-time limit, and the
+parent kills it (SIGKILL) when its wall-clock time runs out, so that no file — an alias bomb, a huge number, a
+tower of powers, C code that ignores signals — can hang or exhaust the machine. At most ``jobs`` children run at
+once; a child that dies is simply not replaced by itself: the next item gets a fresh child. One bad item never
+stops a batch: its outcome says why it failed (``time``, ``memory``, ``crashed`` or the exception).
+
+POSIX only (fork); elsewhere the work runs in-process, unbounded.
+"""
+from __future__ import annotations
+
+import math
+import os
+import pickle
+import select
+import signal
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence, TypeVar
+
+from solver.spec.errors import UserError
+
+T = TypeVar("T")
+
+TIME, MEMORY, CRASHED, EXCEPTION, USER = "time", "memory", "crashed", "exception", "user"
+
+
+@dataclass
+class Outcome:
+    """What became of one item: ``value`` when ``ok``; else ``failure`` (time | memory | crashed | exception |
+    user: a UserError, whose formatted text is the ``message``) and a ``message``."""
+
+    value: Any = None
+    failure: str | None = None
+    message: str = ""
+    seconds: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return self.failure is None
+
+
+@dataclass
+class Limits:
+    seconds: float = 600.0     # wall-clock time per item
+    memory_mb: int = 4096      # address space per item, above the child's size at start
+
+    def describe(self, failure: str) -> str:
+        if failure == TIME:
+            return f"stopped after {self.seconds:g} s (time limit)"
+        if failure == MEMORY:
+            return f"stopped: more than {self.memory_mb} MB of memory (memory limit)"
+        return "the worker process crashed"
+
+
+def _vm_bytes() -> int:
+    """This process's address-space size (Linux /proc; 0 when unknown)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
+
+
+def _child(fn: Callable[[T], Any], item: T, limits: Limits, w: int) -> None:
+    """Run in the forked child: set the limits, run, send (status, value) through ``w``, exit without cleanup."""
+    try:
+        import resource
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        base = _vm_bytes()
+        if base:
+            cap = base + limits.memory_mb * 1024 * 1024
+            resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+        cpu = math.ceil(limits.seconds) + 1
+        resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
+    except (ImportError, ValueError, OSError):
+        pass
+    try:
+        payload = pickle.dumps(("ok", fn(item)))
+    except MemoryError:
+        payload = pickle.dumps((MEMORY, ""))
+    except RecursionError:
+        payload = pickle.dumps((EXCEPTION, "nested too deeply"))
+    except UserError as exc:
+        payload = pickle.dumps((USER, str(exc)))
+    except BaseException as exc:  # noqa: BLE001 - reported to the parent, never raised there
+        try:
+            payload = pickle.dumps((EXCEPTION, f"{exc.__class__.__name__}: {exc}"[:2000]))
+        except BaseException:  # noqa: BLE001
+            payload = pickle.dumps((EXCEPTION, exc.__class__.__name__))
+    try:
+        view = memoryview(payload)
+        while view:
+            view = view[os.write(w, view):]
+    finally:
+        os._exit(0)
+
+
+@dataclass
+class _Running:
+    index: int
+    pid: int
+    fd: int
+    start: float
+    buf: bytearray
+
+
+def run_many(fn: Callable[[T], Any], items: Sequence[T], jobs: int = 0, limits: Limits | None = None,
+             on_done: Callable[[int, Outcome], None] | None = None) -> list[Outcome]:
+    """``fn(item)`` for every item, each in its own bounded child process, ``jobs`` at a time (0: one per core).
+    Outcomes in the order of ``items``; ``on_done(index, outcome)`` is called in the parent as each finishes.
+    ``fn`` must return picklable values; exceptions become failed outcomes."""
+    limits = limits or Limits()
+    outcomes: list[Outcome | None] = [None] * len(items)
+    if not hasattr(os, "fork"):
+        for i, item in enumerate(items):
+            t0 = time.monotonic()
+            try:
+                out = Outcome(fn(item), seconds=time.monotonic() - t0)
+            except Exception as exc:  # noqa: BLE001
+                out = Outcome(None, EXCEPTION, f"{exc.__class__.__name__}: {exc}", time.monotonic() - t0)
+            outcomes[i] = out
+            if on_done:
+                on_done(i, out)
+        return [o for o in outcomes if o is not None]
+    jobs = max(1, jobs or os.cpu_count() or 1)
+    pending = list(range(len(items)))[::-1]
+    running: dict[int, _Running] = {}
+    try:
+        while pending or running:
+            while pending and len(running) < jobs:
+                i = pending.pop()
+                r, w = os.pipe()
+                pid = os.fork()
+                if pid == 0:  # child
+                    os.close(r)
+                    _child(fn, items[i], limits, w)
+                os.close(w)
+                os.set_blocking(r, False)
+                running[r] = _Running(i, pid, r, time.monotonic(), bytearray())
+            now = time.monotonic()
+            timeout = max(0.0, min(run.start + limits.seconds for run in running.values()) - now)
+            ready, _, _ = select.select(list(running), [], [], min(timeout, 1.0))
+            for fd in ready:
+                run = running[fd]
+                try:
+                    chunk = os.read(fd, 1 << 20)
+                except BlockingIOError:
+                    continue
+                if chunk:
+                    run.buf += chunk
+                    continue
+                del running[fd]
+                _finish(run, limits, outcomes, on_done)
+            now = time.monotonic()
+            for fd, run in list(running.items()):
+                if now - run.start > limits.seconds:
+                    del running[fd]
+                    _kill(run)
+                    out = Outcome(None, TIME, limits.describe(TIME), now - run.start)
+                    outcomes[run.index] = out
+                    if on_done:
+                        on_done(run.index, out)
+    finally:
+        for run in running.values():
+            _kill(run)
+    return [o for o in outcomes if o is not None]
+
+
+def _kill(run: _Running) -> None:
+    try:
+        os.kill(run.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    os.waitpid(run.pid, 0)
+    os.close(run.fd)
+
+
+def _finish(run: _Running, limits: Limits, outcomes: list[Outcome | None],
+            on_done: Callable[[int, Outcome], None] | None) -> None:
+    _, status = os.waitpid(run.pid, 0)
+    os.close(run.fd)
+    seconds = time.monotonic() - run.start
+    out: Outcome
+    try:
+        tag, value = pickle.loads(bytes(run.buf)) if run.buf else (None, None)
+    except Exception:  # noqa: BLE001 - a truncated message: the child died while writing
+        tag, value = None, None
+    if tag == "ok":
+        out = Outcome(value, seconds=seconds)
+    elif tag == MEMORY:
+        out = Outcome(None, MEMORY, limits.describe(MEMORY), seconds)
+    elif tag in (EXCEPTION, USER):
+        out = Outcome(None, tag, str(value), seconds)
+    elif os.WIFSIGNALED(status) and os.WTERMSIG(status) in (signal.SIGXCPU, signal.SIGKILL):
+        out = Outcome(None, TIME, limits.describe(TIME), seconds)
+    else:
+        out = Outcome(None, CRASHED, limits.describe(CRASHED), seconds)
+    outcomes[run.index] = out
+    if on_done:
+        on_done(run.index, out)
+
+
+def run_one(fn: Callable[[], Any], limits: Limits | None = None) -> Outcome:
+    """``fn()`` in one bounded child process."""
+    return run_many(lambda _: fn(), [None], 1, limits)[0]
