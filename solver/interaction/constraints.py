@@ -32,7 +32,7 @@ from pydantic import Field, model_validator
 from solver.dynamics.equilibria import equilibria
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
-from solver.math.simplify import is_zero, tidy
+from solver.math.simplify import angle_symbols, is_zero, tidy
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -46,6 +46,8 @@ ExprT = Union[str, int, float, list[Any]]
 MAX_SYMBOLIC_N = 4         # coordinates up to which λ, A_B^# and the reduced model are given symbolically
 MAX_SYMBOLIC_OPS = 4000    # and the size (operations) of B, n, A, D beyond which only numbers are given
 MAX_SINGULAR_N = 4         # configurations where a rank drops are solved for up to this many coordinates
+MAX_MIN_NORM_OPS = 300    # the minimum-norm input of a family is given symbolically up to this size
+MAX_MULTIPLIER_OPS = 30    # λ(q, q̇, u) symbolic for n > 2 only when B is this small (it grows as adj B · adj W)
 
 
 class SimulateOptions(Strict):
@@ -311,7 +313,7 @@ class Reduction:
     Etu: sp.Matrix
     on_v: dict[sp.Symbol, sp.Expr]   # q̇ -> F v
     model: sp.Matrix        # FᵀBF v̇ + Fᵀ(n + BḞv) − FᵀGu with q̇ = F v
-    vdot: sp.Matrix         # (FᵀBF)⁻¹ Fᵀ(Gu − n − BḞv) with q̇ = F v (the reduced model solved for v̇)
+    vdot: sp.Matrix | None  # (FᵀBF)⁻¹ Fᵀ(Gu − n − BḞv) with q̇ = F v (one pseudo-velocity only)
     lam: sp.Matrix          # Eᵀ(BFv̇ + BḞv + n − Gu) with q̇ = F v
     NF: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 0))   # δ F
     Fdv: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 0))  # δ³ Ḟ v along the constraint
@@ -366,10 +368,10 @@ def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None,
                  - detz ** 3 * NFz.T * Gz, detz ** 4)
     lam = over(detz ** 2 * NEz.T * Bz * NFz * dv + NEz.T * Bz * Fdv + detz * NEz.T * n2
                - detz ** 3 * NEz.T * Gz, detz ** 4)
-    M = (NFz.T * Bz * NFz).applyfunc(lambda x: tidy(sp.expand(x)))   # δ² FᵀBF
-    adjM = M.adjugate() if M.rows > 1 else sp.eye(1)
-    vdot = over(adjM * (detz ** 3 * NFz.T * Gz - detz * NFz.T * n2 - NFz.T * Bz * Fdv),
-                tidy(sp.expand(M.det())) * detz ** 2)
+    vdot = None
+    if NF.cols == 1:  # one pseudo-velocity: v̇ = Fᵀ(Gu − n − BḞv)/FᵀBF (for more, a linear system in v̇)
+        M = tidy(sp.expand((NFz.T * Bz * NFz)[0]))   # δ² FᵀBF
+        vdot = over(detz ** 3 * NFz.T * Gz - detz * NFz.T * n2 - NFz.T * Bz * Fdv, M * detz ** 2)
     on_v = dict(zip(dq, F * v))
     return Reduction(D, AD, det, E, F, v, dv, v_def, dv_def, Fdot, qddot, BF, FtBF, FtBFdot, Ftn, Ftu, EtBF,
                      EtBFdot, Etn, Etu, on_v, model, vdot, lam, NF, Fdv, n2)
@@ -387,17 +389,38 @@ class Inputs:
 
 
 def solve_inputs(M: sp.Matrix, b: sp.Matrix, u: list[sp.Symbol]) -> Inputs:
-    """All u with M u = b (linsolve, pivots in the order of u), and M⁺ b when there is more than one."""
-    sols = sp.linsolve((M, b), *u)
-    if not sols:
+    """All u with M u = b: the first independent columns of M (pivots, by the generic rank) solved through the
+    adjugate of their block, u_p = M_p⁻¹(b − M_f u_f), the other inputs free; and the minimum-norm solution
+    Mᵀ(M Mᵀ)⁻¹ b when there is more than one. Not solvable (b outside the range of M, almost everywhere):
+    exists = False."""
+    r, m = M.shape
+    pivots: list[int] = []
+    for j in range(m):
+        if generic_rank(M[:, pivots + [j]]) > len(pivots):
+            pivots.append(j)
+    rank = len(pivots)
+    if generic_rank(M.row_join(b)) > rank:
         return Inputs(None, [], None, False)
-    sol = sp.Matrix(list(sols)[0]).applyfunc(rtidy)
-    free = [s for s in u if sol.has(s)]
+    rows = []
+    for i in range(r):
+        if generic_rank(M[rows + [i], pivots]) > len(rows):
+            rows.append(i)
+    free = [j for j in range(m) if j not in pivots]
+    Mp = M[rows, pivots]
+    rhs = b[rows, :] - (M[rows, free] * sp.Matrix([u[j] for j in free]) if free else sp.zeros(rank, 1))
+    det = tidy(sp.expand(Mp.det())) if rank > 1 else Mp[0, 0]
+    up = over(Mp.adjugate() * rhs, det) if rank > 1 else rhs.applyfunc(lambda x: ratio(x, det))
+    sol = [sp.Integer(0)] * m
+    for k, j in enumerate(pivots):
+        sol[j] = up[k]
+    for j in free:
+        sol[j] = u[j]
     u_min = None
-    if free:
-        Mt = M.T
-        u_min = (Mt * (M * Mt).inv() * b).applyfunc(rtidy) if (M * Mt).det() != 0 else None
-    return Inputs(sol, free, u_min, True)
+    if free and rank == r and sp.count_ops(M) + sp.count_ops(b) <= MAX_MIN_NORM_OPS:
+        MMt = (M * M.T).applyfunc(lambda x: tidy(sp.expand(x)))
+        d = tidy(sp.expand(MMt.det()))
+        u_min = over(M.T * (MMt.adjugate() if r > 1 else sp.eye(1)) * b, d)
+    return Inputs(sp.Matrix(sol), [u[j] for j in free], u_min, True)
 
 
 # ------------------------------------------------------------------------------------------------ the ask
@@ -562,7 +585,9 @@ def _vector_option(spec: _Spec, key: str, size: int, default: list[sp.Expr]) -> 
 
 def _singular(M: sp.Matrix, q: list[sp.Symbol], k: int) -> tuple[list[sp.Matrix], bool, bool]:
     """Configurations where rank M < k (every k x k minor zero), by the polynomial solver of
-    :func:`solver.dynamics.equilibria.equilibria`. Returns (configurations, every configuration, computed)."""
+    :func:`solver.dynamics.equilibria.equilibria`, when the minors involve at most two angles (beyond, the solution
+    sets are manifolds such as q1 + q2 + q3 = pi/2, reported as conditions instead). Returns (configurations,
+    every configuration, computed)."""
     if len(q) > MAX_SINGULAR_N:
         return [], False, False
     minors = [tidy(M[:, list(S)].det()) for S in itertools.combinations(range(M.cols), k)]
@@ -571,15 +596,21 @@ def _singular(M: sp.Matrix, q: list[sp.Symbol], k: int) -> tuple[list[sp.Matrix]
         return [sp.Matrix(q)], True, True
     if not any(x.free_symbols & set(q) for x in minors):
         return [], False, True
+    if len(set(angle_symbols(sp.Add(*minors))) & set(q)) > 2 or sum(sp.count_ops(x) for x in minors) > 200:
+        return [], False, False
     try:
         configs, _, every = equilibria(sp.Matrix(minors), q)
     except (NotImplementedError, ValueError, TypeError, sp.PolynomialError):
         return [], False, False
+    allowed = set(q) | M.free_symbols
+    for c in configs:  # only clean solutions: numbers and free coordinates (no radicals of the parameters)
+        if any((x.free_symbols - allowed) or x.has(sp.atan2) for x in c):
+            return [], False, False
     return configs, every, True
 
 
 class Atoms:
-    """Parameter-only sums and radicals ((yA - yB), sqrt(a^2 + b^2), I2 + m2 d2^2) replaced by symbols while
+    """Parameter-only sums and radicals of the constraints ((yA - yB), sqrt(a^2 + b^2)) replaced by symbols while
     computing, so that they stay factors instead of being expanded into long polynomials; ``restore`` puts them
     back into results and steps."""
 
@@ -692,10 +723,12 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
              pfaffian=options.A is not None, singular=sing, every=sing_every, done=sing_done, h_at=h_at_sing,
              q=sp.Matrix(q))
     X = atoms
-    sm = SymModel(X(dm.B), X(dm.c), X(dm.g), X(dm.Fv), X(G), X(G) * sp.Matrix(u), X(nvec), X(A), X(Adot),
-                  X(spec.D), {x: X(val) for x, val in spec.frozen.items()})
+    # only the constraint side is atomized: the model's own sums (I2 + m2 d2^2) must stay free to cancel
+    sm = SymModel(dm.B, dm.c, dm.g, dm.Fv, G, G * sp.Matrix(u), nvec, X(A), X(Adot), X(spec.D),
+                  {x: X(val) for x, val in spec.frozen.items()})
     mult = None
-    if symbolic and options.multiplier:
+    mult_symbolic = symbolic and (n <= 2 or sp.count_ops(dm.B) <= MAX_MULTIPLIER_OPS)
+    if mult_symbolic and options.multiplier:
         mult = atoms.restore(multiplier(sm.B, sm.nvec, sm.Gu, sm.A, sm.Adot, dq, ddq))
         add("W", mult.W, "matrix", label="A B^{-1} A^T")
         add("lambda", mult.lam, "vector", label="\\lambda(q,\\dot q,u)")
@@ -704,7 +737,7 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
         add("constrained_model", mult.model, "vector",
             label="B\\ddot q - (I - A^T A_B^{\\#T})(Gu - n) + B A_B^{\\#}\\dot A\\dot q")
     if options.multiplier:
-        sol.step("multiplier", m=mult, k=k, G=dm.G, too_big=not symbolic, n=n)
+        sol.step("multiplier", m=mult, k=k, G=dm.G, too_big=not mult_symbolic, n=n, at=spec.state is not None)
 
     red = None
     if options.reduced and symbolic:
@@ -754,7 +787,8 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
     add("Etn", red.Etn, "vector", label="E^T n")
     add("Etu", red.Etu, "vector", label="E^T G u")
     add("reduced_model", red.model, "vector", label="F^T B F\\dot v + F^T(n + B\\dot F v) - F^T G u")
-    add("vdot", red.vdot, "vector", label="\\dot v(q, v, u)")
+    if red.vdot is not None:
+        add("vdot", red.vdot, "vector", label="\\dot v(q, v, u)")
     add("lambda_reduced", red.lam, "vector", label="\\lambda(q, v, \\dot v, u)")
     if done:
         add("reduction_singular", sing, "set", label="q:\\ \\det [A; D] = 0")
