@@ -160,7 +160,7 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
         return tidy(n / d)
     if sp.count_ops(d) <= MAX_CANCEL_OPS and sp.count_ops(n) <= MAX_CANCEL_OPS * 10:
         coeff, factors = sp.factor_list(d)
-        rest = sp.Integer(coeff)
+        rest = sp.sympify(coeff)
         for f, e in factors:
             j = 0
             if f.free_symbols:
@@ -895,7 +895,7 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
     bad = []
     if spec.h is not None:
         h_at = spec.h.xreplace(subs)
-        bad = [i for i, x in enumerate(h_at) if _nonzero(x)]
+        bad = [i for i, x in enumerate(h_at) if not (x.free_symbols & set(q)) and _nonzero(x)]
         if bad:
             raise spec.fail(("at",), f"the state is not on the constraints: h_{bad[0] + 1} = "
                                      f"{_show(h_at[bad[0]])} there", "give a configuration with h(q) = 0")
@@ -978,7 +978,7 @@ def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> No
     m = len(u)
     u_t = vec("u", m)
     allowed = set(q) | set(dq) | {t}
-    exprs = list(u_t) + list(dm.B) + list(nvec) + list(spec.A) + list(G)
+    exprs = list(u_t) + list(dm.B) + list(nvec) + list(spec.A) + list(G) + (list(spec.h) if spec.h is not None else [])
     fixed, unit = numeric_values(exprs, problem.values, allowed)
     q0 = [sp.sympify(x).xreplace(problem.values).xreplace({s: v for s, v in fixed.items()}) for x in vec("q0", n)]
     dq0 = [sp.sympify(x).xreplace(problem.values).xreplace(fixed) for x in vec("dq0", n, [sp.Integer(0)] * n)]
