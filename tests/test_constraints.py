@@ -15,7 +15,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from solver.dynamics.model import derive
-from solver.interaction.constraints import check_reduction, time_derivative
+from solver.interaction.constraints import check_equilibrium_inputs, check_reduction, time_derivative
 from solver.math.equivalence import scalar_equiv
 from solver.publish.render import render
 from solver.solve import all_results, solve_problem
@@ -387,6 +387,24 @@ def test_grader_accepts_a_reduced_inertia_under_the_students_complement():
     v = check_reduction(p, res, "D", bad, lambda n: None, None)
     assert v is not None and not v.correct
     assert check_reduction(p, res, "reduced_inertia", right, lambda n: None, None) is None  # no D: reference
+
+
+def test_grader_accepts_any_parametrization_of_the_equilibrium_inputs():
+    p, _, res = solved(R3_K2)
+    u = list(p.robot.inputs)
+    ref, g = value(res, "u_eq"), value(res, "u_eq_lambda0")
+    F = value(res, "F")
+    a, b = sp.symbols("a b", real=True)  # the student's own parameters: u = g + A^T (a, b)
+    A = value(res, "A")
+    family = g + A.T * sp.Matrix([a, b])
+    assert all(zero(x) for x in F.T * (family - g))
+    v = check_equilibrium_inputs(p, res, "u_eq", list(family), lambda n: None, None)
+    assert v.correct and v.fraction == 1.0
+    v = check_equilibrium_inputs(p, res, "u_eq", list(g), lambda n: None, None)
+    assert v.correct is False and v.fraction == 0.5  # keeps the equilibrium, but only one input of the family
+    v = check_equilibrium_inputs(p, res, "u_eq", list(g + sp.Matrix([1, 0, 0])), lambda n: None, None)
+    assert v.correct is False and v.fraction == 0.0
+    assert set(u) >= {s for s in ref.free_symbols if s in u}
 
 
 def generic_rank_ok(M) -> bool:

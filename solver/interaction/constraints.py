@@ -168,6 +168,9 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
             rest *= f ** (e - j)
         n = tidy(sp.expand(n))
         d = rest
+        if d.has(sp.sin, sp.cos) and sp.count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
+            short = sp.factor(sp.trigsimp(tidy(sp.expand(d))))
+            d = short if sp.count_ops(short) <= sp.count_ops(d) else d
         if d.is_number:
             return tidy(n / d)
     if d.could_extract_minus_sign():
