@@ -31,6 +31,7 @@ class Curve:
     label: str  # LaTeX
     x: list[float]
     y: list[float]
+    dashed: bool = False  # a reference or predicted value drawn dashed
 
 
 @dataclass
@@ -42,6 +43,7 @@ class Panel:
     hlines: list[tuple[float, str]] = field(default_factory=list)  # (y, label): bounds, drawn dashed
     markers: list[tuple[float, float, str]] = field(default_factory=list)  # (x, y, label): points to mark
     equal_axes: bool = False  # same scale on x and y (a path in the plane)
+    sketch: Optional["Sketch"] = None  # a robot sketch (drawn to scale) instead of, or over, the curves
 
 
 @dataclass
@@ -91,3 +93,37 @@ def kind_of(value: Any) -> str:
     if isinstance(value, (int, float)) or (isinstance(value, sp.Expr) and value.is_number):
         return "number"
     return "scalar"
+
+
+@dataclass
+class RobotPose:
+    """A planar robot drawn at one configuration, in numbers: the chain's points P_0 (base), P_1, ..., P_n (end
+    effector); joint i (``joints[i-1]``, R or P) sits at P_{i-1}, link i joins P_{i-1} and P_i; ``slides[i-1]`` is
+    the unit direction of a prismatic joint (None for a revolute one)."""
+
+    label: str
+    points: list[tuple[float, float]]
+    joints: list[str]
+    slides: list[tuple[float, float] | None]
+
+
+@dataclass
+class Arrow:
+    """A vector drawn at a point (a task velocity or force, a direction)."""
+
+    x: float
+    y: float
+    dx: float
+    dy: float
+    label: str = ""
+
+
+@dataclass
+class Sketch:
+    """A robot sketch panel: poses of the robot, arrows, and paths (curves in the plane)."""
+
+    poses: list[RobotPose]
+    arrows: list[Arrow] = field(default_factory=list)
+    paths: list[Curve] = field(default_factory=list)
+    xlabel: str = "$x$"
+    ylabel: str = "$y$"

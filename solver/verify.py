@@ -213,13 +213,17 @@ def check_problem(problem: Problem, compare: bool = True) -> Report:
         if not compare:
             continue
         r = results[e.key]
-        printed = _to_value(e.printed, r.kind)
-        if e.erratum is not None:
-            v = equivalent(r.value, _to_value(e.corrected, r.kind), r.kind, **e.tol)
-            pv = equivalent(r.value, printed, r.kind, **e.tol)
-            rep.checks.append(Check(e.key, e.line, v, e.erratum, pv.verdict == INCORRECT))
-        else:
-            rep.checks.append(Check(e.key, e.line, equivalent(r.value, printed, r.kind, **e.tol)))
+        try:
+            printed = _to_value(e.printed, r.kind)
+            if e.erratum is not None:
+                v = equivalent(r.value, _to_value(e.corrected, r.kind), r.kind, **e.tol)
+                pv = equivalent(r.value, printed, r.kind, **e.tol)
+                rep.checks.append(Check(e.key, e.line, v, e.erratum, pv.verdict == INCORRECT))
+            else:
+                rep.checks.append(Check(e.key, e.line, equivalent(r.value, printed, r.kind, **e.tol)))
+        except Exception as exc:  # noqa: BLE001 - a value of another shape or kind: this entry fails, not the file
+            rep.checks.append(Check(e.key, e.line, Verdict(ERROR, f"cannot compare with the {r.kind} result "
+                                                                  f"{e.key}: {exc.__class__.__name__}: {exc}"[:300])))
     return rep
 
 

@@ -477,3 +477,21 @@ def test_a_hostile_class_of_300(tmp_path, outside):
     by = {row["file"]: row for row in rows}
     assert by["s000.yaml"]["total"] == "12" and by["bomb.yaml"]["total"] == "0"
     assert SECRET not in _outputs_text(out)
+
+
+@pytest.mark.skipif(not shutil.which("pdflatex"), reason="needs pdflatex")
+def test_a_latex_error_names_the_exercise_and_its_spec(tmp_path):
+    """Not a deleted temporary file: the exercise, the spec file and line of its statement, and the kept .tex."""
+    from solver.publish.handout import compile_latex
+    from solver.spec.errors import Place
+    work = tmp_path / "work"
+    work.mkdir()
+    tex = work / "h.tex"
+    tex.write_text("\\documentclass{article}\\begin{document}\n\\section*{Exercise 1}\nfine\n"
+                   "\\section*{Exercise 2}\n\\undefinedcommand\n\\end{document}\n")
+    places = [Place("problems/a.yaml", 5, 1), Place("problems/b.yaml", 7, 1)]
+    with pytest.raises(UserError) as err:
+        compile_latex(tex, tmp_path / "h.pdf", timeout=60, places=places)
+    text = str(err.value)
+    assert "in exercise 2" in text and text.startswith("problems/b.yaml:7:1") and "Undefined control sequence" in text
+    assert (tmp_path / "h.failed.tex").exists() and "h.failed.tex" in text

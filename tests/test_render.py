@@ -109,3 +109,10 @@ def test_long_equations_break_into_lines():
     long = display([f"m_{{{k}}} \\dot{{q}}_{{1}} \\cos{{q_{{2}}}}" for k in range(12)], "u_{1}", width=40)
     assert long.startswith("\\begin{multline*}") and long.count("\\\\\n") >= 2 and long.endswith("\\end{multline*}")
     assert "\n+ m_{" in long and long.rstrip("\\end{multline*}").rstrip().endswith("= u_{1}")
+
+
+def test_display_math_over_several_lines_stays_one_formula():
+    from solver.publish.render import md2html, md2tex
+    text = "Consider\n$$\\tau = B(q)\\ddot q\n + c(q, \\dot q)$$\nand $x$."
+    assert "$$\\tau = B(q)\\ddot q  + c(q, \\dot q)$$" in md2tex(text)
+    assert "$$\\tau = B(q)\\ddot q  + c(q, \\dot q)$$" in md2html(text)

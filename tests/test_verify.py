@@ -154,3 +154,13 @@ def test_verify_is_reproducible_where_results_exist_under_a_condition(write):
     assert code == 0 and "1/1 problems ok" in out and "seed 2024" in out
     wrong = write(COND.replace("pi - acos(a5/a4)", "pi - acos(a5/a4) + 1/10"), "wrong.yaml")
     assert not check_problem(load_problem(wrong)).ok
+
+
+def test_a_value_of_the_wrong_kind_fails_its_entry_only(write):
+    spec = RP_CT + """expected:
+  christoffel: {value: "[1, 2]", line: 1}
+  g: {value: "[(m1*d1 + m2*l1)*g0*sin(q1) + m2*g0*q2*cos(q1), m2*g0*sin(q1)]", line: 2}
+"""
+    rep = check_problem(load_problem(write(spec)))
+    by = {c.name: c for c in rep.checks}
+    assert not by["christoffel"].verdict.ok and by["g"].verdict.ok

@@ -1150,17 +1150,17 @@ def check_equilibrium_inputs(problem, results, name, value, other, options) -> P
     from solver.math.equivalence import scalar_equiv
     ref, F = results.get("u_eq"), results.get("F")
     robot = problem.robot
-    if ref is None or F is None or robot is None:
-        return None
+    ask = _constraint_ask(problem, name)
+    if ask is None or ask.options.suffix or ref is None or F is None or robot is None:
+        return None  # another ask kind's u_eq (force_control has one): compared with its reference
     m = len(robot.inputs)
     U = _as_matrix(value, (m, 1))
     if U is None:
         return None
     dm = derive(robot)
     G = dm.G if dm.G is not None else sp.eye(robot.n)
-    ask = _constraint_ask(problem, name)
-    frozen = {problem.names[nm]: ask.ctx.expr("freeze", nm) for nm in ask.options.freeze} if ask and \
-        ask.options.freeze else {}
+    frozen = {problem.names[nm]: ask.ctx.expr("freeze", nm) for nm in ask.options.freeze} if ask.options.freeze \
+        else {}
     res = F.value.T * (G * U - dm.g).xreplace(frozen)
     if not all(scalar_equiv(x, 0).ok for x in res):
         return PropertyVerdict(False, 0.0, ["with these inputs the robot does not stay at rest: Fᵀ(G u − g) ≠ 0"],

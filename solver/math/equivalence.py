@@ -11,7 +11,8 @@ Scalars, in order:
    canonical Fourier form of :mod:`solver.math.simplify`, then 30-digit evaluation at random points;
 3. otherwise ``undecided``, never a guess.
 
-Matrices entry by entry, lists item by item, sets of configurations up to order and to 2π in the angles.
+Matrices entry by entry, lists item by item, sets of configurations up to order and to 2π in the angles,
+conditions (lists of expressions, each meaning ``expr > 0``) as sets after removing positive factors.
 """
 from __future__ import annotations
 
@@ -276,8 +277,83 @@ def set_equiv(got: list[sp.Matrix], want: list[sp.Matrix], angles: list[int] | N
     return Verdict(CORRECT)
 
 
+def normalize_condition(expr: sp.Expr) -> sp.Expr:
+    """The condition ``expr > 0`` in a canonical form: the numerator and denominator factored, every factor known
+    to be positive (from the symbols' assumptions: masses, stiffnesses, ...) and every positive number removed,
+    the remaining factors multiplied (n/d > 0 iff n·d > 0). Returns 1 for a condition that always holds, -1 for
+    one that never does."""
+    num, den = sp.fraction(sp.together(sp.sympify(expr)))
+    if sp.expand(num) == 0:
+        return sp.Integer(-1)  # 0 > 0 never holds
+    sign, kept = 1, []
+    for part, power in ((num, 1), (den, -1)):
+        coeff, factors = sp.factor_list(sp.expand(part))
+        if coeff < 0:
+            sign = -sign
+        for f, k in factors:
+            if f.is_positive:
+                continue
+            if f.is_negative:
+                sign = -sign if k % 2 else sign
+                continue
+            kept.append(f ** k)  # a factor of the denominator has the sign of the same factor in the numerator
+    if not kept:
+        return sp.Integer(sign)
+    return sign * sp.Mul(*kept)
+
+
+def reduce_conditions(conditions: list[sp.Expr]) -> list[sp.Expr]:
+    """A set of conditions c_i > 0, each normalized (:func:`normalize_condition`), without the ones that always
+    hold, and without the factors of a condition that are themselves conditions of the set (positive then):
+    [k_d, k_d (k_f + 1) - m k_i] -> [k_d, k_d (k_f + 1) - m k_i], [k_d, k_d·(...)] -> [k_d, (...)]."""
+    out = [normalize_condition(c) for c in conditions]
+    out = [c for c in out if c != 1]
+    changed = True
+    while changed:
+        changed = False
+        for i, c in enumerate(out):
+            factors = sp.Mul.make_args(c)
+            if len(factors) < 2:
+                continue
+            keep = [f for f in factors if not any(j != i and sp.expand(f.as_base_exp()[0] - o) == 0
+                                                  for j, o in enumerate(out))]
+            if len(keep) < len(factors):
+                out[i] = normalize_condition(sp.Mul(*keep)) if keep else sp.Integer(1)
+                changed = True
+        uniq: list[sp.Expr] = []
+        for c in out:
+            if c != 1 and not any(sp.expand(c - u) == 0 for u in uniq):
+                uniq.append(c)
+        out = uniq
+    return out
+
+
+def conditions_equiv(got: list[sp.Expr], want: list[sp.Expr]) -> Verdict:
+    """Two lists of conditions c_i > 0 are the same set once reduced (:func:`reduce_conditions`): normalized,
+    conditions that always hold (``k_d > 0`` for a positive symbol k_d) left out, factors that are other
+    conditions of the set removed."""
+    g, w = reduce_conditions(list(got)), reduce_conditions(list(want))
+    used: set[int] = set()
+    missing = []
+    for c in w:
+        k = next((k for k, x in enumerate(g) if k not in used and scalar_equiv(x, c).ok), None)
+        if k is None:
+            missing.append(c)
+        else:
+            used.add(k)
+    extra = [x for k, x in enumerate(g) if k not in used]
+    if missing or extra:
+        parts = ([f"expected condition(s) {', '.join(f'{c} > 0' for c in missing)} not found"] if missing else []) \
+            + ([f"unexpected condition(s) {', '.join(f'{c} > 0' for c in extra)}"] if extra else [])
+        return Verdict(INCORRECT, "; ".join(parts))
+    return Verdict(CORRECT)
+
+
 def equivalent(got: Any, want: Any, kind: str, **tol: Any) -> Verdict:
     """Compare a computed value with an expected one, by result kind."""
+    if kind == "conditions":
+        w = list(want) if isinstance(want, (list, tuple, sp.MatrixBase)) else [want]
+        return conditions_equiv(list(got), w)
     if kind == "bool":
         return Verdict(CORRECT if bool(got) == bool(want) else INCORRECT)
     if kind == "set":

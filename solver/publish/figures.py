@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from solver.results import Figure, Solution
+from solver.results import Figure, RobotPose, Sketch, Solution
 
 
 def _angle_ticks(ax, lo: float, hi: float) -> None:  # type: ignore[no-untyped-def]
@@ -24,10 +24,14 @@ def draw(fig: Figure, path: Path) -> None:
     n = len(fig.panels)
     cols = min(n, 3)
     rows = math.ceil(n / cols)
-    f, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False)
+    height = 4.2 if any(p.sketch is not None for p in fig.panels) else 3.2
+    f, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, height * rows), squeeze=False)
     for ax, panel in zip(axes.flat, fig.panels):
+        if panel.sketch is not None:
+            draw_sketch(ax, panel.sketch)
+            continue
         for c in panel.curves:
-            ax.plot(c.x, c.y, label=c.label, linewidth=1.6)
+            ax.plot(c.x, c.y, label=c.label, linewidth=1.6, linestyle="--" if c.dashed else "-")
         for y, label in panel.hlines:
             ax.axhline(y, color="tab:red", linestyle="--", linewidth=1.0, label=label or None)
         for x, y, label in panel.markers:
@@ -47,7 +51,9 @@ def draw(fig: Figure, path: Path) -> None:
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     f.tight_layout()
-    kwargs = {"metadata": {"CreationDate": None}} if path.suffix == ".pdf" else {}
+    kwargs: dict = {"metadata": {"CreationDate": None}} if path.suffix == ".pdf" else {}
+    if any(p.sketch is not None for p in fig.panels):
+        kwargs["bbox_inches"] = "tight"  # the legend sits above the drawing
     f.savefig(path, dpi=130, **kwargs)
     plt.close(f)
 
@@ -65,3 +71,123 @@ def write_figures(solutions: list[Solution], output: Path, fmt: str) -> list[Pat
             fig.path = name
             written.append(path)
     return written
+
+
+# ------------------------------------------------------------------------------------------------ robot sketches
+_POSE_COLORS = ["#1f4e9c", "#c0392b", "#2e8b57", "#8e44ad", "#d35400", "#16a085", "#7f8c8d", "#b7950b"]
+
+
+def _unit(dx: float, dy: float) -> tuple[float, float]:
+    n = math.hypot(dx, dy)
+    return (dx / n, dy / n) if n > 1e-12 else (1.0, 0.0)
+
+
+def _scale(sk: Sketch) -> float:
+    xs = [x for p in sk.poses for x, _ in p.points] + [a.x + a.dx for a in sk.arrows]
+    ys = [y for p in sk.poses for _, y in p.points] + [a.y + a.dy for a in sk.arrows]
+    for c in sk.paths:
+        xs += c.x
+        ys += c.y
+    if not xs:
+        return 1.0
+    return max(max(xs) - min(xs), max(ys) - min(ys), 1e-3)
+
+
+def _draw_pose(ax, pose: RobotPose, color: str, L: float, z: int) -> None:  # type: ignore[no-untyped-def]
+    from matplotlib.patches import Circle, Polygon
+
+    pts = pose.points
+    r = 0.028 * L
+    for i, kind in enumerate(pose.joints):
+        (x0, y0), (x1, y1) = pts[i], pts[i + 1]
+        if kind == "P":
+            ux, uy = pose.slides[i] or _unit(x1 - x0, y1 - y0)
+            ax.plot([x0, x1], [y0, y1], color=color, lw=2.6, solid_capstyle="butt", zorder=z)
+            # the sleeve: a box along the sliding direction at the joint (a first joint: the cart on the rail)
+            if i == 0:
+                x0, y0 = x1, y1
+            h, w = 0.09 * L, 0.035 * L
+            nx, ny = -uy, ux
+            box = [(x0 - ux * h / 2 + nx * w, y0 - uy * h / 2 + ny * w), (x0 + ux * h / 2 + nx * w, y0 + uy * h / 2 + ny * w),
+                   (x0 + ux * h / 2 - nx * w, y0 + uy * h / 2 - ny * w), (x0 - ux * h / 2 - nx * w, y0 - uy * h / 2 - ny * w)]
+            ax.add_patch(Polygon(box, closed=True, facecolor="white", edgecolor=color, lw=1.6, zorder=z + 2))
+        else:
+            ax.plot([x0, x1], [y0, y1], color=color, lw=4.5, solid_capstyle="round", alpha=0.9, zorder=z)
+    for i, kind in enumerate(pose.joints):
+        if kind == "R":
+            x0, y0 = pts[i]
+            ax.add_patch(Circle((x0, y0), r, facecolor="white", edgecolor="black", lw=1.3, zorder=z + 3))
+    # end effector: a small gripper along the last link
+    (xa, ya), (xb, yb) = pts[-2], pts[-1]
+    dx, dy = _unit(xb - xa, yb - ya)
+    nx, ny = -dy, dx
+    g = 0.045 * L
+    ax.plot([xb + nx * g, xb - nx * g], [yb + ny * g, yb - ny * g], color="black", lw=1.6, zorder=z + 3)
+    for sgn in (1, -1):
+        ax.plot([xb + sgn * nx * g, xb + sgn * nx * g + dx * g], [yb + sgn * ny * g, yb + sgn * ny * g + dy * g],
+                color="black", lw=1.6, zorder=z + 3)
+
+
+def _draw_base(ax, pose: RobotPose, L: float, extent: tuple[float, float, float, float]) -> None:  # type: ignore[no-untyped-def]
+    from matplotlib.patches import Polygon
+
+    x0, y0 = pose.points[0]
+    h = 0.06 * L
+    if pose.joints and pose.joints[0] == "P":
+        ux, uy = pose.slides[0] or (1.0, 0.0)
+        nx, ny = uy, -ux  # hatch on the right of the rail direction
+        xmin, xmax, ymin, ymax = extent
+        span = 1.2 * max(xmax - xmin, ymax - ymin)
+        a = (x0 - ux * span, y0 - uy * span)
+        b = (x0 + ux * span, y0 + uy * span)
+        ax.plot([a[0], b[0]], [a[1], b[1]], color="0.3", lw=1.4, zorder=1)
+        k = 40
+        for t in range(k + 1):
+            px, py = a[0] + (b[0] - a[0]) * t / k, a[1] + (b[1] - a[1]) * t / k
+            ax.plot([px, px + (nx - ux) * h * 0.6], [py, py + (ny - uy) * h * 0.6], color="0.55", lw=0.7, zorder=1)
+        return
+    tri = [(x0, y0), (x0 - h, y0 - 1.6 * h), (x0 + h, y0 - 1.6 * h)]
+    ax.add_patch(Polygon(tri, closed=True, facecolor="0.85", edgecolor="0.3", lw=1.0, zorder=1))
+    ax.plot([x0 - 1.8 * h, x0 + 1.8 * h], [y0 - 1.6 * h] * 2, color="0.3", lw=1.2, zorder=1)
+    for t in range(7):
+        xx = x0 - 1.8 * h + t * 0.6 * h
+        ax.plot([xx, xx - 0.5 * h], [y0 - 1.6 * h, y0 - 2.1 * h], color="0.55", lw=0.7, zorder=1)
+
+
+def draw_sketch(ax, sk: Sketch) -> None:  # type: ignore[no-untyped-def]
+    """A planar robot to scale: base (a ground symbol, or a rail for a first prismatic joint), links as bars,
+    revolute joints as circles, prismatic ones as sleeves, the end effector as a gripper; several poses in
+    different colours, arrows and dashed paths on top."""
+    from matplotlib.lines import Line2D
+
+    L = _scale(sk)
+    xs = [x for p in sk.poses for x, _ in p.points]
+    ys = [y for p in sk.poses for _, y in p.points]
+    extent = (min(xs, default=0.0), max(xs, default=1.0), min(ys, default=0.0), max(ys, default=1.0))
+    for c in sk.paths:
+        ax.plot(c.x, c.y, ls="--", color="0.35", lw=1.2, label=c.label or None, zorder=2)
+    if sk.poses:
+        _draw_base(ax, sk.poses[0], L, extent)
+    handles = []
+    for k, pose in enumerate(sk.poses):
+        color = _POSE_COLORS[k % len(_POSE_COLORS)]
+        _draw_pose(ax, pose, color, L, 3 + 5 * k)
+        if pose.label:
+            handles.append(Line2D([0], [0], color=color, lw=4, label=pose.label))
+    for a in sk.arrows:
+        ax.annotate("", xy=(a.x + a.dx, a.y + a.dy), xytext=(a.x, a.y),
+                    arrowprops={"arrowstyle": "-|>", "color": "#e67e22", "lw": 2.0}, zorder=50)
+        if a.label:
+            ax.annotate(a.label, xy=(a.x + a.dx, a.y + a.dy), xytext=(4, 4), textcoords="offset points",
+                        color="#e67e22", fontsize=10, zorder=50)
+    ax.set_aspect("equal", adjustable="box")
+    pad = 0.15 * L
+    ax.set_xlim(extent[0] - pad, extent[1] + pad)
+    ax.set_ylim(extent[2] - pad, extent[3] + pad)
+    ax.set_xlabel(sk.xlabel)
+    ax.set_ylabel(sk.ylabel)
+    ax.grid(True, alpha=0.25)
+    if handles or any(c.label for c in sk.paths):
+        extra = [h for h in ax.get_lines() if h.get_label() and not h.get_label().startswith("_")]
+        ax.legend(handles=handles + extra, fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.01),
+                  ncol=min(2, len(handles) + len(extra)), frameon=False)

@@ -114,10 +114,16 @@ def md_math(text: str) -> str:
     return "".join(_math(p) if k % 2 else p for k, p in enumerate(re.split(r"(\$\$.*?\$\$|\$[^$]*\$)", str(text))))
 
 
+def _one_line_math(text: str) -> str:
+    """``text`` with the line breaks inside $$...$$ (and $...$) displays turned into spaces, so that a formula
+    written over several lines stays one formula."""
+    return re.sub(r"\$\$.*?\$\$|\$[^$]*\$", lambda m: " ".join(m.group(0).split("\n")), str(text), flags=re.S)
+
+
 def md2tex(text: str) -> str:
     """Markdown with $...$ math to LaTeX: math kept, **bold**/*italic*, '- ' lists, text escaped."""
     out_lines, in_list = [], False
-    for line in str(text).strip().splitlines():
+    for line in _one_line_math(text).strip().splitlines():
         item = re.match(r"\s*[-*] (.*)", line)
         if item and not in_list:
             out_lines.append("\\begin{itemize}")
@@ -172,7 +178,7 @@ def md2html(text: str) -> str:
             out.append(p)
         return "".join(out)
 
-    blocks = re.split(r"\n\s*\n", str(text).strip())
+    blocks = re.split(r"\n\s*\n", _one_line_math(text).strip())
     html_out = []
     for block in blocks:
         lines = block.splitlines()

@@ -288,7 +288,8 @@ class SpecLoader:
         if r.links:
             robot.bodies = [self._explicit(P + ("links", i), lk, q, dq, i) for i, lk in enumerate(r.links)]
         if r.dh:
-            robot.bodies = self._dh(P + ("dh",), r.dh, q, dq, len(r.joints))
+            robot.bodies, robot.frames = self._dh(P + ("dh",), r.dh, q, dq, len(r.joints))
+            robot.dh_convention = r.dh.convention
         if r.extra:
             robot.kinetic_extra = [self.scalar_at(P + ("extra", "kinetic", i), "a kinetic term")
                                    for i in range(len(r.extra.kinetic))]
@@ -374,7 +375,8 @@ class SpecLoader:
             omega = sp.zeros(3, 1)
         return Body(lk.name or f"link {i + 1}", mass, com, omega, inertia, rotation, frame)
 
-    def _dh(self, path: PathT, dh: DH, q: list, dq: list, nj: int) -> list[Body]:
+    def _dh(self, path: PathT, dh: DH, q: list, dq: list, nj: int) -> tuple[list[Body], list[sp.Matrix]]:
+        """The bodies of a DH robot and its frames ⁰A_0 (the base), ⁰A_1, ..., ⁰A_n."""
         if len(dh.table) != nj:
             raise self.fail(path + ("table",), f"DH table has {len(dh.table)} rows for {nj} joints")
         if len(dh.links) != nj:
@@ -382,6 +384,7 @@ class SpecLoader:
         rows = [tuple(self.scalar_at(path + ("table", i, k), k) for k in ("a", "alpha", "d", "theta"))
                 for i in range(nj)]
         frames = dh_chain(rows, dh.convention)  # type: ignore[arg-type]
+        base = sp.eye(4)
         if dh.base is not None:
             base = self.matrix_at(path + ("base",), (4, 4), "base")
             frames = [(base * A).applyfunc(tidy) for A in frames]
@@ -395,7 +398,7 @@ class SpecLoader:
             omega = omega_from_rotation(R, q, dq, "link")
             bodies.append(Body(lk.name or f"link {i + 1}", self.scalar_at(lp + ("mass",), "mass"), com, omega,
                                self._inertia(lp + ("inertia",), "inertia"), R, "link"))
-        return bodies
+        return bodies, [base] + frames
 
 
 

@@ -43,6 +43,8 @@ class Robot:
     given_U: sp.Expr | None = None
     given_g: sp.Matrix | None = None
     given_c: sp.Matrix | None = None
+    frames: list[sp.Matrix] = field(default_factory=list)  # DH robots: ⁰A_0 (base), ⁰A_1, ..., ⁰A_n (4x4)
+    dh_convention: str | None = None                        # standard | modified (DH robots)
 
     @property
     def n(self) -> int:

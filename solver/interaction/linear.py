@@ -1,0 +1,420 @@
+"""Linear time-invariant tools for interaction control: closed loops as polynomial matrices in s, transfer
+functions, equilibria, Routh-Hurwitz conditions, pole placement and simulation.
+
+A linear closed loop is a list of residuals r(ẍ, ẋ, x, w) = 0, affine in the state and in the exogenous inputs
+(desired force, references, rest positions). With X(s) the Laplace transforms (zero initial state):
+
+    A(s) X(s) = b(s) U(s),   A(s) = ∂r/∂ẍ s² + ∂r/∂ẋ s + ∂r/∂x,   char. polynomial  det A(s)
+    equilibrium:  A(0) x̄ = -r(0, 0, 0, ū)          (when A(0) is invertible)
+
+Routh: for a_n sⁿ + ... + a_0 (a_n > 0) every root has negative real part iff every entry of the first column of
+the Routh table is positive; the conditions are returned in the canonical form of
+:func:`solver.math.equivalence.normalize_condition` (positive factors removed, always-true ones dropped).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+import sympy as sp
+
+from solver.math.equivalence import reduce_conditions
+from solver.math.simplify import tidy
+
+S = sp.Symbol("s")  # the Laplace variable (the problem's own `s` replaces it when declared)
+MAX_SYMBOLIC_DEGREE = 6  # Routh tables and closed-form poles are symbolic up to this degree
+
+
+class NotLinear(Exception):
+    """The closed loop is not linear time-invariant in the chosen state (the message says which term)."""
+
+
+@dataclass
+class LinearLoop:
+    """r(ẍ, ẋ, x) = A2 ẍ + A1 ẋ + A0 x + r0(u): the matrices and the constant part (inputs, offsets)."""
+
+    x: list[sp.Symbol]
+    dx: list[sp.Symbol]
+    ddx: list[sp.Symbol]
+    A2: sp.Matrix
+    A1: sp.Matrix
+    A0: sp.Matrix
+    r0: sp.Matrix
+
+    def A(self, s: sp.Symbol) -> sp.Matrix:
+        return (self.A2 * s**2 + self.A1 * s + self.A0).applyfunc(sp.expand)
+
+
+def linear_loop(residual: sp.Matrix, x: list, dx: list, ddx: list) -> LinearLoop:
+    """Split a residual vector into A2 ẍ + A1 ẋ + A0 x + r0; raises NotLinear when a coefficient depends on the
+    state (or the residual is not affine in it)."""
+    state = list(x) + list(dx) + list(ddx)
+    r = residual.applyfunc(sp.expand)
+    A2, A1, A0 = r.jacobian(ddx), r.jacobian(dx), r.jacobian(x)
+    for M in (A2, A1, A0):
+        for e in M:
+            if e.free_symbols & set(state):
+                raise NotLinear(f"the coefficient {e} depends on the state")
+    r0 = r.xreplace({v: 0 for v in state}).applyfunc(sp.expand)
+    rest = (r - A2 * sp.Matrix(ddx) - A1 * sp.Matrix(dx) - A0 * sp.Matrix(x) - r0).applyfunc(sp.expand)
+    if any(e != 0 for e in rest):
+        raise NotLinear("the closed loop is not affine in the state")
+    return LinearLoop(list(x), list(dx), list(ddx), A2, A1, A0, r0)
+
+
+def equilibrium(loop: LinearLoop) -> sp.Matrix | None:
+    """x̄ with A0 x̄ + r0 = 0 (ẍ = ẋ = 0); None when A0 is singular (no isolated equilibrium)."""
+    if loop.A0.shape[0] != loop.A0.shape[1] or sp.simplify(loop.A0.det()) == 0:
+        return None
+    return loop.A0.LUsolve(-loop.r0).applyfunc(lambda e: sp.factor(sp.cancel(e)))
+
+
+def steady_velocity(loop: LinearLoop) -> sp.Matrix | None:
+    """The constant velocity v̄ of a steady motion x(t) = x₀ + v̄ t (ẍ = 0) when positions do not fully act:
+    A0 v̄ = 0 and A1 v̄ + A0 x₀ + r0 = 0; None when A0 is invertible (an equilibrium instead) or v̄ is not unique."""
+    n = loop.A0.rows
+    if n != loop.A0.cols or sp.simplify(loop.A0.det()) != 0:
+        return None
+    v = sp.symbols(f"_v0:{n}")
+    x0 = sp.symbols(f"_x0:{n}")
+    V, X0 = sp.Matrix(v), sp.Matrix(x0)
+    eqs = list(loop.A0 * V) + list(loop.A1 * V + loop.A0 * X0 + loop.r0)
+    sols = sp.linsolve(eqs, list(v) + list(x0))
+    if not sols:
+        return None
+    sol = next(iter(sols))
+    vel = sp.Matrix(sol[:n])
+    if vel.free_symbols & (set(v) | set(x0)):
+        return None
+    if all(sp.simplify(e) == 0 for e in vel):
+        return None  # at rest: no steady motion
+    return vel.applyfunc(lambda e: sp.factor(sp.cancel(e)))
+
+
+def char_poly(loop: LinearLoop, s: sp.Symbol) -> sp.Expr:
+    """det A(s), expanded and collected in powers of s."""
+    A = loop.A(s)
+    d = A.det(method="berkowitz") if A.shape[0] > 1 else A[0, 0]
+    return collect_s(d, s)
+
+
+def collect_s(p: sp.Expr, s: sp.Symbol) -> sp.Expr:
+    """p collected in powers of s, each coefficient factored when that is shorter."""
+    poly = sp.Poly(sp.expand(p), s)
+    out = sp.Integer(0)
+    for (k,), c in zip(poly.monoms(), poly.coeffs()):
+        f = sp.factor(c)
+        out += (f if sp.count_ops(f) <= sp.count_ops(c) else c) * s**k
+    return out
+
+
+def transfer(loop: LinearLoop, output: sp.Matrix, inputs: dict[sp.Symbol, sp.Expr], s: sp.Symbol) -> sp.Matrix:
+    """Y(s)/U(s) for the output y = Cx (+ Du) and the input u (a symbol of r0): X(s) = -A(s)⁻¹ ∂r0/∂u U(s),
+    other inputs at zero. ``inputs`` maps the input symbol to its direct feedthrough in the output (often 0)."""
+    (u, feed), = inputs.items()
+    bu = -loop.r0.diff(u)
+    A = loop.A(s)
+    X = A.adjugate() * bu / A.det(method="berkowitz") if A.shape[0] > 1 else bu / A[0, 0]
+    C = output.jacobian(loop.x)
+    return (C * X).applyfunc(lambda e: rational(e + feed, s))
+
+
+def rational(e: sp.Expr, s: sp.Symbol) -> sp.Expr:
+    """A rational function of s as N(s)/D(s), both collected in s (common factors cancelled)."""
+    n, d = sp.fraction(sp.cancel(sp.together(e)))
+    if not d.has(s):
+        return collect_s(n, s) / d if n.has(s) else sp.factor(n / d)
+    lead = sp.Poly(d, s).LC()
+    n, d = sp.expand(n / lead), sp.expand(d / lead)
+    # keep the leading coefficient of the denominator when it is a plain parameter (m s² + ...), as printed
+    if lead.is_Symbol or (lead.is_Mul and all(f.is_Symbol for f in lead.args)):
+        n, d = sp.expand(n * lead), sp.expand(d * lead)
+    return collect_s(n, s) / collect_s(d, s)
+
+
+def s_factors(p: sp.Expr, s: sp.Symbol, max_ops: int = 3000) -> list[tuple[sp.Expr, int]]:
+    """The factors of p(s) that depend on s, with multiplicities (the constant content dropped): a decoupled
+    closed loop gives one factor per direction. p itself when it does not factor (or is too large to try)."""
+    p = sp.expand(p)
+    if sp.count_ops(p) > max_ops:
+        return [(collect_s(p, s), 1)]
+    num, _ = sp.fraction(sp.together(p))
+    try:
+        _, fl = sp.factor_list(sp.expand(num))
+    except sp.PolynomialError:
+        return [(collect_s(p, s), 1)]
+    out = [(collect_s(f, s), k) for f, k in fl if f.has(s)]
+    if len(out) == 1 and out[0][1] == 1:
+        return [(collect_s(p, s), 1)]  # keep the content (leading coefficient) of an irreducible polynomial
+    return out or [(collect_s(p, s), 1)]
+
+
+def coefficients(p: sp.Expr, s: sp.Symbol) -> list[sp.Expr]:
+    """[a_n, ..., a_0] of a polynomial in s."""
+    return [sp.factor(c) for c in sp.Poly(sp.expand(p), s).all_coeffs()]
+
+
+def hurwitz_determinants(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
+    """Δ_1..Δ_n, the leading principal minors of the Hurwitz matrix H_ij = b_{2j-i+1} of b_0 sⁿ + b_1 sⁿ⁻¹ + ...
+    + b_n (exact polynomial arithmetic, no fractions)."""
+    from sympy.polys.matrices import DomainMatrix
+
+    b = [sp.sympify(c) for c in coeffs]
+    n = len(b) - 1
+
+    def coef(k: int) -> sp.Expr:
+        return b[k] if 0 <= k <= n else sp.Integer(0)
+
+    H = sp.Matrix(n, n, lambda i, j: coef(2 * j - i + 1))
+    dH = DomainMatrix.from_Matrix(H)
+    K = dH.domain
+    return [K.to_sympy(dH[:k, :k].det()) if k > 1 else sp.expand(H[0, 0]) for k in range(1, n + 1)]
+
+
+def routh_column(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
+    """First column of the Routh table of b_0 sⁿ + ... + b_n (coefficients from the highest power):
+    b_0, Δ_1, Δ_2/Δ_1, ..., Δ_n/Δ_{n-1} (Hurwitz determinants; common factors cancelled). A zero Δ_k (the
+    degenerate case, not Hurwitz) ends the column with 0."""
+    b0 = sp.sympify(coeffs[0])
+    deltas = hurwitz_determinants(coeffs)
+    out = [sp.factor(b0)]
+    prev = sp.Integer(1)
+    for d in deltas:
+        if sp.expand(d) == 0:
+            out.append(sp.Integer(0))
+            break
+        out.append(_ratio(d, prev))
+        prev = d
+    return out
+
+
+def _ratio(a: sp.Expr, b: sp.Expr) -> sp.Expr:
+    """a/b with the polynomial gcd cancelled (a, b polynomials in their symbols)."""
+    if b == 1:
+        return _short(a)
+    gens = sorted((a.free_symbols | b.free_symbols), key=lambda x: x.name)
+    if not gens:
+        return sp.nsimplify(a / b)
+    try:
+        pa, pb = sp.Poly(a, *gens), sp.Poly(b, *gens)
+        g = sp.gcd(pa, pb)
+        return _short(sp.quo(pa, g).as_expr()) / _short(sp.quo(pb, g).as_expr())
+    except (sp.PolynomialError, sp.GeneratorsNeeded):
+        return sp.cancel(a / b)
+
+
+def _short(p: sp.Expr) -> sp.Expr:
+    """A polynomial factored when that is shorter (and cheap)."""
+    p = sp.expand(p)
+    if sp.count_ops(p) > 400:
+        return p
+    f = sp.factor(p)
+    return f if sp.count_ops(f) <= sp.count_ops(p) else p
+
+
+def hurwitz_conditions(column: Sequence[sp.Expr]) -> list[sp.Expr]:
+    """The non-trivial conditions c > 0 for every root in the open left half plane, one per entry of the Routh
+    column (b_0 > 0 taken as the reference sign), reduced by :func:`solver.math.equivalence.reduce_conditions`
+    (positive factors, always-true conditions and factors that are earlier conditions removed)."""
+    return reduce_conditions(list(column))
+
+
+def always_positive(c: sp.Expr) -> bool | None:
+    """True when c is a polynomial with positive coefficients in positive symbols (hence > 0 everywhere),
+    False when c is a non-positive number, None when undecided."""
+    c = sp.expand(c)
+    if c.is_number:
+        return bool(c > 0)
+    if not all(s.is_positive for s in c.free_symbols):
+        return None
+    num, den = sp.fraction(sp.together(c))
+    for part in (sp.expand(num), sp.expand(den)):
+        if part.is_number:
+            if part <= 0:
+                return None
+            continue
+        if not all(t.as_coeff_Mul()[0] > 0 for t in sp.Add.make_args(part)) and not amgm_certificate(part):
+            return None
+    return True
+
+
+def amgm_certificate(p: sp.Expr, max_terms: int = 400) -> bool:
+    """Whether the polynomial p (in positive symbols) is > 0 by an AM-GM certificate: every negative term −c·m is
+    covered by pairs of positive terms a·x, b·y with x·y = m² (a x + b y ≥ 2√(ab)·m), found by a linear program
+    (scipy) and re-checked in exact rational arithmetic. A sufficient test: False means "not proved"."""
+    from fractions import Fraction
+
+    from scipy.optimize import linprog
+
+    gens = sorted(p.free_symbols, key=lambda x: x.name)
+    P = sp.Poly(p, *gens)
+    terms = P.terms()
+    if len(terms) > max_terms or any(not c.is_Rational for _, c in terms):
+        return False
+    pos = {m: Fraction(int(c.p), int(c.q)) for m, c in terms if c > 0}
+    neg = {m: Fraction(int(-c.p), int(c.q)) for m, c in terms if c < 0}
+    if not pos:
+        return False
+    if 0 not in [sum(m) for m in pos] and all(all(e == 0 for e in m) for m in neg):
+        return False
+    pairs = []  # (negative monomial, x, y) with x + y = 2 m; x == y allowed (a term covering itself)
+    for m in neg:
+        for x in pos:
+            y = tuple(2 * a - b for a, b in zip(m, x))
+            if min(y) >= 0 and y in pos and x <= y:
+                pairs.append((m, x, y))
+    if not pairs:
+        return False
+    pl, nl = list(pos), list(neg)
+    # variables t_k >= 0: pair k uses t_k of x and of y (t_k of x when x == y) and covers 2 t_k (t_k) of m
+    A_ub, b_ub = [], []
+    for x in pl:  # usage of each positive term <= its coefficient
+        A_ub.append([(1.0 if x in (px, py) else 0.0) for (_, px, py) in pairs])
+        b_ub.append(float(pos[x]))
+    for m in nl:  # coverage of each negative term >= its coefficient
+        A_ub.append([-(1.0 if px == py else 2.0) if pm == m else 0.0 for (pm, px, py) in pairs])
+        b_ub.append(-float(neg[m]))
+    cost = [(1.0 if px == py else 2.0) for (_, px, py) in pairs]  # use as little as possible: keep slack
+    res = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=[(0, None)] * len(pairs), method="highs")
+    if res.status != 0:
+        return False
+    t = [Fraction(v).limit_denominator(10**6) for v in res.x]
+    use = {x: Fraction(0) for x in pl}
+    cover = {m: Fraction(0) for m in nl}
+    for tk, (m, x, y) in zip(t, pairs):
+        use[x] += tk
+        if y != x:
+            use[y] += tk
+        cover[m] += tk if x == y else 2 * tk
+    covered = all(use[x] <= pos[x] for x in pl) and all(cover[m] >= neg[m] for m in nl)
+    return covered and any(use[x] < pos[x] for x in pl)  # a positive term left over: strictly positive
+
+
+def stable_for_all(conditions: Sequence[sp.Expr], samples: int = 3000,
+                   seed: int = 7) -> tuple[bool | None, dict[sp.Symbol, sp.Expr] | None]:
+    """Whether every condition holds for all admissible parameter values: (True, None) when proved (positive
+    coefficients, or an AM-GM certificate), (False, witness) when a random search finds parameter values (exact
+    rationals, re-checked exactly) where a condition fails, (None, None) otherwise."""
+    verdicts = [always_positive(c) for c in conditions]
+    if any(v is False for v in verdicts):
+        return False, {}
+    if all(v is True for v in verdicts):
+        return True, None
+    syms = sorted(set().union(*[sp.sympify(c).free_symbols for c in conditions]), key=lambda x: x.name)
+    if not syms or not all(x.is_positive for x in syms):
+        return None, None  # conditions on gains of any sign: they are design conditions, not a property
+    rng = np.random.default_rng(seed)
+    funcs = [sp.lambdify(syms, c, "numpy") for c in conditions]
+    for _ in range(samples):
+        vals = []
+        for x in syms:
+            if x.is_positive:
+                vals.append(float(10 ** rng.uniform(-2, 2)))
+            elif x.is_nonnegative:
+                vals.append(float(10 ** rng.uniform(-2, 2)) * (rng.random() > 0.1))
+            else:
+                vals.append(float(rng.uniform(-10, 10)))
+        try:
+            bad = any(float(f(*vals)) <= 0 for f in funcs)
+        except (ZeroDivisionError, OverflowError, ValueError, TypeError):
+            continue
+        if bad:
+            point = {x: sp.nsimplify(round(v, 3) if abs(v) >= 1 else float(f"{v:.3g}"), rational=True)
+                     for x, v in zip(syms, vals)}
+            if any(sp.sympify(c).xreplace(point) <= 0 for c in conditions):
+                return False, point
+    return None, None
+
+
+# ------------------------------------------------------------------------------------------------ design
+def desired_polynomial(s: sp.Symbol, poles: Sequence[sp.Expr] | None = None, omega_n: sp.Expr | None = None,
+                       zeta: sp.Expr | None = None) -> sp.Expr:
+    """Π (s - p_i), or s² + 2ζω_n s + ω_n²."""
+    if poles is not None:
+        return sp.expand(sp.Mul(*[(s - p) for p in poles]))
+    return sp.expand(s**2 + 2 * zeta * omega_n * s + omega_n**2)
+
+
+def match_polynomial(p: sp.Expr, target: sp.Expr, s: sp.Symbol, unknowns: Sequence[sp.Symbol]) -> dict | None:
+    """Values of ``unknowns`` with p(s) ≡ a_n·target(s) (a_n the leading coefficient of p, target monic of the
+    same degree). None when no solution exists."""
+    P = sp.Poly(sp.expand(p), s)
+    T = sp.Poly(sp.expand(target), s)
+    if P.degree() != T.degree():
+        return None
+    lead = P.LC()
+    eqs = [sp.expand(c - lead * t) for c, t in zip(P.all_coeffs()[1:], T.all_coeffs()[1:])]
+    eqs = [e for e in eqs if e != 0]
+    sol = sp.solve(eqs, list(unknowns), dict=True)
+    if not sol:
+        return None
+    return {k: sp.factor(v) for k, v in sol[0].items()}
+
+
+def second_order(m: sp.Expr, d: sp.Expr, k: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+    """(ω_n, ζ) of m s² + d s + k: ω_n = √(k/m), ζ = d / (2√(k m))."""
+    return sp.sqrt(k / m), d / (2 * sp.sqrt(k * m))
+
+
+def short_poles(p: sp.Expr, s: sp.Symbol, max_ops: int = 24) -> list[sp.Expr] | None:
+    """:func:`poles`, but closed forms only when they are short enough to read."""
+    out = poles(p, s)
+    if out is not None and sum(sp.count_ops(x) for x in out) > max_ops:
+        return None
+    return out
+
+
+def poles(p: sp.Expr, s: sp.Symbol) -> list[sp.Expr] | None:
+    """Roots of p(s): numeric (complex floats as sympy numbers) when p has numeric coefficients, closed form up to
+    degree 2 otherwise, None beyond."""
+    poly = sp.Poly(sp.expand(p), s)
+    if all(c.is_number for c in poly.all_coeffs()):
+        roots = np.roots([complex(c) for c in poly.all_coeffs()])
+        out = []
+        for r in sorted(roots, key=lambda z: (z.real, z.imag)):
+            re_, im = float(r.real), float(r.imag)
+            out.append(sp.Float(re_, 6) + (sp.I * sp.Float(im, 6) if abs(im) > 1e-9 * max(1.0, abs(re_)) else 0))
+        return out
+    if poly.degree() <= 2:
+        return [tidy(r) for r in sp.roots(poly, multiple=True)]
+    return None
+
+
+# ------------------------------------------------------------------------------------------------ numerics
+def simulate(loop: LinearLoop, subs: dict[sp.Symbol, float], x0: Sequence[float], v0: Sequence[float],
+             t_end: float, points: int = 400) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Integrate A2 ẍ + A1 ẋ + A0 x + r0 = 0 (numbers substituted) from (x0, v0) with scipy's solve_ivp; rows of
+    A2 that are zero are algebraic-free integrator rows (ẋ appears instead): A2 may be singular only where A1 is
+    not, e.g. the integral state w with ẇ = e. Returns (t, x(t), ẋ(t)) as arrays."""
+    from scipy.integrate import solve_ivp
+
+    def num(M: sp.Matrix) -> np.ndarray:
+        return np.array(M.xreplace(subs).evalf().tolist(), dtype=float)
+
+    A2, A1, A0, r0 = num(loop.A2), num(loop.A1), num(loop.A0), num(loop.r0).ravel()
+    n = A2.shape[0]
+    second = [i for i in range(n) if np.any(A2[:, i] != 0)]
+    first = [i for i in range(n) if i not in second]
+    # state: x (all), ẋ of the second-order coordinates; unknowns per step: ẍ of `second`, ẋ of `first`
+    E = np.zeros((n, n))
+    E[:, second] = A2[:, second]
+    E[:, first] = A1[:, first]
+
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        x = y[:n]
+        v = np.zeros(n)
+        v[second] = y[n:]
+        b = -(A1[:, second] @ v[second] + A0 @ x + r0)
+        sol = np.linalg.solve(E, b)
+        dx = np.zeros(n)
+        dx[second] = v[second]
+        dx[first] = sol[first]
+        return np.concatenate([dx, sol[second]])
+
+    y0 = np.concatenate([np.asarray(x0, float), np.asarray(v0, float)[second]])
+    t = np.linspace(0.0, t_end, points)
+    res = solve_ivp(rhs, (0.0, t_end), y0, t_eval=t, rtol=1e-8, atol=1e-10, method="LSODA")
+    X = res.y[:n]
+    V = np.array([rhs(tk, res.y[:, k])[:n] for k, tk in enumerate(res.t)]).T
+    return res.t, X, V
