@@ -241,7 +241,7 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
                 raise UserError(f"'{name}' in at: is not a coordinate, velocity or acceleration",
                                 problem.located.place(ctx.path + ("at", name)), "use q1, dq1, ddq1, ...")
             state[problem.names[name]] = ctx.expr("at", name)
-        subs = {**problem.values, **state}
+        subs = {**problem.values, **{x: val.subs(problem.values) for x, val in state.items()}}  # values in at: too
         num = {k: (v.subs(subs) if hasattr(v, "subs") else v) for k, v in
                {"B": dm.B, "c": dm.c, "g": dm.g, "model": dm.lhs}.items()}
         for k, v in num.items():

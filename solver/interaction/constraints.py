@@ -1,0 +1,1175 @@
+"""Dynamics of a robot in constrained motion (ask kind ``constrained_dynamics``).
+
+k constraints h(q) = 0 (holonomic, A = ∂h/∂q) or A(q) q̇ = 0 (Pfaffian) on the model B q̈ + n(q, q̇) = G u
+(n = c + g + F_v q̇; G = I without an input map):
+
+    B q̈ + n = G u + Aᵀλ,      A q̈ + Ȧ q̇ = 0
+    λ(q, q̇, u) = (A B⁻¹ Aᵀ)⁻¹ (A B⁻¹ (n − G u) − Ȧ q̇)
+    A_B^# = B⁻¹ Aᵀ (A B⁻¹ Aᵀ)⁻¹,   P = I − Aᵀ (A_B^#)ᵀ:   B q̈ = P (G u − n) − B A_B^# Ȧ q̇
+
+Reduced dynamics with a complement D(q), [A; D] invertible, [A; D]⁻¹ = [E F] (A E = I, A F = 0, D F = I):
+
+    v = D q̇,  q̇ = F v,  q̈ = F v̇ + Ḟ v
+    Fᵀ B F v̇ + Fᵀ (n + B Ḟ v) = Fᵀ G u              (reduced model, n − k equations)
+    λ = Eᵀ (B F v̇ + B Ḟ v + n − G u)                  (the multiplier along it)
+    G u = B (F v̇_d + Ḟ v) + n − Aᵀ λ_d                (inputs for v̇ = v̇_d with λ = λ_d)
+
+Symbolic with sympy: inverses through adjugates (B⁻¹ = adj B / det B), entries simplified as ratios of
+trigonometric polynomials; past a size (n > 4, or large entries) only the numbers at the ``at:`` state are given.
+Freezing coordinates (``freeze: {q_b: q_b,d}``) is the special case h = q_b − q_b,d with D selecting the others.
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from dataclasses import dataclass, field
+from typing import Any, Literal, Optional, Union
+
+import numpy as np
+import sympy as sp
+from pydantic import Field, model_validator
+
+from solver.dynamics.equilibria import equilibria
+from solver.dynamics.model import derive, require_model
+from solver.kinematics.redundancy import generic_rank
+from solver.math.simplify import angle_symbols, is_zero, tidy
+from solver.math.sweep import numeric_values
+from solver.registry import PropertyVerdict, ask_kind, property_check
+from solver.results import Curve, Figure, Panel, Solution
+from solver.spec.errors import UserError
+from solver.spec.expr import shape_of
+from solver.spec.models import Strict
+
+Scalar = Union[str, int, float]
+ExprT = Union[str, int, float, list[Any]]
+
+MAX_SYMBOLIC_N = 4         # coordinates up to which λ, A_B^# and the reduced model are given symbolically
+MAX_SYMBOLIC_OPS = 4000    # and the size (operations) of B, n, A, D beyond which only numbers are given
+MAX_SINGULAR_N = 4         # configurations where a rank drops are solved for up to this many coordinates
+MAX_MIN_NORM_OPS = 300    # the minimum-norm input of a family is given symbolically up to this size
+MAX_MULTIPLIER_OPS = 30    # λ(q, q̇, u) symbolic for n > 2 only when B is this small (it grows as adj B · adj W)
+
+
+class SimulateOptions(Strict):
+    """A constrained motion simulated with the full model and λ(q, q̇, u) (numeric ``values:``)."""
+
+    u: ExprT = Field(description="the inputs u(t, q, dq): a list of m expressions (t is time)")
+    q0: ExprT = Field(description="initial configuration (n values), on the constraints h(q0) = 0")
+    dq0: Optional[ExprT] = Field(None, description="initial velocity (n values) with A(q0) dq0 = 0; default rest")
+    time: float = Field(2.0, gt=0, le=1000, description="duration [s]")
+    points: int = Field(201, ge=11, le=5001, description="samples of the plotted curves")
+
+
+class ConstrainedDynamicsAsk(Strict):
+    """Dynamics under k constraints: A(q), λ(q, q̇, u), the projected and the reduced model, inputs at a state."""
+
+    kind: Literal["constrained_dynamics"]
+    title: Optional[str] = Field(None, description="heading of this part in the report")
+    h: Optional[ExprT] = Field(None, description="holonomic constraints h(q) = 0: one expression or a list of k")
+    A: Optional[ExprT] = Field(None, description="Pfaffian constraints A(q) dq = 0: the k x n matrix A(q) "
+                                                 "(a flat list is one row)")
+    freeze: Optional[dict[str, Scalar]] = Field(
+        None, description="frozen coordinates {q3: q3d, ...}: h = q_b - q_b,d, D selects the other coordinates")
+    D: Optional[ExprT] = Field(None, description="the complement D(q), (n-k) x n with [A; D] invertible; default: "
+                                                 "chosen by selecting n-k coordinates (said in the report)")
+    multiplier: bool = Field(True, description="give λ(q, dq, u), A_B^# and the projected model symbolically")
+    reduced: bool = Field(True, description="derive the reduced model (D, E, F, pseudo-velocities)")
+    v: Optional[list[str]] = Field(None, description="names of the pseudo-velocities (default v, or v1..; the "
+                                                     "selected joint velocities when D selects coordinates)")
+    dv_d: Optional[ExprT] = Field(None, description="desired pseudo-acceleration (n-k expressions) for the inputs "
+                                                    "u_dv; default symbols dvd (dvd1, ...)")
+    lambda_d: Optional[ExprT] = Field(None, description="desired multiplier (k expressions) for u_dv; default 0")
+    at: Optional[dict[str, Scalar]] = Field(
+        None, description="a state {q1: ..., dq1: ...} (some coordinates may stay symbolic) where λ, the "
+                          "equilibrium inputs and u_dv are evaluated (parameter values used)")
+    simulate: Optional[SimulateOptions] = Field(None, description="plot λ(t) along a simulated constrained motion")
+    show: list[Literal["model", "constraints", "multiplier", "reduced", "reduced_model", "u_dv", "equilibrium",
+                       "at", "simulation"]] = Field(
+        ["model", "constraints", "multiplier", "reduced", "reduced_model", "u_dv", "equilibrium", "at", "simulation"],
+        description="which parts to explain in the report (the results are computed anyway)")
+    suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
+                        description="appended to every result name (several asks in one problem)")
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> "ConstrainedDynamicsAsk":
+        given = [k for k in ("h", "A", "freeze") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError("give exactly one of h: (holonomic h(q) = 0), A: (Pfaffian A(q) dq = 0) or "
+                             f"freeze: (frozen coordinates){', got ' + ' and '.join(given) if given else ''}")
+        if self.freeze is not None and self.D is not None:
+            raise ValueError("freeze: chooses D itself (the other coordinates); remove D:")
+        return self
+
+
+# ------------------------------------------------------------------------------------------------ algebra
+MAX_CANCEL_OPS = 150  # denominators factored (to cancel their factors in the numerator) up to this size
+
+
+def _atom_power(terms: list[sp.Expr], f: sp.Expr) -> int:
+    """The largest k with f^k dividing every term (f a symbol or a sin/cos)."""
+    k = None
+    for t in terms:
+        e = t.as_powers_dict().get(f, 0)
+        if not (isinstance(e, sp.Integer) or isinstance(e, int)) or e <= 0:
+            return 0
+        k = int(e) if k is None else min(k, int(e))
+    return k or 0
+
+
+def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
+    """(n / f^j, j) for the largest j <= e with f^j dividing n: for an atom f (symbol, sin, cos) by exponents of
+    the terms of n (in its own form, then in product form for sin/cos when n is small), otherwise by polynomial
+    division (small n only)."""
+    small = sp.count_ops(n) <= MAX_CANCEL_OPS * 4
+    forms = [n] + ([sp.expand(sp.expand_trig(n))] if small and isinstance(f, (sp.sin, sp.cos)) else [])
+    for form in forms:
+        terms = list(sp.Add.make_args(sp.expand(form)))
+        if f.is_Symbol or isinstance(f, (sp.sin, sp.cos)):
+            j = min(_atom_power(terms, f), e)
+            if j:
+                return sp.Add(*[t / f ** j for t in terms]), j
+            continue
+        if not small:
+            break
+        out, j = sp.Add(*terms), 0
+        while j < e:
+            try:
+                quo, rem = sp.div(out, f)
+            except (sp.PolynomialError, sp.CoercionFailed, sp.GeneratorsNeeded, sp.ComputationFailed):
+                break
+            if sp.expand(rem) != 0:
+                break
+            out, j = quo, j + 1
+        if j:
+            return out, j
+    return n, 0
+
+
+def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
+    """n/d for trigonometric polynomials n, d: both tidied, the factors of d that divide n cancelled (d factored
+    when small; no multivariate gcd, which is far too slow on these expressions), the sign in the numerator."""
+    n1, n2 = sp.fraction(sp.together(sp.sympify(n)))
+    d1, d2 = sp.fraction(sp.together(sp.sympify(d)))
+    n = tidy(sp.expand(n1 * d2))
+    if n == 0:
+        return sp.Integer(0)
+    d = tidy(sp.expand(n2 * d1))
+    if d == 1:
+        return n
+    if d.is_number:
+        return tidy(n / d)
+    if sp.count_ops(d) <= MAX_CANCEL_OPS and sp.count_ops(n) <= MAX_CANCEL_OPS * 10:
+        coeff, factors = sp.factor_list(d)
+        rest = sp.sympify(coeff)
+        for f, e in factors:
+            j = 0
+            if f.free_symbols:
+                n, j = _divide_out(n, f, e)
+            rest *= f ** (e - j)
+        n = tidy(sp.expand(n))
+        d = rest
+        if d.has(sp.sin, sp.cos) and sp.count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
+            short = sp.factor(sp.trigsimp(tidy(sp.expand(d))))
+            d = short if sp.count_ops(short) <= sp.count_ops(d) else d
+        if d.is_number:
+            return tidy(n / d)
+    if d.could_extract_minus_sign():
+        n, d = -n, -d
+    return _common(n) / _common(d)
+
+
+def _common(e: sp.Expr) -> sp.Expr:
+    """Common factors pulled out (factor_terms), the arguments of sin/cos kept expanded (2 q1 + 2 q2)."""
+    return sp.factor_terms(e).replace(lambda x: isinstance(x, (sp.sin, sp.cos)) and not x.args[0].is_Add
+                                      and not x.args[0].is_Symbol, lambda x: x.func(sp.expand(x.args[0])))
+
+
+def rtidy(e: sp.Expr) -> sp.Expr:
+    """A ratio of trigonometric polynomials simplified by :func:`ratio` (small expressions)."""
+    e = sp.sympify(e)
+    if not e.free_symbols:
+        return sp.nsimplify(e) if e.atoms(sp.Float) else sp.simplify(e)
+    num, den = sp.fraction(sp.together(e))
+    return ratio(num, den)
+
+
+def rtidy_matrix(M: sp.Matrix) -> sp.Matrix:
+    return M.applyfunc(rtidy)
+
+
+def over(N: sp.Matrix, d: sp.Expr) -> sp.Matrix:
+    """The matrix N/d, entry by entry with :func:`ratio`."""
+    return N.applyfunc(lambda x: ratio(x, d))
+
+
+def time_derivative(M: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol]) -> sp.Matrix:
+    """Ṁ = Σ_i ∂M/∂q_i q̇_i."""
+    return sum((M.diff(x) * v for x, v in zip(q, dq)), sp.zeros(*M.shape))
+
+
+def _ops(*mats: sp.Matrix | None) -> int:
+    return sum(sp.count_ops(M) for M in mats if M is not None)
+
+
+def _zero(e: sp.Expr) -> bool:
+    """Identically zero: the randomized exact test (rational points, trigonometric identities exact), else
+    30-digit evaluation at random points (:mod:`solver.math.equivalence`)."""
+    from solver.math.equivalence import exact_zero, numeric_zero
+    z = exact_zero(e)
+    if z is None:
+        z = numeric_zero(e)
+    return bool(z)
+
+
+@dataclass
+class Multiplier:
+    """λ(q, q̇, u) and the dynamically consistent projection, built on adjugates (W' = A adj(B) Aᵀ)."""
+
+    W: sp.Matrix        # A B⁻¹ Aᵀ
+    lam: sp.Matrix      # λ(q, q̇, u)
+    pinv: sp.Matrix     # A_B^# = B⁻¹ Aᵀ (A B⁻¹ Aᵀ)⁻¹
+    P: sp.Matrix        # I − Aᵀ (A_B^#)ᵀ
+    model: sp.Matrix    # B q̈ − P (G u − n) + B A_B^# Ȧ q̇  (≡ 0 along the constrained motion)
+
+
+def multiplier(B: sp.Matrix, nvec: sp.Matrix, Gu: sp.Matrix, A: sp.Matrix, Adot: sp.Matrix, dq: list[sp.Symbol],
+               ddq: list[sp.Symbol]) -> Multiplier:
+    """With W' = A adj(B) Aᵀ = det(B) A B⁻¹ Aᵀ (every entry a polynomial):
+    λ = adj(W')(A adj(B)(n − G u) − det(B) Ȧ q̇)/det W',  A_B^# = adj(B) Aᵀ adj(W')/det W',
+    P = (det W' I − Aᵀ (adj(B) Aᵀ adj(W'))ᵀ)/det W'."""
+    adjB, detB = B.adjugate().applyfunc(tidy), tidy(B.det())
+    Wp = (A * adjB * A.T).applyfunc(lambda x: tidy(sp.expand(x)))
+    detW = tidy(sp.expand(Wp.det()))
+    adjW = Wp.adjugate() if Wp.rows > 1 else sp.Matrix([[1]])
+    dqv = sp.Matrix(dq)
+    lam = over(adjW * (A * adjB * (nvec - Gu) - detB * Adot * dqv), detW)
+    Npinv = (adjB * A.T * adjW).applyfunc(lambda x: tidy(sp.expand(x)))
+    n = B.rows
+    NP = (detW * sp.eye(n) - A.T * Npinv.T).applyfunc(lambda x: tidy(sp.expand(x)))
+    model = over(detW * B * sp.Matrix(ddq) - NP * (Gu - nvec) + B * Npinv * Adot * dqv, detW)
+    return Multiplier(over(Wp, detB), lam, over(Npinv, detW), over(NP, detW), model)
+
+
+def multiplier_numeric(B: sp.Matrix, nvec: sp.Matrix, Gu: sp.Matrix, A: sp.Matrix, Adot: sp.Matrix,
+                       dq: sp.Matrix) -> sp.Matrix:
+    """λ = (A B⁻¹ Aᵀ)⁻¹ (A B⁻¹ (n − G u) − Ȧ q̇) at a state (u may stay symbolic: it enters linearly)."""
+    Binv = B.inv()
+    W = A * Binv * A.T
+    return (W.inv() * (A * Binv * (nvec - Gu) - Adot * dq)).applyfunc(
+        lambda x: rtidy(x) if x.free_symbols and not x.atoms(sp.Float) else sp.expand(x))
+
+
+def choose_complement(A: sp.Matrix, q: list[sp.Symbol]) -> tuple[sp.Matrix, list[int], sp.Expr]:
+    """D = rows e_j for the coordinates j outside a set S of k columns with det A_S ≢ 0; S preferred with a
+    constant determinant (a globally valid reduction), then the shortest. Returns (D, selected j's, det A_S)."""
+    k, n = A.shape
+    best = None
+    for S in itertools.combinations(range(n), k):
+        det = tidy(A[:, list(S)].det())
+        if det == 0 or generic_rank(sp.Matrix([[det]])) == 0:
+            continue
+        key = (bool(det.free_symbols & set(q)), sp.count_ops(det), S)
+        if best is None or key < best[0]:
+            best = (key, S, det)
+    if best is None:
+        raise ValueError("A has no invertible k x k block")
+    _, S, det = best
+    free = [j for j in range(n) if j not in S]
+    D = sp.Matrix([[1 if c == j else 0 for c in range(n)] for j in free])
+    return D, free, det
+
+
+def selected_coordinates(D: sp.Matrix) -> list[int] | None:
+    """The coordinates j when every row of D is a unit row e_j (D selects coordinates), else None."""
+    out = []
+    for i in range(D.rows):
+        row = list(D.row(i))
+        if sorted(row, key=lambda x: x != 0)[:-1] != [0] * (len(row) - 1) or row.count(1) != 1:
+            return None
+        out.append(row.index(1))
+    return out
+
+
+@dataclass
+class Reduction:
+    """[A; D]⁻¹ = [E F] (E = N_E/det, F = N_F/det) and the terms of the reduced model, in (q, q̇) and in (q, v)."""
+
+    D: sp.Matrix
+    AD: sp.Matrix
+    det: sp.Expr
+    E: sp.Matrix
+    F: sp.Matrix
+    v: sp.Matrix            # pseudo-velocity symbols
+    dv: sp.Matrix           # pseudo-acceleration symbols
+    v_def: sp.Matrix        # D q̇
+    dv_def: sp.Matrix       # D q̈ + Ḋ q̇
+    Fdot: sp.Matrix
+    qddot: sp.Matrix        # F v̇ + Ḟ v
+    BF: sp.Matrix
+    FtBF: sp.Matrix
+    FtBFdot: sp.Matrix
+    Ftn: sp.Matrix
+    Ftu: sp.Matrix
+    EtBF: sp.Matrix
+    EtBFdot: sp.Matrix
+    Etn: sp.Matrix
+    Etu: sp.Matrix
+    on_v: dict[sp.Symbol, sp.Expr]   # q̇ -> F v
+    model: sp.Matrix        # FᵀBF v̇ + Fᵀ(n + BḞv) − FᵀGu with q̇ = F v
+    vdot: sp.Matrix | None  # (FᵀBF)⁻¹ Fᵀ(Gu − n − BḞv) with q̇ = F v (one pseudo-velocity only)
+    lam: sp.Matrix          # Eᵀ(BFv̇ + BḞv + n − Gu) with q̇ = F v
+    NF: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 0))   # δ F
+    Fdv: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 0))  # δ³ Ḟ v along the constraint
+    n2: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 0))   # δ² n along the constraint
+    singular: list[sp.Matrix] = field(default_factory=list)
+    singular_every: bool = False
+    singular_done: bool = False
+
+
+def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None, Gu: sp.Matrix, A: sp.Matrix,
+                 D: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol], ddq: list[sp.Symbol], v: sp.Matrix,
+                 dv: sp.Matrix, frozen: dict[sp.Symbol, sp.Expr] | None = None) -> Reduction:
+    """The reduced model with the complement D (see the module doc), n = c + g + F_v q̇. ``frozen``: q_b -> q_b,d
+    substituted in the reduced terms (on the constraint).
+
+    Everything is written over powers of δ = det [A; D]: E = N_E/δ, F = N_F/δ, Ḟ = (Ṅ_F δ − N_F δ̇)/δ²; along the
+    constraint q̇ = N_F v/δ, so (with primes for Ṅ_F, δ̇ evaluated at q̇ = N_F v) Ḟ v = (Ṅ_F' δ − N_F δ̇') v/δ³ and
+    δ² n = δ² g + δ F_v N_F v + c(q, N_F v), whence numerators that are polynomials."""
+    k = A.rows
+    AD = A.col_join(D)
+    det = tidy(sp.expand(AD.det()))
+    adj = AD.adjugate().applyfunc(lambda x: tidy(sp.expand(x)))
+    NE, NF = adj[:, :k], adj[:, k:]
+    dqv, ddqv = sp.Matrix(dq), sp.Matrix(ddq)
+    fz = frozen or {}
+
+    def z(M: sp.Matrix | sp.Expr) -> Any:
+        return M.xreplace(fz) if fz else M
+
+    E, F = over(NE, det), over(NF, det)
+    NFd, detd = time_derivative(NF, q, dq), tidy(sp.expand(time_derivative(sp.Matrix([[det]]), q, dq)[0]))
+    NFdot = NFd * det - NF * detd                       # Ḟ = NFdot/δ²
+    Fdot = over(NFdot, det ** 2)
+    v_def = (D * dqv).applyfunc(tidy)
+    dv_def = (D * ddqv + time_derivative(D, q, dq) * dqv).applyfunc(tidy)
+    qddot = over(NF * det * dv + NFdot * v, det ** 2)
+    nvec = c + g + (Fv * dqv if Fv is not None else sp.zeros(B.rows, 1))
+    Bz, NFz, NEz, detz, NFdotz = z(B), z(NF), z(NE), z(det), z(NFdot)
+    BF = over(Bz * NFz, detz)
+    FtBF = over(NFz.T * Bz * NFz, detz ** 2)
+    FtBFdot, EtBFdot = over(NFz.T * Bz * NFdotz, detz ** 3), over(NEz.T * Bz * NFdotz, detz ** 3)
+    Ftn, Ftu, Etn, Etu = over(z(NF.T * nvec), detz), over(z(NF.T * Gu), detz), over(z(NE.T * nvec), detz), \
+        over(z(NE.T * Gu), detz)
+    EtBF = over(NEz.T * Bz * NFz, detz ** 2)
+    # along the constraint: q̇ = N_F v/δ
+    w = NF * v
+    on_w = dict(zip(dq, w))
+    Fdv = z((NFd.xreplace(on_w) * det - NF * detd.xreplace(on_w)) * v)          # δ³ Ḟ v
+    n2 = z(det ** 2 * g + (det * Fv * w if Fv is not None else sp.zeros(B.rows, 1)) + c.xreplace(on_w))  # δ² n
+    Gz = z(Gu)
+    model = over(detz ** 2 * NFz.T * Bz * NFz * dv + NFz.T * Bz * Fdv + detz * NFz.T * n2
+                 - detz ** 3 * NFz.T * Gz, detz ** 4)
+    lam = over(detz ** 2 * NEz.T * Bz * NFz * dv + NEz.T * Bz * Fdv + detz * NEz.T * n2
+               - detz ** 3 * NEz.T * Gz, detz ** 4)
+    vdot = None
+    if NF.cols == 1:  # one pseudo-velocity: v̇ = Fᵀ(Gu − n − BḞv)/FᵀBF (for more, a linear system in v̇)
+        M = tidy(sp.expand((NFz.T * Bz * NFz)[0]))   # δ² FᵀBF
+        vdot = over(detz ** 3 * NFz.T * Gz - detz * NFz.T * n2 - NFz.T * Bz * Fdv, M * detz ** 2)
+    on_v = dict(zip(dq, F * v))
+    return Reduction(D, AD, det, E, F, v, dv, v_def, dv_def, Fdot, qddot, BF, FtBF, FtBFdot, Ftn, Ftu, EtBF,
+                     EtBFdot, Etn, Etu, on_v, model, vdot, lam, NF, Fdv, n2)
+
+
+@dataclass
+class Inputs:
+    """u from a linear system M u = b: the solution (pivot inputs solved, the others free), its minimum-norm
+    member when not unique, and whether it exists."""
+
+    u: sp.Matrix | None
+    free: list[sp.Symbol]
+    u_min: sp.Matrix | None
+    exists: bool
+
+
+def solve_inputs(M: sp.Matrix, b: sp.Matrix, u: list[sp.Symbol]) -> Inputs:
+    """All u with M u = b: the first independent columns of M (pivots, by the generic rank) solved through the
+    adjugate of their block, u_p = M_p⁻¹(b − M_f u_f), the other inputs free; and the minimum-norm solution
+    Mᵀ(M Mᵀ)⁻¹ b when there is more than one. Not solvable (b outside the range of M, almost everywhere):
+    exists = False."""
+    r, m = M.shape
+    pivots: list[int] = []
+    for j in range(m):
+        if generic_rank(M[:, pivots + [j]]) > len(pivots):
+            pivots.append(j)
+    rank = len(pivots)
+    if generic_rank(M.row_join(b)) > rank:
+        return Inputs(None, [], None, False)
+    rows = []
+    for i in range(r):
+        if generic_rank(M[rows + [i], pivots]) > len(rows):
+            rows.append(i)
+    free = [j for j in range(m) if j not in pivots]
+    Mp = M[rows, pivots]
+    rhs = b[rows, :] - (M[rows, free] * sp.Matrix([u[j] for j in free]) if free else sp.zeros(rank, 1))
+    det = tidy(sp.expand(Mp.det())) if rank > 1 else Mp[0, 0]
+    up = over(Mp.adjugate() * rhs, det) if rank > 1 else rhs.applyfunc(lambda x: ratio(x, det))
+    sol = [sp.Integer(0)] * m
+    for k, j in enumerate(pivots):
+        sol[j] = up[k]
+    for j in free:
+        sol[j] = u[j]
+    u_min = None
+    if free and rank == r and sp.count_ops(M) + sp.count_ops(b) <= MAX_MIN_NORM_OPS:
+        MMt = (M * M.T).applyfunc(lambda x: tidy(sp.expand(x)))
+        d = tidy(sp.expand(MMt.det()))
+        u_min = over(M.T * (MMt.adjugate() if r > 1 else sp.eye(1)) * b, d)
+    return Inputs(sp.Matrix(sol), [u[j] for j in free], u_min, True)
+
+
+# ------------------------------------------------------------------------------------------------ the ask
+class _Spec:
+    """The parsed, validated inputs of one ask."""
+
+    def __init__(self, problem, options: ConstrainedDynamicsAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+        self.problem, self.options, self.ctx = problem, options, ctx
+        self.robot = robot = require_model(problem)
+        self.q, self.dq, self.ddq = list(robot.q), list(robot.dq), list(robot.ddq)
+        self.n = n = robot.n
+        self.frozen: dict[sp.Symbol, sp.Expr] = {}
+        self.h: sp.Matrix | None = None
+        by_name = {s.name: s for s in self.q}
+        if options.freeze is not None:
+            if not options.freeze:
+                raise self.fail(("freeze",), "freeze: lists no coordinate", "write e.g. freeze: {q3: q3d}")
+            for name in options.freeze:
+                if name not in by_name:
+                    raise self.fail(("freeze", name), f"'{name}' in freeze: is not a coordinate of the robot",
+                                    "use " + ", ".join(by_name))
+                val = ctx.expr("freeze", name)
+                if isinstance(val, list) or val.free_symbols & set(self.q + self.dq + self.ddq):
+                    raise self.fail(("freeze", name), f"the frozen value of {name} must be a constant",
+                                    "write a number or a parameter, e.g. q3d")
+                self.frozen[by_name[name]] = val
+            self.h = sp.Matrix([x - self.frozen[x] for x in self.q if x in self.frozen])
+            self.A = self.h.jacobian(self.q)
+            self.where = ("freeze",)
+        elif options.h is not None:
+            val = ctx.expr("h")
+            vals = val if isinstance(val, list) else [val]
+            if any(isinstance(x, list) for x in vals):
+                raise self.fail(("h",), "h must be one expression or a list of expressions (one per constraint)")
+            self.h = sp.Matrix(vals)
+            self.where = ("h",)
+            self._state_only(self.h, ("h",), "h(q)", "give a Pfaffian constraint with A: instead")
+            if any(not (x.free_symbols & set(self.q)) for x in self.h):
+                i = next(i for i, x in enumerate(self.h) if not (x.free_symbols & set(self.q)))
+                raise self.fail(("h",) if not isinstance(val, list) else ("h", i),
+                                f"constraint {i + 1} does not depend on the coordinates "
+                                f"({', '.join(s.name for s in self.q)})", "each h_i must be a function of q")
+            self.A = self.h.jacobian(self.q).applyfunc(tidy)
+        else:
+            val = ctx.expr("A")
+            shp = shape_of(val)
+            if len(shp) == 1:
+                M = sp.Matrix([val])
+            elif len(shp) == 2 and shp[1] >= 0:
+                M = sp.Matrix(val)
+            else:
+                raise self.fail(("A",), "A must be a matrix [[...], [...]] (k rows of n entries) or one row")
+            if M.cols != n:
+                raise self.fail(("A",), f"A must have {n} columns (one per coordinate), got {M.cols}")
+            self.A = M.applyfunc(tidy)
+            self.where = ("A",)
+            self._state_only(self.A, ("A",), "A(q)", "A may depend on the configuration only")
+        self.k = k = self.A.rows
+        if k >= n:
+            raise self.fail(self.where, f"{k} constraints on {n} coordinates leave the robot no motion",
+                            f"give at most {n - 1} independent constraints")
+        rank = generic_rank(self.A)
+        if rank < k:
+            raise self.fail(self.where, f"the {k} constraints are dependent: rank A(q) = {rank} < {k} at every "
+                                        "configuration", "remove the redundant constraints (keep independent ones)")
+        self.D = self._complement() if options.reduced else None
+        self.v_names = options.v
+        self.state = self._state()
+
+    def fail(self, sub: tuple, message: str, hint: str | None = None) -> UserError:
+        return UserError(message, self.problem.located.place(self.ctx.path + sub), hint)
+
+    def _state_only(self, M: sp.Matrix, where: tuple, what: str, hint: str) -> None:
+        vel = set(self.dq + self.ddq) | set(self.robot.inputs)
+        if any(x.free_symbols & vel for x in M):
+            raise self.fail(where, f"{what} must not depend on velocities or inputs", hint)
+
+    def _complement(self) -> sp.Matrix | None:
+        if self.options.D is None:
+            return None
+        n, k = self.n, self.k
+        val = self.ctx.expr("D")
+        shp = shape_of(val)
+        D = sp.Matrix([val]) if len(shp) == 1 else (sp.Matrix(val) if len(shp) == 2 and shp[1] >= 0 else None)
+        if D is None or D.shape != (n - k, n):
+            got = f"{D.rows}x{D.cols}" if D is not None else f"shape {shp or 'scalar'}"
+            raise self.fail(("D",), f"D must be {n - k}x{n} (n - k rows of n entries), got {got}",
+                            "one row per pseudo-velocity, one column per coordinate")
+        self._state_only(D, ("D",), "D(q)", "D may depend on the configuration only")
+        AD = self.A.col_join(D)
+        if generic_rank(AD) < n:
+            raise self.fail(("D",), "D does not complete A: det [A; D] = 0 at every configuration",
+                            "choose rows independent of those of A (e.g. select n - k coordinates)")
+        return D
+
+    def _state(self) -> dict[sp.Symbol, sp.Expr] | None:
+        if self.options.at is None:
+            return None
+        allowed = {s.name: s for s in self.q + self.dq}
+        state = {}
+        for name in self.options.at:
+            if name not in allowed:
+                raise self.fail(("at", name), f"'{name}' in at: is not a coordinate or a velocity",
+                                "use " + ", ".join(allowed))
+            val = self.ctx.expr("at", name)
+            if isinstance(val, list):
+                raise self.fail(("at", name), f"the value of {name} must be a scalar")
+            state[allowed[name]] = val
+        return state
+
+
+def _fresh_symbol(problem, name: str, tex: str) -> sp.Symbol:  # type: ignore[no-untyped-def]
+    """A real symbol registered in the problem's names (answers and reports can use it); a name the problem
+    already uses for something else gets a trailing c."""
+    mine = problem.__dict__.setdefault("_constraint_names", set())
+    while name in problem.names and name not in mine:
+        name += "c"
+    mine.add(name)
+    s = problem.names.get(name)
+    if s is None:
+        s = sp.Symbol(name, real=True)
+        problem.names[name] = s
+        problem.latex_names[s] = tex
+    return s  # type: ignore[return-value]
+
+
+def _pseudo(problem, spec: _Spec, D: sp.Matrix) -> tuple[sp.Matrix, sp.Matrix]:  # type: ignore[no-untyped-def]
+    """Pseudo-velocity and -acceleration symbols: the ask's names, the selected q̇_j/q̈_j, or v (v1, ...)."""
+    r = D.rows
+    if spec.v_names is not None:
+        if len(spec.v_names) != r:
+            raise spec.fail(("v",), f"v: needs {r} names (one per pseudo-velocity), got {len(spec.v_names)}")
+        vs, dvs = [], []
+        for name in spec.v_names:
+            if not name.isidentifier() or name in problem.symbols:
+                raise spec.fail(("v",), f"'{name}' cannot name a pseudo-velocity",
+                                "use a new name of letters, digits and _")
+            from solver.spec.loader import latex_of
+            tex = latex_of(name)
+            vs.append(_fresh_symbol(problem, name, tex))
+            dvs.append(_fresh_symbol(problem, "d" + name, f"\\dot{{{tex}}}"))
+        return sp.Matrix(vs), sp.Matrix(dvs)
+    sel = selected_coordinates(D)
+    if sel is not None:
+        return sp.Matrix([spec.dq[j] for j in sel]), sp.Matrix([spec.ddq[j] for j in sel])
+    if r == 1:
+        return sp.Matrix([_fresh_symbol(problem, "v", "v")]), sp.Matrix([_fresh_symbol(problem, "dv", "\\dot v")])
+    return (sp.Matrix([_fresh_symbol(problem, f"v{i + 1}", f"v_{{{i + 1}}}") for i in range(r)]),
+            sp.Matrix([_fresh_symbol(problem, f"dv{i + 1}", f"\\dot v_{{{i + 1}}}") for i in range(r)]))
+
+
+def _vector_option(spec: _Spec, key: str, size: int, default: list[sp.Expr]) -> sp.Matrix:
+    if getattr(spec.options, key) is None:
+        return sp.Matrix(default)
+    val = spec.ctx.expr(key)
+    vals = val if isinstance(val, list) else [val]
+    if len(vals) != size or any(isinstance(x, list) for x in vals):
+        raise spec.fail((key,), f"{key} must have {size} component{'s' if size > 1 else ''}, got shape "
+                                f"{shape_of(val) or 'scalar'}")
+    return sp.Matrix(vals)
+
+
+def _singular(M: sp.Matrix, q: list[sp.Symbol], k: int) -> tuple[list[sp.Matrix], bool, bool]:
+    """Configurations where rank M < k (every k x k minor zero), by the polynomial solver of
+    :func:`solver.dynamics.equilibria.equilibria`, when the minors involve at most two angles (beyond, the solution
+    sets are manifolds such as q1 + q2 + q3 = pi/2, reported as conditions instead). Returns (configurations,
+    every configuration, computed)."""
+    if len(q) > MAX_SINGULAR_N:
+        return [], False, False
+    minors = [tidy(M[:, list(S)].det()) for S in itertools.combinations(range(M.cols), k)]
+    minors = [x for x in dict.fromkeys(minors) if x != 0]
+    if not minors:
+        return [sp.Matrix(q)], True, True
+    if not any(x.free_symbols & set(q) for x in minors):
+        return [], False, True
+    if len(set(angle_symbols(sp.Add(*minors))) & set(q)) > 2 or sum(sp.count_ops(x) for x in minors) > 200:
+        return [], False, False
+    try:
+        configs, _, every = equilibria(sp.Matrix(minors), q)
+    except (NotImplementedError, ValueError, TypeError, sp.PolynomialError):
+        return [], False, False
+    allowed = set(q) | M.free_symbols
+    for c in configs:  # only clean solutions: numbers and free coordinates (no radicals of the parameters)
+        if any((x.free_symbols - allowed) or x.has(sp.atan2) for x in c):
+            return [], False, False
+    return configs, every, True
+
+
+class Atoms:
+    """Parameter-only sums and radicals of the constraints ((yA - yB), sqrt(a^2 + b^2)) replaced by symbols while
+    computing, so that they stay factors instead of being expanded into long polynomials; ``restore`` puts them
+    back into results and steps."""
+
+    def __init__(self, params: set[sp.Symbol]) -> None:
+        self.params = params
+        self.found: dict[sp.Expr, sp.Expr] = {}
+        self.back: dict[sp.Symbol, sp.Expr] = {}
+
+    def _atom(self, e: sp.Expr) -> sp.Expr:
+        if e.is_Add and e.could_extract_minus_sign():
+            return -self._atom(-e)
+        if e not in self.found:
+            d = sp.Dummy(f"p{len(self.found) + 1}", real=True, positive=True if e.is_positive else None)
+            self.found[e], self.back[d] = d, e
+        return self.found[e]
+
+    def _visit(self, e: sp.Expr) -> sp.Expr:
+        if not e.args:
+            return e
+        fs = e.free_symbols
+        if fs and fs <= self.params and e.is_Pow and e.exp.is_Rational and not e.exp.is_Integer:
+            return self._atom(e.base ** sp.Rational(1, e.exp.q)) ** e.exp.p  # √X and 1/√X share one atom
+        if fs and fs <= self.params and (e.is_Add or (e.is_Pow and not e.exp.is_Integer)):
+            return self._atom(e)
+        return e.func(*[self._visit(a) for a in e.args])
+
+    def __call__(self, M: Any) -> Any:
+        if M is None:
+            return None
+        if isinstance(M, sp.MatrixBase):
+            return M.applyfunc(self._visit)
+        return self._visit(sp.sympify(M))
+
+    def restore(self, obj: Any) -> Any:
+        """``obj`` (sympy objects, dataclasses, dicts, lists) with the parameters put back."""
+        if not self.back:
+            return obj
+        if isinstance(obj, (sp.Basic, sp.MatrixBase)):
+            return obj.xreplace(self.back)
+        if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+            return dataclasses.replace(obj, **{f.name: self.restore(getattr(obj, f.name))
+                                               for f in dataclasses.fields(obj) if f.init})
+        if isinstance(obj, dict):
+            return {self.restore(k): self.restore(v) for k, v in obj.items()}
+        if isinstance(obj, (list, tuple)):
+            return type(obj)(self.restore(v) for v in obj)
+        return obj
+
+
+@dataclass
+class SymModel:
+    """The pieces of the symbolic computation (parameters atomized): B q̈ + c + g + F_v q̇ = G u, A, Ȧ, D."""
+
+    B: sp.Matrix
+    c: sp.Matrix
+    g: sp.Matrix
+    Fv: sp.Matrix | None
+    G: sp.Matrix
+    Gu: sp.Matrix
+    nvec: sp.Matrix
+    A: sp.Matrix
+    Adot: sp.Matrix
+    D: sp.Matrix | None
+    frozen: dict[sp.Symbol, sp.Expr]
+
+
+@ask_kind("constrained_dynamics", ConstrainedDynamicsAsk,
+          "dynamics under holonomic or Pfaffian constraints: A(q), λ(q, q̇, u), projected and reduced models")
+def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results (each with the ask's suffix): n_constraints, h, A, rank_A, A_singular, Adot, W, lambda, A_pinv_B,
+    P, constrained_model; reduced: D, AD, det_AD, E, F, v, dv, Fdot, qddot, BF, reduced_inertia, FtBFdot, Ftn,
+    Ftu, EtBF, EtBFdot, Etn, Etu, reduced_model, vdot, lambda_reduced, reduction_singular, u_dv, u_dv_check
+    (lambda_dv), u_eq, u_eq_min, lambda_eq, u_eq_lambda0; with at: A_at, q_at, lambda_at, F_at, u_eq_at,
+    u_eq_min_at, lambda_eq_at, u_eq_lambda0_at, u_dv_at."""
+    spec = _Spec(problem, options, ctx)
+    robot, q, dq, ddq, n, k = spec.robot, spec.q, spec.dq, spec.ddq, spec.n, spec.k
+    dm = derive(robot)
+    G = dm.G if dm.G is not None else sp.eye(n)
+    u = list(robot.inputs)
+    for s in u:  # the inputs appear in λ and in u_dv: answers and expected values may use their names
+        problem.names.setdefault(s.name, s)
+    nvec = dm.c + dm.g + (dm.Fv * sp.Matrix(dq) if dm.Fv is not None else sp.zeros(n, 1))
+    nvec = nvec.applyfunc(tidy)
+    sfx = options.suffix
+    sol = Solution("constrained_dynamics", title=options.title or "Constrained dynamics")
+    atoms = Atoms(set(problem.symbols.values()))
+
+    def add(name: str, value: Any, kind: str | None = None, label: str = "") -> None:
+        value = atoms.restore(value)
+        if isinstance(value, sp.MatrixBase) and value.shape == (1, 1):  # one constraint, one pseudo-velocity
+            value, kind = value[0], "scalar"
+        sol.add(name + sfx, value, kind, label=label)
+
+    A = spec.A
+    Adot = time_derivative(A, q, dq).applyfunc(tidy)
+    symbolic = n <= MAX_SYMBOLIC_N and _ops(dm.B, nvec, A, spec.D) <= MAX_SYMBOLIC_OPS
+    add("n_constraints", sp.Integer(k), "number", label="k")
+    if spec.h is not None:
+        add("h", spec.h, "vector", label="h(q)")
+    add("A", A, "matrix", label="A(q)")
+    add("rank_A", sp.Integer(k), "number", label="\\operatorname{rank} A(q)")
+    add("Adot", Adot, "matrix", label="\\dot A(q,\\dot q)")
+    sing, sing_every, sing_done = _singular(A, q, k) if symbolic else ([], False, False)
+    if sing_done:
+        add("A_singular", sing, "set", label="q:\\ \\operatorname{rank} A(q) < k")
+    h_at_sing = [spec.h.xreplace(dict(zip(q, c))).applyfunc(tidy) for c in sing] if spec.h is not None else []
+    sol.step("model", B=dm.B, nvec=nvec, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, u=sp.Matrix(u), n=n,
+             friction=dm.Fv is not None, gravity=any(x != 0 for x in dm.g))
+    sol.step("constraints", h=spec.h, A=A, Adot=Adot, k=k, n=n, G=dm.G, frozen=spec.frozen,
+             pfaffian=options.A is not None, singular=sing, every=sing_every, done=sing_done, h_at=h_at_sing,
+             q=sp.Matrix(q))
+    X = atoms
+    # only the constraint side is atomized: the model's own sums (I2 + m2 d2^2) must stay free to cancel
+    sm = SymModel(dm.B, dm.c, dm.g, dm.Fv, G, G * sp.Matrix(u), nvec, X(A), X(Adot), X(spec.D),
+                  {x: X(val) for x, val in spec.frozen.items()})
+    mult = None
+    mult_symbolic = symbolic and (n <= 2 or sp.count_ops(dm.B) <= MAX_MULTIPLIER_OPS)
+    if mult_symbolic and options.multiplier:
+        mult = atoms.restore(multiplier(sm.B, sm.nvec, sm.Gu, sm.A, sm.Adot, dq, ddq))
+        add("W", mult.W, "matrix", label="A B^{-1} A^T")
+        add("lambda", mult.lam, "vector", label="\\lambda(q,\\dot q,u)")
+        add("A_pinv_B", mult.pinv, "matrix", label="A_B^{\\#}")
+        add("P", mult.P, "matrix", label="I - A^T (A_B^{\\#})^T")
+        add("constrained_model", mult.model, "vector",
+            label="B\\ddot q - (I - A^T A_B^{\\#T})(Gu - n) + B A_B^{\\#}\\dot A\\dot q")
+    if options.multiplier:
+        sol.step("multiplier", m=mult, k=k, G=dm.G, too_big=not mult_symbolic, n=n, at=spec.state is not None)
+
+    red = None
+    if options.reduced and symbolic:
+        red = _reduce(problem, spec, sol, add, sm, atoms, dm, u)
+    elif options.reduced:
+        sol.step("too_big", n=n)
+
+    if spec.state is not None:
+        _at_state(problem, spec, sol, add, dm, nvec, G, u, Adot, red)
+    if options.simulate is not None:
+        _simulation(problem, spec, sol, dm, nvec, G, u, Adot)
+    shown = set(options.show) | {"too_big"}
+    sol.steps = [st for st in sol.steps if st.name in shown]  # the report explains only these parts
+    return sol
+
+
+def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms, dm, u) -> Reduction:  # type: ignore[no-untyped-def]
+    """The reduced-model results and steps, computed on the atomized model ``sm``; returns the (restored) reduction."""
+    q, dq, ddq, n, k = spec.q, spec.dq, spec.ddq, spec.n, spec.k
+    chosen = spec.D is None
+    if chosen:
+        D, free, det_S = choose_complement(spec.A, q)
+        Dx = atoms(D)
+    else:
+        D, Dx, free, det_S = spec.D, sm.D, selected_coordinates(spec.D), None
+    v, dv = _pseudo(problem, spec, D)
+    redx = reduce_model(sm.B, sm.c, sm.g, sm.Fv, sm.Gu, sm.A, Dx, q, dq, ddq, v, dv, sm.frozen)
+    red = atoms.restore(redx)
+    sing, every, done = _singular(sp.Matrix([[red.det]]), q, 1)
+    red.singular, red.singular_every, red.singular_done = sing, every, done
+    add("D", D, "matrix", label="D(q)")
+    add("AD", red.AD, "matrix", label="\\begin{bmatrix} A \\\\ D \\end{bmatrix}")
+    add("det_AD", red.det, "scalar", label="\\det \\begin{bmatrix} A \\\\ D \\end{bmatrix}")
+    add("E", red.E, "matrix", label="E(q)")
+    add("F", red.F, "matrix", label="F(q)")
+    add("v", red.v_def, "vector", label="v = D\\dot q")
+    add("dv", red.dv_def, "vector", label="\\dot v = D\\ddot q + \\dot D\\dot q")
+    add("Fdot", red.Fdot, "matrix", label="\\dot F(q,\\dot q)")
+    add("qddot", red.qddot, "vector", label="F\\dot v + \\dot F v")
+    add("BF", red.BF, "matrix", label="B F")
+    add("reduced_inertia", red.FtBF, "matrix", label="F^T B F")
+    add("FtBFdot", red.FtBFdot, "matrix", label="F^T B \\dot F")
+    add("Ftn", red.Ftn, "vector", label="F^T n")
+    add("Ftu", red.Ftu, "vector", label="F^T G u")
+    add("EtBF", red.EtBF, "matrix", label="E^T B F")
+    add("EtBFdot", red.EtBFdot, "matrix", label="E^T B \\dot F")
+    add("Etn", red.Etn, "vector", label="E^T n")
+    add("Etu", red.Etu, "vector", label="E^T G u")
+    add("reduced_model", red.model, "vector", label="F^T B F\\dot v + F^T(n + B\\dot F v) - F^T G u")
+    if red.vdot is not None:
+        add("vdot", red.vdot, "vector", label="\\dot v(q, v, u)")
+    add("lambda_reduced", red.lam, "vector", label="\\lambda(q, v, \\dot v, u)")
+    if done:
+        add("reduction_singular", sing, "set", label="q:\\ \\det [A; D] = 0")
+    const_det = not (red.det.free_symbols & set(q))
+    sol.step("reduced", r=red, chosen=chosen, free=[spec.q[j] for j in free] if free else None, det_S=det_S,
+             k=k, n=n, frozen=spec.frozen, const_det=const_det, selects=selected_coordinates(D) is not None,
+             q=sp.Matrix(q))
+    sol.step("reduced_model", r=red, k=k, n=n, G=dm.G, frozen=spec.frozen)
+    # inputs: v̇ = v̇_d with λ = λ_d, and the static equilibria
+    r = n - k
+    default = [_fresh_symbol(problem, "dvd", "\\dot v_d")] if r == 1 else \
+        [_fresh_symbol(problem, f"dvd{i + 1}", f"\\dot v_{{d,{i + 1}}}") for i in range(r)]
+    dv_d = _vector_option(spec, "dv_d", r, default)
+    lam_d = _vector_option(spec, "lambda_d", k, [0] * k)
+    fz = sm.frozen
+    det = redx.det.xreplace(fz) if fz else redx.det
+    Bz, NF = (sm.B.xreplace(fz), redx.NF.xreplace(fz)) if fz else (sm.B, redx.NF)
+    Az = sm.A.xreplace(fz) if fz else sm.A
+    rhs_num = det ** 2 * Bz * NF * atoms(dv_d) + Bz * redx.Fdv + det * redx.n2     # δ³ (B(F v̇_d + Ḟ v) + n)
+    lamx = atoms(lam_d)
+    m = len(u)
+    lam_given = m >= n
+    if lam_given and dm.G is None:  # u = B(F v̇_d + Ḟ v) + n − Aᵀλ_d
+        sol_dv = Inputs(over(rhs_num - det ** 3 * Az.T * lamx, det ** 3), [], None, True)
+    elif lam_given:
+        Gz = sm.G.xreplace(fz) if fz else sm.G
+        sol_dv = solve_inputs(Gz, over(rhs_num - det ** 3 * Az.T * lamx, det ** 3), u)
+    else:  # fewer inputs than coordinates: λ cannot be assigned, u from the reduced model only
+        Fz = redx.F.xreplace(fz) if fz else redx.F
+        Gz = sm.G.xreplace(fz) if fz else sm.G
+        sol_dv = solve_inputs(rtidy_matrix(Fz.T * Gz), over(NF.T * rhs_num, det ** 4), u)
+    sol_dv = atoms.restore(sol_dv)
+    check, lam_dv, u_dv = None, None, None
+    if sol_dv.exists:
+        u_dv = sol_dv.u_min if sol_dv.free and sol_dv.u_min is not None else sol_dv.u
+        add("u_dv", u_dv, "vector",
+            label="u\\,(\\dot v = \\dot v_d" + (", \\lambda = \\lambda_d)" if lam_given else ")"))
+        back = dict(zip(u, u_dv)) | dict(zip(list(red.dv), list(dv_d)))
+        lam_dv = red.lam.xreplace(back)
+        check = all(_zero(x) for x in red.model.xreplace(back)) and (
+            not lam_given or all(_zero(a - b) for a, b in zip(lam_dv, lam_d)))
+        add("u_dv_check", bool(check), "bool", label="\\text{reduced model gives } \\dot v = \\dot v_d")
+        if not lam_given:
+            lam_dv = lam_dv.applyfunc(rtidy)
+            add("lambda_dv", lam_dv, "vector", label="\\lambda\\ (u = u_{dv})")
+        else:
+            lam_dv = None
+    sol.step("u_dv", u=u_dv, dv_d=dv_d, lam_d=lam_d, lam_given=lam_given, s=sol_dv, check=check, lam_dv=lam_dv,
+             m=m, n=n, G=dm.G)
+    eq = _equilibrium(spec, red, dm, dm.G if dm.G is not None else sp.eye(n), u, None)
+    if eq["s"].exists:
+        add("u_eq", eq["s"].u, "vector", label="u_{eq}(q)")
+        if eq["s"].u_min is not None:
+            add("u_eq_min", eq["s"].u_min, "vector", label="u_{eq,\\min}(q)")
+        add("lambda_eq", eq["lam"], "vector", label="\\lambda_{eq}")
+    if eq["lam0"] is not None:
+        add("u_eq_lambda0", eq["lam0"], "vector", label="u_{eq}\\ (\\lambda = 0)")
+    sol.step("equilibrium", e=eq, at=False, G=dm.G)
+    return red
+
+
+def _equilibrium(spec: _Spec, red: Reduction, dm, G: sp.Matrix, u: list[sp.Symbol],  # type: ignore[no-untyped-def]
+                 subs: dict | None) -> dict[str, Any]:
+    """At rest (q̇ = 0, v̇ = 0): every u with Fᵀ(G u − g) = 0, the minimum-norm one, λ = Eᵀ(g − G u), and the u
+    with λ = 0 (G u = g)."""
+    s = {**(subs or {}), **spec.frozen}
+    F, E, g, Gs = (red.F.xreplace(s), red.E.xreplace(s), dm.g.xreplace(s), G.xreplace(s))
+    M, b = rtidy_matrix(F.T * Gs), (F.T * g).applyfunc(rtidy)
+    sol = solve_inputs(M, b, u)
+    lam = (E.T * (g - Gs * sol.u)).applyfunc(rtidy) if sol.exists else None
+    l0 = solve_inputs(Gs, g, u)
+    lam0 = l0.u if l0.exists and not l0.free else (l0.u_min if l0.exists else None)
+    return {"s": sol, "lam": lam, "lam0": lam0, "M": M, "b": b, "g": g.applyfunc(rtidy)}
+
+
+def _num(e: Any) -> Any:
+    """A value at a state for the report and the grader: exact when short (√3/2 (a4 + a5)), otherwise with
+    15-digit floats (also as the coefficients of the symbols left, e.g. the inputs)."""
+    if isinstance(e, sp.MatrixBase):
+        return e.applyfunc(_num)
+    if not isinstance(e, sp.Expr) or e.is_Rational:
+        return e
+    if not e.atoms(sp.Float) and sp.count_ops(e) <= 40:
+        return e
+    if e.is_number:
+        return sp.Float(e.evalf(15), 15)
+    irrational = [a for a in e.atoms(sp.Pow, sp.Function) if a.is_number]
+    return e.evalf(15) if irrational or e.atoms(sp.Float) else e
+
+
+def _evaluate(M: sp.Matrix, subs: dict) -> sp.Matrix:
+    """M at a state: exact when the values are exact (radicals simplified), entries tidied."""
+    out = M.xreplace(subs)
+    return out.applyfunc(lambda x: _num(sp.nsimplify(x) if x.is_number and not x.atoms(sp.Float)
+                                        else (rtidy(x) if x.free_symbols else x)))
+
+
+def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, red) -> None:  # type: ignore[no-untyped-def]
+    """λ, A, F, the equilibrium inputs and u_dv at the ``at:`` state (parameter values substituted)."""
+    state = spec.state or {}
+    subs = {**problem.values, **{x: val.xreplace(problem.values) for x, val in state.items()}}
+    q, dq = spec.q, spec.dq
+    A_at = spec.A.xreplace(subs)
+    bad = []
+    if spec.h is not None:
+        h_at = spec.h.xreplace(subs)
+        bad = [i for i, x in enumerate(h_at) if not (x.free_symbols & set(q)) and _nonzero(x)]
+        if bad:
+            raise spec.fail(("at",), f"the state is not on the constraints: h_{bad[0] + 1} = "
+                                     f"{_show(h_at[bad[0]])} there", "give a configuration with h(q) = 0")
+    dq_at = sp.Matrix(dq).xreplace(subs)
+    Adq = A_at * dq_at
+    bad = [i for i, x in enumerate(Adq) if not (x.free_symbols & set(dq)) and _nonzero(x)]
+    if bad:
+        raise spec.fail(("at",), f"the velocity violates the constraints: (A q̇)_{bad[0] + 1} = "
+                                 f"{_show(Adq[bad[0]])} there", "give velocities with A(q) dq = 0 (or omit them)")
+    A_at = _evaluate(spec.A, subs)
+    add("A_at", A_at, "matrix", label="A\\big|_{*}")
+    add("q_at", _evaluate(sp.Matrix(q), subs), "vector", label="q_{*}")
+    Gu = G.xreplace(subs) * sp.Matrix(u)
+    lam = multiplier_numeric(dm.B.xreplace(subs), nvec.xreplace(subs), Gu, spec.A.xreplace(subs),
+                             Adot.xreplace(subs), dq_at)
+    lam = lam.applyfunc(_num)
+    add("lambda_at", lam, "vector", label="\\lambda\\big|_{*}")
+    data: dict[str, Any] = {"state": state, "values": problem.values, "A": A_at, "lam": lam,
+                            "B": _evaluate(dm.B, subs), "nvec": _evaluate(nvec, subs)}
+    if red is not None:
+        F_at = _evaluate(red.F, subs)
+        add("F_at", F_at, "matrix", label="F\\big|_{*}")
+        data["F"] = F_at
+        eq = _equilibrium(spec, red, dm, G, u, {k: v for k, v in subs.items() if k not in dq})
+        if eq["s"].exists:
+            add("u_eq_at", eq["s"].u.applyfunc(_num), "vector", label="u_{eq}\\big|_{*}")
+            if eq["s"].u_min is not None:
+                add("u_eq_min_at", eq["s"].u_min.applyfunc(_num), "vector", label="u_{eq,\\min}\\big|_{*}")
+            add("lambda_eq_at", eq["lam"].applyfunc(_num), "vector", label="\\lambda_{eq}\\big|_{*}")
+        if eq["lam0"] is not None:
+            add("u_eq_lambda0_at", eq["lam0"].applyfunc(_num), "vector", label="u_{eq}\\big|_{*}\\ (\\lambda = 0)")
+        data["eq"] = eq
+        res = sol.results.get("u_dv" + spec.options.suffix)
+        if res is not None:
+            vsubs = dict(zip(list(red.v), list((red.D * sp.Matrix(dq)).xreplace(subs))))
+            val = res.value if isinstance(res.value, sp.MatrixBase) else sp.Matrix([res.value])
+            u_at = val.xreplace(vsubs).xreplace(subs).applyfunc(
+                lambda x: _num(sp.nsimplify(x)) if x.is_number and not x.atoms(sp.Float) else _num(rtidy(x)))
+            add("u_dv_at", u_at, "vector", label="u_{dv}\\big|_{*}")
+            data["u_dv"] = u_at
+            data["v"] = _evaluate(red.D * sp.Matrix(dq), subs)
+    sol.step("at", **data)
+
+
+def _nonzero(x: sp.Expr) -> bool:
+    """Provably non-zero: a number far from 0, or an exact expression that is not identically 0."""
+    if x.is_number:
+        try:
+            return abs(complex(sp.N(x, 30))) > 1e-9
+        except (TypeError, ValueError):
+            return False
+    z = is_zero(x)
+    return z is False and generic_rank(sp.Matrix([[x]])) > 0
+
+
+def _show(x: sp.Expr) -> str:
+    return f"{float(x):.4g}" if x.is_number else str(x)
+
+
+# ------------------------------------------------------------------------------------------------ simulation
+def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> None:  # type: ignore[no-untyped-def]
+    """The figure of λ(t), q(t) and h(q(t)) along the motion of B q̈ + n = G u + Aᵀλ(q, q̇, u) (solve_ivp)."""
+    opts = spec.options.simulate
+    assert opts is not None
+    n, q, dq = spec.n, spec.q, spec.dq
+    t = problem.names.get("t") if isinstance(problem.names.get("t"), sp.Symbol) else sp.Symbol("t", real=True)
+    names = {**problem.names, "t": t}
+    path = spec.ctx.path + ("simulate",)
+
+    def vec(key: str, size: int, default: list | None = None) -> list[sp.Expr]:
+        if getattr(opts, key) is None:
+            return default  # type: ignore[return-value]
+        val = problem.parse_at(path + (key,), names)
+        vals = val if isinstance(val, list) else [val]
+        if len(vals) != size or any(isinstance(x, list) for x in vals):
+            raise spec.fail(("simulate", key), f"simulate.{key} must have {size} components, got shape "
+                                               f"{shape_of(val) or 'scalar'}")
+        return vals
+
+    m = len(u)
+    u_t = vec("u", m)
+    allowed = set(q) | set(dq) | {t}
+    exprs = list(u_t) + list(dm.B) + list(nvec) + list(spec.A) + list(G) + (list(spec.h) if spec.h is not None else [])
+    fixed, unit = numeric_values(exprs, problem.values, allowed)
+    q0 = [sp.sympify(x).xreplace(problem.values).xreplace({s: v for s, v in fixed.items()}) for x in vec("q0", n)]
+    dq0 = [sp.sympify(x).xreplace(problem.values).xreplace(fixed) for x in vec("dq0", n, [sp.Integer(0)] * n)]
+    for key, vals in (("q0", q0), ("dq0", dq0)):
+        if any(not x.is_number for x in vals):
+            raise spec.fail(("simulate", key), f"simulate.{key} must be numbers (parameters with values)")
+    x0 = [float(x) for x in q0 + dq0]
+    at0 = dict(zip(q, x0[:n])) | dict(zip(dq, x0[n:])) | fixed
+    if spec.h is not None:
+        h0 = [float(x.xreplace(at0)) for x in spec.h]
+        if max(abs(x) for x in h0) > 1e-6:
+            raise spec.fail(("simulate", "q0"), f"q0 is not on the constraints: h(q0) = {[round(x, 6) for x in h0]}",
+                            "give a configuration with h(q0) = 0")
+    a0 = [float(x) for x in (spec.A.xreplace(at0) * sp.Matrix(x0[n:]))]
+    if max(abs(x) for x in a0) > 1e-6:
+        raise spec.fail(("simulate", "dq0"), f"dq0 violates the constraints: A(q0) dq0 = {[round(x, 6) for x in a0]}",
+                        "give a velocity with A(q0) dq0 = 0 (rest is always admissible)")
+    args = [t] + q + dq
+    f = {key: sp.lambdify(args, M.xreplace(fixed), "numpy") for key, M in
+         (("B", dm.B), ("n", nvec), ("A", spec.A), ("Ad", Adot * sp.Matrix(dq)), ("G", G), ("u", sp.Matrix(u_t)))}
+    fh = sp.lambdify(args, spec.h.xreplace(fixed), "numpy") if spec.h is not None else None
+    k, T, points = spec.k, float(opts.time), opts.points
+    qlabels = [problem.latex_names.get(s, s.name) for s in q]
+    caption = (f"Constrained motion from $q_0$ under the given inputs (full model with $\\lambda(q,\\dot q,u)$, "
+               f"solve\\_ivp, {T:g} s): multipliers $\\lambda(t)$, coordinates $q(t)$"
+               + (", constraint drift $h(q(t))$." if fh else ".")
+               + ("" if not unit else " Parameters without a numeric value set to 1 ("
+                  + ", ".join(f"${problem.latex_names.get(s, s.name)}$" for s in unit) + ")."))
+
+    def sample() -> list[Panel]:
+        tt, X, lam = simulate_constrained(f, n, k, x0, T, points)
+        panels = [Panel("$t$ [s]", "", [Curve(f"$\\lambda_{{{i + 1}}}$" if k > 1 else "$\\lambda$", list(tt),
+                                              list(lam[i])) for i in range(k)]),
+                  Panel("$t$ [s]", "", [Curve(f"${qlabels[i]}$", list(tt), list(X[i])) for i in range(n)])]
+        if fh is not None:
+            H = np.array([np.ravel(np.asarray(fh(tk, *X[:, j]), dtype=float)) for j, tk in enumerate(tt)]).T
+            panels.append(Panel("$t$ [s]", "", [Curve(f"$h_{{{i + 1}}}$" if k > 1 else "$h$", list(tt), list(H[i]))
+                                                for i in range(k)]))
+        return panels
+
+    sol.figures.append(Figure("lambda", caption, sample))
+    sol.step("simulation", T=T, q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), u=sp.Matrix(u_t), unit=unit, t=t)
+
+
+def constrained_rhs(f: dict, n: int, k: int):  # type: ignore[no-untyped-def]
+    """ẋ = (q̇, B⁻¹(G u − n + Aᵀλ)) with λ = (A B⁻¹ Aᵀ)⁻¹ (A B⁻¹ (n − G u) − Ȧ q̇); returns (rhs, λ(t, x))."""
+
+    def terms(t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        a = (t, *x)
+        B = np.array(f["B"](*a), dtype=float).reshape(n, n)
+        nv = np.ravel(np.asarray(f["n"](*a), dtype=float))
+        A = np.array(f["A"](*a), dtype=float).reshape(k, n)
+        Ad = np.ravel(np.asarray(f["Ad"](*a), dtype=float))
+        Gm = np.array(f["G"](*a), dtype=float).reshape(n, -1)
+        tau = Gm @ np.ravel(np.asarray(f["u"](*a), dtype=float))
+        Binv_At = np.linalg.solve(B, A.T)
+        lam = np.linalg.solve(A @ Binv_At, A @ np.linalg.solve(B, nv - tau) - Ad)
+        return B, nv, tau, A, lam  # type: ignore[return-value]
+
+    def rhs(t: float, x: np.ndarray) -> np.ndarray:
+        B, nv, tau, A, lam = terms(t, x)
+        return np.concatenate([x[n:], np.linalg.solve(B, tau - nv + A.T @ lam)])
+
+    def lam_of(t: float, x: np.ndarray) -> np.ndarray:
+        return terms(t, x)[4]
+
+    return rhs, lam_of
+
+
+def simulate_constrained(f: dict, n: int, k: int, x0: list[float], T: float, points: int):  # type: ignore[no-untyped-def]
+    """(t, X (2n x points), λ (k x points)) of the constrained motion from x0 over [0, T]."""
+    from scipy.integrate import solve_ivp
+    rhs, lam_of = constrained_rhs(f, n, k)
+    grid = np.linspace(0.0, T, points)
+    out = solve_ivp(rhs, (0.0, T), x0, t_eval=grid, rtol=1e-9, atol=1e-11, method="LSODA")
+    X = out.y
+    if X.shape[1] < len(grid):  # stopped early (singular B or A B⁻¹ Aᵀ): plot what was integrated
+        grid = out.t
+    lam = np.array([lam_of(tk, X[:, j]) for j, tk in enumerate(grid)]).T.reshape(k, -1)
+    return grid, X, lam
+
+
+# ------------------------------------------------------------------------------------------------ grading
+def _constraint_ask(problem, name: str):  # type: ignore[no-untyped-def]
+    """The constrained_dynamics ask whose results carry ``name`` (its suffix), or None."""
+    for a in problem.asks:
+        if a.kind == "constrained_dynamics":
+            sfx = a.options.suffix
+            if not sfx or name.endswith(sfx):
+                return a
+    return None
+
+
+def _as_matrix(value: Any, shape: tuple[int, int]) -> sp.Matrix | None:
+    try:
+        M = sp.Matrix(value) if isinstance(value, list) else sp.Matrix([[value]])
+    except (ValueError, TypeError, sp.ShapeError):
+        return None
+    if M.shape != shape and M.T.shape == shape and 1 in shape:
+        M = M.T
+    return M if M.shape == shape else None
+
+
+REDUCED_NAMES = ("E", "F", "reduced_inertia", "FtBFdot", "Ftn", "Ftu", "EtBF", "EtBFdot", "Etn", "Etu", "BF",
+                 "Fdot")
+
+
+@property_check("D", *REDUCED_NAMES)
+def check_reduction(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """The complement D is not unique: any D with [A; D] invertible is right; the blocks E, F and the reduced
+    terms are right when they equal ours recomputed under the student's D (their answer to ``D``). Without a D
+    answer (or equal to ours) the reference decides."""
+    from solver.math.equivalence import scalar_equiv
+    ask = _constraint_ask(problem, name)
+    if ask is None or problem.robot is None:
+        return None
+    sfx = ask.options.suffix
+    base = name[: len(name) - len(sfx)] if sfx else name
+    A_res, D_res = results.get("A" + sfx), results.get("D" + sfx)
+    if A_res is None or D_res is None:
+        return None
+    A = A_res.value
+    k, n = A.shape
+    Dval = value if base == "D" else other("D" + sfx)
+    if Dval is None:
+        return None
+    D = _as_matrix(Dval, (n - k, n))
+    if D is None:
+        return PropertyVerdict(False, 0.0, [f"D must be {n - k}x{n}"]) if base == "D" else None
+    if all(scalar_equiv(a, b).ok for a, b in zip(D, D_res.value)):
+        return None  # the reference's D: compare with the reference
+    AD = A.col_join(D)
+    if generic_rank(AD) < n:
+        return PropertyVerdict(False, 0.0, ["[A; D] is singular for every q: D does not complete A"])
+    if base == "D":
+        return PropertyVerdict(True, 1.0, ["[A; D] is invertible (almost everywhere): a valid complement"])
+    robot = problem.robot
+    dm = derive(robot)
+    q, dq, ddq = list(robot.q), list(robot.dq), list(robot.ddq)
+    G = dm.G if dm.G is not None else sp.eye(n)
+    nvec = dm.c + dm.g + (dm.Fv * sp.Matrix(dq) if dm.Fv is not None else sp.zeros(n, 1))
+    r = n - k
+    v = sp.Matrix([sp.Dummy(f"v{i}") for i in range(r)])
+    dv = sp.Matrix([sp.Dummy(f"dv{i}") for i in range(r)])
+    frozen = {}
+    if ask.options.freeze:
+        frozen = {problem.names[nm]: ask.ctx.expr("freeze", nm) for nm in ask.options.freeze}
+    red = reduce_model(dm.B, dm.c, dm.g, dm.Fv, G * sp.Matrix(robot.inputs), A, D, q, dq, ddq, v, dv, frozen)
+    want = {"E": red.E, "F": red.F, "reduced_inertia": red.FtBF, "FtBFdot": red.FtBFdot, "Ftn": red.Ftn,
+            "Ftu": red.Ftu, "EtBF": red.EtBF, "EtBFdot": red.EtBFdot, "Etn": red.Etn, "Etu": red.Etu,
+            "BF": red.BF, "Fdot": red.Fdot}[base]
+    got = _as_matrix(value, want.shape)
+    if got is None:
+        return PropertyVerdict(False, 0.0, [f"expected a {want.shape[0]}x{want.shape[1]} value under your D"])
+    bad = [i for i, (a, b) in enumerate(zip(got, want)) if not scalar_equiv(a, b).ok]
+    if not bad:
+        return PropertyVerdict(True, 1.0, [f"right for your complement D (det [A; D] = {tidy(AD.det())})"])
+    return PropertyVerdict(False, 0.0, [f"differs from the value under your D in {len(bad)} entr"
+                                        f"{'y' if len(bad) == 1 else 'ies'}"])
+
+
+@property_check("u_eq")
+def check_equilibrium_inputs(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """Any parametrization of the equilibrium inputs is right when Fᵀ(G u − g) ≡ 0 for every value of its free
+    parameters and it has as many free parameters as ours."""
+    from solver.math.equivalence import scalar_equiv
+    ref, F = results.get("u_eq"), results.get("F")
+    robot = problem.robot
+    ask = _constraint_ask(problem, name)
+    if ask is None or ask.options.suffix or ref is None or F is None or robot is None:
+        return None  # another ask kind's u_eq (force_control has one): compared with its reference
+    m = len(robot.inputs)
+    U = _as_matrix(value, (m, 1))
+    if U is None:
+        return None
+    dm = derive(robot)
+    G = dm.G if dm.G is not None else sp.eye(robot.n)
+    frozen = {problem.names[nm]: ask.ctx.expr("freeze", nm) for nm in ask.options.freeze} if ask.options.freeze \
+        else {}
+    res = F.value.T * (G * U - dm.g).xreplace(frozen)
+    if not all(scalar_equiv(x, 0).ok for x in res):
+        return PropertyVerdict(False, 0.0, ["with these inputs the robot does not stay at rest: Fᵀ(G u − g) ≠ 0"],
+                               final=False)
+    free_ref = {s for s in robot.inputs if ref.value.has(s)}
+    params = set().union(*[x.free_symbols for x in U]) - set(problem.symbols.values()) - set(robot.q)
+    if len(params) < len(free_ref):
+        return PropertyVerdict(False, 0.5, [f"these inputs keep the equilibrium, but they are not all of them "
+                                            f"({len(free_ref)} free parameter(s) expected)"])
+    return PropertyVerdict(True, 1.0, ["every such input keeps the robot at rest: Fᵀ(G u − g) ≡ 0"])
+
+

@@ -1,0 +1,477 @@
+"""The `constrained_dynamics` ask on robots no exercise uses: a planar 3R in a vertical plane (numeric data) with its
+tip at a constant height and its last link horizontal (k = 2), or with the height constraint only (k = 1), and a
+planar 2R whose tip stays on a circle. Checked properties: A F = 0, D F = I, A E = I exactly; along a constrained
+motion simulated with the Lagrange (KKT) system, independently of the formulas, the reduced model reproduces the full
+one, λ(q, q̇, u) and λ in reduced form equal the reaction, and the full model driven by λ(q, q̇, u) keeps h(q) = 0
+(without it h drifts); the inputs for a desired pseudo-acceleration and for equilibrium do what they say; freezing
+coordinates; Pfaffian constraints; the property check of the grader under another complement; spec errors at their
+line (exit 2, no traceback); the report in both formats."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+from solver.dynamics.model import derive
+from solver.interaction.constraints import check_equilibrium_inputs, check_reduction, time_derivative
+from solver.math.equivalence import scalar_equiv
+from solver.publish.render import render
+from solver.solve import all_results, solve_problem
+from solver.spec import load_problem, load_problem_text
+from solver.spec.errors import UserError
+
+R3 = """
+id: t3r
+title: planar 3R in a vertical plane
+robot:
+  joints: [R, R, R]
+  gravity: [0, -9.81]
+  links:
+    - {mass: 2, com: [0.5*cos(q1), 0.5*sin(q1)], angle: q1, inertia: 0.2}
+    - {mass: 1.5, com: [cos(q1) + 0.4*cos(q1 + q2), sin(q1) + 0.4*sin(q1 + q2)], angle: q1 + q2, inertia: 0.1}
+    - mass: 1
+      com: [cos(q1) + 0.8*cos(q1 + q2) + 0.25*cos(q1 + q2 + q3), sin(q1) + 0.8*sin(q1 + q2) + 0.25*sin(q1 + q2 + q3)]
+      angle: q1 + q2 + q3
+      inertia: 0.05
+asks:
+"""
+HEIGHT = "sin(q1) + 0.8*sin(q1 + q2) + 0.5*sin(q1 + q2 + q3) - 0.5"
+R3_K2 = R3 + f"""  - kind: constrained_dynamics
+    h: [{HEIGHT}, q1 + q2 + q3]
+    dv_d: 0.7
+    lambda_d: [1.5, -0.5]
+"""
+R2C = """
+id: t2c
+title: planar 2R with its tip on a circle
+symbols: {r: circle radius}
+values: {r: 0.8}
+robot:
+  joints: [R, R]
+  gravity: [0, -9.81]
+  links:
+    - {mass: 3, com: [0.5*cos(q1), 0.5*sin(q1)], angle: q1, inertia: 0.1}
+    - {mass: 2, com: [cos(q1) + 0.5*cos(q1 + q2), sin(q1) + 0.5*sin(q1 + q2)], angle: q1 + q2, inertia: 0.05}
+asks:
+  - kind: constrained_dynamics
+    h: (cos(q1) + cos(q1 + q2) - 1)^2 + (sin(q1) + sin(q1 + q2))^2 - r^2
+"""
+
+
+_SOLVED: dict[str, tuple] = {}
+
+
+def solved(text):
+    """(problem, solutions, results), solved once per spec text (the tests only read them)."""
+    if text not in _SOLVED:
+        p = load_problem_text(text)
+        sols = solve_problem(p)
+        _SOLVED[text] = (p, sols, all_results(sols))
+    return _SOLVED[text]
+
+
+def value(res, name):
+    v = res[name].value
+    return v if isinstance(v, sp.MatrixBase) else sp.Matrix([v])
+
+
+def zero(e) -> bool:
+    return scalar_equiv(e, 0).ok
+
+
+class Model:
+    """Numeric B, n, G of a problem's robot and its constraint (h, A, Ȧq̇), lambdified once."""
+
+    def __init__(self, p, h):
+        r = p.robot
+        dm = derive(r)
+        self.q, self.dq, self.n = list(r.q), list(r.dq), r.n
+        vals = p.values
+        nvec = (dm.c + dm.g).xreplace(vals)
+        A = h.jacobian(r.q)
+        args = self.q + self.dq
+        self.B = sp.lambdify(args, dm.B.xreplace(vals), "numpy")
+        self.nv = sp.lambdify(args, nvec, "numpy")
+        self.h = sp.lambdify(args, h.xreplace(vals), "numpy")
+        self.A = sp.lambdify(args, A.xreplace(vals), "numpy")
+        self.Adq = sp.lambdify(args, (time_derivative(A, r.q, r.dq) * sp.Matrix(r.dq)).xreplace(vals), "numpy")
+        self.k = h.rows
+
+    def mats(self, x):
+        n, k = self.n, self.k
+        return (np.array(self.B(*x), float).reshape(n, n), np.array(self.nv(*x), float).ravel(),
+                np.array(self.A(*x), float).reshape(k, n), np.array(self.Adq(*x), float).ravel())
+
+    def kkt(self, x, u):
+        """(q̈, λ) of B q̈ + n = u + Aᵀλ, A q̈ + Ȧ q̇ = 0, solved as one linear system (no formula for λ)."""
+        B, nv, A, Adq = self.mats(x)
+        n, k = self.n, self.k
+        K = np.block([[B, -A.T], [A, np.zeros((k, k))]])
+        sol = np.linalg.solve(K, np.concatenate([u - nv, -Adq]))
+        return sol[:n], sol[n:]
+
+
+# ------------------------------------------------------------------------------------------------ identities
+@pytest.mark.parametrize("text", [R3_K2, R3 + f"  - kind: constrained_dynamics\n    h: {HEIGHT}\n    multiplier: false\n"
+                                  "    D: [[1, 0, 0], [0, 1, 1]]\n"], ids=["k2-chosen-D", "k1-given-D"])
+def test_complement_blocks_are_the_inverse(text):
+    p, _, res = solved(text)
+    A, D, E, F = (value(res, x) for x in ("A", "D", "E", "F"))
+    k, n = A.shape
+    for M, want in ((A * F, sp.zeros(k, n - k)), (D * F, sp.eye(n - k)), (A * E, sp.eye(k)), (D * E, sp.zeros(n - k, k))):
+        assert all(zero(x - y) for x, y in zip(M, want))
+    assert zero(value(res, "det_AD")[0] - A.col_join(D).det())
+
+
+def test_chosen_complement_selects_coordinates_with_a_constant_block():
+    """With A = [[1, 1, 1], ...] the solver completes A with unit rows, preferring a constant invertible block."""
+    p, sols, res = solved(R3_K2)
+    D = value(res, "D")
+    assert all(sorted(list(D.row(i))) == [0, 0, 1] for i in range(D.rows))
+    step = next(s for s in sols[0].steps if s.name == "reduced")
+    assert step.data["chosen"] and step.data["free"] == [p.names["q3"]]
+    assert value(res, "v")[0] == p.names["dq3"]
+
+
+# ------------------------------------------------------------------------------------------------ simulation
+def start_k2(v0=0.4):
+    """A configuration with h(q) = 0 for R3_K2 (q1 + q2 + q3 = 0, height 0.5) and q̇ = F v0."""
+    q1 = 0.3
+    q2 = np.arcsin((0.5 - np.sin(q1)) / 0.8) - q1
+    return np.array([q1, q2, -q1 - q2])
+
+
+def test_reduced_model_reproduces_the_full_model_along_a_constrained_motion():
+    p, _, res = solved(R3_K2)
+    h = value(res, "h")
+    m = Model(p, h)
+    q, dq = m.q, m.dq
+    t = sp.Symbol("t")
+    u_expr = derive(p.robot).g + sp.Matrix([2 * sp.sin(2 * t), sp.cos(t), 0.5])  # near gravity compensation
+    fu = sp.lambdify([t] + q + dq, u_expr, "numpy")
+    u = list(p.robot.inputs)
+    v, dv = value(res, "v")[0], sp.Symbol("dq3")  # D selects q3: v = q̇3, v̇ = q̈3
+    F = value(res, "F")
+    vdot = value(res, "vdot")[0]
+    lam_red = value(res, "lambda_reduced")
+    fF = sp.lambdify(q, F, "numpy")
+    fvdot = sp.lambdify(q + [v] + u, vdot, "numpy")
+    flam = sp.lambdify(q + [v, p.names["ddq3"]] + u, lam_red, "numpy")
+    q0 = start_k2()
+    dq0 = np.array(fF(*q0), float).ravel() * 0.4
+
+    def full(tt, x):
+        qdd, _ = m.kkt(x, np.array(fu(tt, *x), float).ravel())
+        return np.concatenate([x[3:], qdd])
+
+    def reduced(tt, y):  # state (q, v): q̇ = F(q) v, v̇ from the reduced model
+        qq, vv = y[:3], y[3]
+        dqq = np.array(fF(*qq), float).ravel() * vv
+        uu = np.array(fu(tt, *qq, *dqq), float).ravel()
+        return np.concatenate([dqq, [float(fvdot(*qq, vv, *uu))]])
+
+    T = 1.5
+    grid = np.linspace(0, T, 16)
+    sf = solve_ivp(full, (0, T), np.concatenate([q0, dq0]), t_eval=grid, rtol=1e-10, atol=1e-12)
+    sr = solve_ivp(reduced, (0, T), np.concatenate([q0, [0.4]]), t_eval=grid, rtol=1e-10, atol=1e-12)
+    assert sf.success and sr.success
+    assert np.max(np.abs(sf.y[:3] - sr.y[:3])) < 1e-6          # same motion
+    assert np.max(np.abs(sf.y[:3, -1] - q0)) > 0.05             # and it moved
+    for j, tt in enumerate(grid):
+        x = sf.y[:, j]
+        uu = np.array(fu(tt, *x), float).ravel()
+        qdd, lam = m.kkt(x, uu)
+        assert abs(x[5] - sr.y[3, j]) < 1e-6                    # v = D q̇
+        assert abs(float(fvdot(*x[:3], x[5], *uu)) - qdd[2]) < 1e-6
+        assert np.allclose(np.array(flam(*x[:3], x[5], qdd[2], *uu), float).ravel(), lam, atol=1e-6)
+        B, nv, A, Adq = m.mats(x)  # λ = (A B⁻¹ Aᵀ)⁻¹ (A B⁻¹ (n − u) − Ȧ q̇) is the Lagrange reaction
+        lam_f = np.linalg.solve(A @ np.linalg.solve(B, A.T), A @ np.linalg.solve(B, nv - uu) - Adq)
+        assert np.allclose(lam_f, lam, atol=1e-8)
+
+
+def test_lambda_formula_keeps_the_constraint_and_free_motion_leaves_it():
+    """B q̈ = u − n + Aᵀ λ(q, q̇, u) with the symbolic λ of the ask keeps h(q) = 0; with λ = 0 h drifts."""
+    p, _, res = solved(R2C)
+    lam = value(res, "lambda")
+    h = value(res, "h")
+    m = Model(p, h)
+    q, dq, u = m.q, m.dq, list(p.robot.inputs)
+    flam = sp.lambdify(q + dq + u, lam.xreplace(p.values), "numpy")
+    t = sp.Symbol("t")
+    fu = sp.lambdify([t], sp.Matrix([8 * sp.sin(3 * t), 2 * sp.cos(t)]), "numpy")
+    # q0 on the circle: tip at (1 + 0.8 cos 2, 0.8 sin 2), elbow up
+    x, y = 1 + 0.8 * np.cos(2.0), 0.8 * np.sin(2.0)
+    c2 = (x * x + y * y - 2) / 2
+    q2 = np.arccos(c2)
+    q1 = np.arctan2(y, x) - np.arctan2(np.sin(q2), 1 + c2)
+    x0 = np.array([q1, q2, 0.0, 0.0])
+    assert abs(float(np.ravel(m.h(*x0))[0])) < 1e-12
+
+    def rhs(with_lambda):
+        def f(tt, xx):
+            uu = np.array(fu(tt), float).ravel()
+            B, nv, A, _ = m.mats(xx)
+            lm = np.array(flam(*xx, *uu), float).ravel() if with_lambda else np.zeros(1)
+            return np.concatenate([xx[2:], np.linalg.solve(B, uu - nv + A.T @ lm)])
+        return f
+
+    grid = np.linspace(0, 2, 41)
+    for with_lambda in (True, False):
+        s = solve_ivp(rhs(with_lambda), (0, 2), x0, t_eval=grid, rtol=1e-10, atol=1e-12)
+        drift = max(abs(float(np.ravel(m.h(*s.y[:, j]))[0])) for j in range(len(grid)))
+        if with_lambda:
+            assert s.success and drift < 1e-6
+            # and λ is the reaction of the Lagrange system at every sample
+            for j in range(0, len(grid), 8):
+                uu = np.array(fu(grid[j]), float).ravel()
+                assert np.allclose(np.array(flam(*s.y[:, j], *uu), float).ravel(), m.kkt(s.y[:, j], uu)[1], atol=1e-8)
+        else:
+            assert drift > 0.05  # the test can fail: without λ the tip leaves the circle
+
+
+def test_simulation_figure_of_lambda():
+    text = R2C + """    simulate:
+      u: [8*sin(3*t), 2*cos(t)]
+      q0: [Q1, Q2]
+      time: 1
+      points: 51
+"""
+    x, y = 1 + 0.8 * np.cos(2.0), 0.8 * np.sin(2.0)
+    c2 = (x * x + y * y - 2) / 2
+    q2 = np.arccos(c2)
+    q1 = np.arctan2(y, x) - np.arctan2(np.sin(q2), 1 + c2)
+    text = text.replace("q0: [Q1, Q2]", f"q0: [{float(q1):.15g}, {float(q2):.15g}]")  # on the circle (the check allows 1e-6)
+    p, sols, res = solved(text)
+    fig = sols[0].figures[0]
+    lam_panel, q_panel, h_panel = fig.panels
+    assert len(lam_panel.curves[0].y) == 51 and len(q_panel.curves) == 2
+    assert max(abs(y) for y in h_panel.curves[0].y) < 1e-6
+    assert max(abs(y) for y in lam_panel.curves[0].y) > 1.0  # a real reaction (gravity and the inputs)
+
+
+# ------------------------------------------------------------------------------------------------ inputs
+def random_states(fF, rng, count=4):
+    for _ in range(count):
+        q1 = rng.uniform(0.1, 0.6)
+        q2 = np.arcsin((0.5 - np.sin(q1)) / 0.8) - q1
+        q = np.array([q1, q2, -q1 - q2])
+        vv = rng.uniform(-1, 1)
+        yield q, np.array(fF(*q), float).ravel() * vv, vv
+
+
+def test_inputs_for_a_desired_pseudo_acceleration_and_multiplier():
+    p, _, res = solved(R3_K2)
+    m = Model(p, value(res, "h"))
+    q, dq = m.q, m.dq
+    u_dv = value(res, "u_dv")
+    fF = sp.lambdify(q, value(res, "F"), "numpy")
+    fu = sp.lambdify(q + [p.names["dq3"]], u_dv, "numpy")
+    assert res["u_dv_check"].value is True
+    for qq, dqq, vv in random_states(fF, np.random.default_rng(3)):
+        qdd, lam = m.kkt(np.concatenate([qq, dqq]), np.array(fu(*qq, vv), float).ravel())
+        assert abs(qdd[2] - 0.7) < 1e-9                      # v̇ = q̈3 = v̇_d
+        assert np.allclose(lam, [1.5, -0.5], atol=1e-9)     # λ = λ_d
+
+
+def test_equilibrium_inputs_keep_the_robot_at_rest():
+    p, _, res = solved(R3_K2)
+    m = Model(p, value(res, "h"))
+    q = m.q
+    u = list(p.robot.inputs)
+    u_eq, lam_eq, u0 = value(res, "u_eq"), value(res, "lambda_eq"), value(res, "u_eq_lambda0")
+    free = [s for s in u if u_eq.has(s)]
+    assert len(free) == 2  # three inputs, one equation F^T(u - g) = 0
+    rng = np.random.default_rng(5)
+    for qq, _, _ in random_states(sp.lambdify(q, value(res, "F"), "numpy"), rng, 3):
+        pick = {s: rng.uniform(-5, 5) for s in free}
+        uu = np.array(u_eq.xreplace(dict(zip(q, qq))).xreplace(pick).evalf(), float).ravel()
+        qdd, lam = m.kkt(np.concatenate([qq, np.zeros(3)]), uu)
+        assert np.allclose(qdd, 0, atol=1e-9)
+        assert np.allclose(lam, np.array(lam_eq.xreplace(dict(zip(q, qq))).xreplace(pick).evalf(), float).ravel())
+        qdd, lam = m.kkt(np.concatenate([qq, np.zeros(3)]), np.array(u0.xreplace(dict(zip(q, qq))).evalf(), float).ravel())
+        assert np.allclose(qdd, 0, atol=1e-9) and np.allclose(lam, 0, atol=1e-9)
+
+
+def test_state_values_and_minimum_norm_equilibrium():
+    """At a state on the constraint: λ(q*, q̇*, u) from the formula equals the Lagrange reaction for any u."""
+    q0 = start_k2()
+    state = ", ".join(f"q{i + 1}: {float(x):.17g}" for i, x in enumerate(q0)) + ", dq1: 0, dq2: 0, dq3: 0"
+    p, _, res = solved(R3_K2 + f"    at: {{{state}}}\n")
+    m = Model(p, value(res, "h"))
+    lam_at = value(res, "lambda_at")
+    u = list(p.robot.inputs)
+    for uu in ([30.0, 10.0, 1.0], [0.0, -3.0, 2.0]):
+        lam = m.kkt(np.concatenate([q0, np.zeros(3)]), np.array(uu))[1]
+        assert np.allclose(np.array(lam_at.xreplace(dict(zip(u, uu))).evalf(), float).ravel(), lam, atol=1e-8)
+    umin = np.array(value(res, "u_eq_min_at").evalf(), float).ravel()
+    qdd, _ = m.kkt(np.concatenate([q0, np.zeros(3)]), umin)
+    assert np.allclose(qdd, 0, atol=1e-9)
+    family = value(res, "u_eq_at")
+    free = [s for s in u if family.has(s)]
+    for pick in ({free[0]: 1.0, free[1]: -2.0}, {free[0]: -3.0, free[1]: 0.5}):
+        assert np.linalg.norm(np.array(family.xreplace(pick).evalf(), float).ravel()) >= np.linalg.norm(umin) - 1e-9
+
+
+# ------------------------------------------------------------------------------------------------ special cases
+def test_frozen_coordinate_gives_the_block_of_the_inertia_matrix():
+    p, _, res = solved(R3 + "  - kind: constrained_dynamics\n    freeze: {q3: 0.4}\n    multiplier: false\n")
+    dm = derive(p.robot)
+    q3 = p.names["q3"]
+    at = {q3: sp.Rational(2, 5)}
+    assert all(zero(a - b) for a, b in zip(value(res, "reduced_inertia"), dm.B[:2, :2].xreplace(at)))
+    ddq = sp.Matrix(p.robot.ddq[:2])
+    dq = {p.names["dq3"]: 0}
+    n_b = (dm.c + dm.g)[2].xreplace(at).xreplace(dq)
+    want = (dm.B[2, :2].xreplace(at) * ddq)[0] + n_b - p.robot.inputs[2]
+    assert zero(value(res, "lambda_reduced")[0] - want)
+    assert value(res, "F") == sp.Matrix([[1, 0], [0, 1], [0, 0]])
+
+
+def test_pfaffian_constraint_equals_the_holonomic_one():
+    base = R2C.replace("    h: (cos(q1) + cos(q1 + q2) - 1)^2 + (sin(q1) + sin(q1 + q2))^2 - r^2\n", "")
+    _, _, hol = solved(base + "    h: q1 + q2\n")
+    _, _, pf = solved(base + "    A: [1, 1]\n")
+    assert "h" not in pf
+    assert zero(value(pf, "lambda")[0] - value(hol, "lambda")[0])
+    assert all(zero(a - b) for a, b in zip(value(pf, "reduced_model"), value(hol, "reduced_model")))
+
+
+def test_underactuated_robot_gets_the_inputs_from_the_reduced_model():
+    text = R2C.replace("  gravity: [0, -9.81]\n", "  gravity: [0, -9.81]\n  input_map: [[1], [0]]\n  inputs: [tau]\n") + \
+        "    D: [[1, 2]]\n"
+    p, _, res = solved(text)
+    assert "lambda_dv" in res and res["u_dv_check"].value is True
+    m = Model(p, value(res, "h"))
+    x, y = 1 + 0.8 * np.cos(2.0), 0.8 * np.sin(2.0)
+    c2 = (x * x + y * y - 2) / 2
+    q2 = np.arccos(c2)
+    q1 = np.arctan2(y, x) - np.arctan2(np.sin(q2), 1 + c2)
+    v = next(s for s in value(res, "u_dv").free_symbols if s.name == "v")
+    dvd = p.names["dvd"]
+    subs = {p.names["q1"]: q1, p.names["q2"]: q2, v: 0.3, dvd: -0.2, **p.values}
+    tau = float(value(res, "u_dv")[0].xreplace(subs))
+    F = np.array(value(res, "F").xreplace(subs).evalf(), float).ravel()
+    qdd, lam = m.kkt(np.array([q1, q2, *(F * 0.3)]), np.array([tau, 0.0]))
+    D = np.array(value(res, "D").xreplace(subs).evalf(), float).ravel()
+    dD = value(res, "D").applyfunc(lambda e: sum(sp.diff(e, s) * d for s, d in zip(m.q, m.dq)))
+    ddot = float((dD * sp.Matrix(m.dq)).xreplace(subs).xreplace(dict(zip(m.dq, F * 0.3)))[0])
+    assert abs(D @ qdd + ddot - (-0.2)) < 1e-9
+    assert abs(lam[0] - float(value(res, "lambda_dv")[0].xreplace(subs))) < 1e-9
+
+
+# ------------------------------------------------------------------------------------------------ grading
+def test_grader_accepts_a_reduced_inertia_under_the_students_complement():
+    p, _, res = solved(R2C)
+    q1, q2 = p.names["q1"], p.names["q2"]
+    A = value(res, "A")
+    D_ref = value(res, "D")
+    D_student = sp.Matrix([[sp.cos(q1), sp.sin(q1)]])  # another complement
+    assert D_student != D_ref and generic_rank_ok(A.col_join(D_student))
+    AD = A.col_join(D_student)
+    F = AD.inv()[:, 1:]
+    B = derive(p.robot).B
+    right = (F.T * B * F)[0]
+
+    def other(name):
+        return [[sp.cos(q1), sp.sin(q1)]] if name == "D" else None
+
+    v = check_reduction(p, res, "reduced_inertia", right, other, None)
+    assert v is not None and v.correct
+    v = check_reduction(p, res, "reduced_inertia", 2 * right, other, None)
+    assert v is not None and not v.correct
+    v = check_reduction(p, res, "D", [[sp.cos(q1), sp.sin(q1)]], lambda n: None, None)
+    assert v is not None and v.correct
+    bad = [list(A)]  # a multiple of A does not complete it
+    v = check_reduction(p, res, "D", bad, lambda n: None, None)
+    assert v is not None and not v.correct
+    assert check_reduction(p, res, "reduced_inertia", right, lambda n: None, None) is None  # no D: reference
+
+
+def test_grader_accepts_any_parametrization_of_the_equilibrium_inputs():
+    p, _, res = solved(R3_K2)
+    u = list(p.robot.inputs)
+    ref, g = value(res, "u_eq"), value(res, "u_eq_lambda0")
+    F = value(res, "F")
+    a, b = sp.symbols("a b", real=True)  # the student's own parameters: u = g + A^T (a, b)
+    A = value(res, "A")
+    family = g + A.T * sp.Matrix([a, b])
+    assert all(zero(x) for x in F.T * (family - g))
+    v = check_equilibrium_inputs(p, res, "u_eq", list(family), lambda n: None, None)
+    assert v.correct and v.fraction == 1.0
+    v = check_equilibrium_inputs(p, res, "u_eq", list(g), lambda n: None, None)
+    assert v.correct is False and v.fraction == 0.5  # keeps the equilibrium, but only one input of the family
+    v = check_equilibrium_inputs(p, res, "u_eq", list(g + sp.Matrix([1, 0, 0])), lambda n: None, None)
+    assert v.correct is False and v.fraction == 0.0
+    assert set(u) >= {s for s in ref.free_symbols if s in u}
+
+
+def generic_rank_ok(M) -> bool:
+    from solver.kinematics.redundancy import generic_rank
+    return generic_rank(M) == M.rows
+
+
+# ------------------------------------------------------------------------------------------------ bad input
+BASE2 = R2C.replace("    h: (cos(q1) + cos(q1 + q2) - 1)^2 + (sin(q1) + sin(q1 + q2))^2 - r^2\n", "    h: q1 + q2\n")
+BASE3 = R3 + "  - kind: constrained_dynamics\n    h: q1 + q2\n"
+BAD = [  # (base, text replacing "    h: q1 + q2\n", pieces of the message, the text of the line it points at)
+    (BASE3, "    h: [q1 + q2, 2*q1 + 2*q2]\n", ["dependent", "rank A(q) = 1 < 2"], "    h: [q1"),
+    (BASE3, "    h: [q1 + q2, q2 + q3, q1 + 2*q2 + q3]\n", ["3 constraints on 3 coordinates"], "    h: [q1"),
+    (BASE2, "    h: q1 + q2\n    D: [[2, 2]]\n", ["D does not complete A"], "    D:"),
+    (BASE2, "    h: q1 + q2\n    D: [[1, 0, 0]]\n", ["D must be 1x2"], "    D:"),
+    (BASE2, "    h: q3 - 1\n", ["unknown name 'q3'"], "    h: q3"),
+    (BASE2, "    freeze: {q5: 0}\n", ["'q5' in freeze: is not a coordinate"], "    freeze:"),
+    (BASE2, "    A: [[1, 1, 0]]\n", ["A must have 2 columns"], "    A:"),
+    (BASE2, "    h: q1 + dq2\n", ["must not depend on velocities"], "    h: q1"),
+    (BASE2, "    h: r\n", ["does not depend on the coordinates"], "    h: r"),
+    (BASE2, "    h: q1 + q2\n    at: {q1: 1, q2: 1}\n", ["not on the constraints"], "    at:"),
+    (BASE2, "    h: q1 + q2\n    at: {q1: 1, q2: -1, dq1: 1, dq2: 1}\n", ["velocity violates the constraints"],
+     "    at:"),
+    (BASE2, "    h: q1 + q2\n    at: {dq9: 1}\n", ["'dq9' in at: is not a coordinate or a velocity"], "    at:"),
+    (BASE2, "    h: q1 + q2\n    simulate: {u: [0, 0], q0: [1, 1]}\n", ["q0 is not on the constraints"],
+     "    simulate:"),
+    (BASE2, "    h: q1 + q2\n    dv_d: [1, 2]\n", ["dv_d must have 1 component"], "    dv_d:"),
+    (BASE2, "    h: q1 + q2\n    A: [1, 1]\n", ["exactly one of h:"], "  - kind: constrained"),
+]
+
+
+@pytest.mark.parametrize("base, new, expected, line", BAD, ids=[b[2][0] for b in BAD])
+def test_bad_input_is_one_error_at_its_line(write, base, new, expected, line):
+    text = base.replace("    h: q1 + q2\n", new)
+    where = next(i for i, ln in enumerate(text.splitlines(), 1) if ln.startswith(line))
+    path = write(text)
+    with pytest.raises(UserError) as exc:
+        solve_problem(load_problem(path))
+    msg = str(exc.value)
+    assert all(part in msg for part in expected), msg
+    assert f"spec.yaml:{where}:" in msg, msg
+
+
+@pytest.mark.parametrize("new", ["    h: q1 + q2\n    D: [[2, 2]]\n", "    freeze: {q5: 0}\n"])
+def test_cli_exits_2_without_traceback(write, new):
+    path = write(BASE2.replace("    h: q1 + q2\n", new))
+    for command in ("solve", "verify"):
+        r = subprocess.run([sys.executable, "-m", "solver", command, str(path)], capture_output=True, text=True,
+                           timeout=300)
+        out = r.stdout + r.stderr
+        assert r.returncode != 0 and "Traceback" not in out and "spec.yaml:1" in out, out
+    r = subprocess.run([sys.executable, "-m", "solver", "solve", str(path)], capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 2
+    with_expected = write(BASE2.replace("    h: q1 + q2\n", new) + "expected:\n  A: {value: '[[1, 1]]', line: 1}\n",
+                          "spec2.yaml")
+    r = subprocess.run([sys.executable, "-m", "solver", "check", str(with_expected)], capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "spec2.yaml:1" in r.stderr, r.stdout + r.stderr
+
+
+# ------------------------------------------------------------------------------------------------ report
+def test_report_in_both_formats():
+    p, sols, _ = solved(R2C + "    D: [[0, 1]]\n")
+    md = render(p, sols, "md")
+    for part in ("**Constraints.**", "**Multiplier.**", "dynamically consistent", "**Reduced model.**",
+                 "**Static equilibrium.**", "Inputs for a desired pseudo-acceleration"):
+        assert part.lower() in md.lower(), part
+    tex = render(p, sols, "tex")
+    assert "\\paragraph{Reduced dynamics.}" in tex and "\\begin{document}" in tex
