@@ -21,6 +21,8 @@ import numpy as np
 import sympy as sp
 from pydantic import Field, model_validator
 
+from solver.kinematics import resolution as rs
+from solver.kinematics.methods import Bounds, Method, TaskItem, solve_methods, wants_methods
 from solver.math.simplify import tidy
 from solver.registry import ask_kind
 from solver.results import Solution
@@ -56,11 +58,41 @@ class RedundancyAsk(Strict):
                           "default: without at:, or when J is short; false: never")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
                         description="appended to every result name (several redundancy asks in one problem)")
+    # ---- the method path (any of these selects it; see solver/kinematics/methods.py)
+    tasks: Optional[list[TaskItem]] = Field(
+        None, description="two or more tasks in priority order [{name, task|jacobian, velocity|acceleration}], "
+                          "instead of task:/jacobian:")
+    level: Literal["velocity", "acceleration"] = Field(
+        "velocity", description="velocity: q̇ from ṙ; acceleration: q̈ from r̈ − J̇q̇ (needs joint_velocity:)")
+    joint_velocity: Optional[ExprT] = Field(None, description="q̇ at the state (acceleration level)")
+    acceleration: Optional[ExprT] = Field(None, description="desired task acceleration r̈ (acceleration level)")
+    methods: Optional[list[Method]] = Field(
+        None, description="methods compared in one table: pseudoinverse, weighted (weight:), dls (mu:), "
+                          "null_space (null:/gradient:/damping:), priority and extended (tasks:), scaled and sns "
+                          "(bounds:); default: those the given options call for")
+    mu: Optional[Scalar] = Field(None, description="damping factor μ of damped least squares")
+    bounds: Optional[Union[Bounds, ExprT]] = Field(
+        None, description="joint bounds on q̇ (velocity level) or q̈ (acceleration level): n values (±) or "
+                          "{lower: [...], upper: [...]}")
+    damping: Optional[ExprT] = Field(
+        None, description="K_d (scalar, n diagonal entries or n x n): q̈₀ = −K_d q̇ is projected in the null "
+                          "space (acceleration level; added to null:/gradient: if given)")
+    rank_tol: float = Field(rs.DEFAULT_TOL, gt=0, lt=1e-2,
+                            description="a singular value σ ≤ rank_tol · max(1, σ_max) counts as zero")
+    sketch: bool = Field(True, description="draw the planar robot at the state (method path)")
 
     @model_validator(mode="after")
     def _exclusive(self) -> "RedundancyAsk":
+        if self.tasks is not None:
+            if self.task is not None or self.jacobian is not None:
+                raise ValueError("give either tasks: or task:/jacobian:")
+            if len(self.tasks) < 1:
+                raise ValueError("tasks: needs at least one task")
+            return self
         if (self.task is None) == (self.jacobian is None):
             raise ValueError("give exactly one of task: (r = f(q)) or jacobian: (J(q))")
+        if wants_methods(self):
+            return self
         given = [k for k in ("null", "qdot0", "gradient") if getattr(self, k) is not None]
         if len(given) > 1:
             raise ValueError(f"give only one of null:/qdot0: (a joint velocity) or gradient: (H(q)), "
@@ -538,6 +570,11 @@ def solve_redundancy(problem, options: RedundancyAsk, ctx) -> Solution:  # type:
     """Results (each with the ask's suffix): J, J_at, grad_H, grad_H_at, J_pinv_sym, det_JJt_sym, qdot_ps_sym,
     JJt, det_JJt, J_pinv, rank, singular, qdot_ps, qdot0, qdot_null, qdot, task_error, norm2_ps, cost_ps, qdot_mn,
     cost_mn, norm2_mn."""
+    if wants_methods(options):
+        sol = Solution("redundancy", title=options.title or (
+            "Joint acceleration for redundant tasks" if options.level == "acceleration"
+            else "Joint velocity for redundant tasks"))
+        return solve_methods(problem, options, ctx, sol)
     spec = _Spec(problem, options, ctx)
     sfx = options.suffix
     sol = Solution("redundancy", title=options.title or "Joint velocity for a redundant task")
