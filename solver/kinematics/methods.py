@@ -363,6 +363,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                 raise spec.fail(("methods",), "priority needs two or more tasks: (tasks: [...])")
             vec, levels = rs.task_priority(la, Js, xs, q0)
             alg = False
+            add("J1_pinv", la.sym(levels[0].JP_pinv), "matrix", label="J_1^{\\#}")
             for lv in levels:
                 if lv.k >= 2:
                     add(f"P{lv.k - 1}", la.sym(lv.P_prev), "matrix", label=f"P_{{{lv.k - 1}}}")
@@ -374,7 +375,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             sol.step("m_tp", levels=[{"k": lv.k, "P": la.sym(lv.P_prev), "JP": la.sym(lv.JP),
                                       "JPp": la.sym(lv.JP_pinv), "rJ": lv.rank_J, "rJP": lv.rank_JP,
                                       "alg": lv.algorithmic, "smin": sp.Float(lv.smin_JP, 4),
-                                      "corr": la.sym(lv.corr), "v": la.sym(lv.qdot)} for lv in levels],
+                                      "corr": la.sym(lv.correction), "v": la.sym(lv.qdot)} for lv in levels],
                      names=[t["name"] for t in tasks_num], v=la.sym(vec), acc=acc, null=q0 is not None)
             record("tp", "TP", vec)
         elif meth == "scaled":
@@ -413,6 +414,8 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         for t, J, x in zip(tasks_num, Js, xs):
             e = J @ vec - x
             errs.append(la.norm(e))
+            add(f"err_norm_{t['name']}_{name}", errs[-1], None,
+                label=f"\\|J_{{{t['name']}}}{vl} - " + ("(\\ddot r - \\dot J\\dot q)" if acc else "\\dot r") + "\\|")
             add(f"err_{t['name']}_{name}", la.sym(e), "vector",
                 label=f"J_{{{t['name']}}}{vl} - " + ("(\\ddot r - \\dot J\\dot q)" if acc else "\\dot r"))
         nm = la.norm(vec)

@@ -107,7 +107,8 @@ class LA:
     def norm(self, v: Any) -> sp.Expr:
         if self.exact:
             return sp.sqrt(sum(x ** 2 for x in v))
-        return sp.Float(float(np.linalg.norm(v)), 15)
+        x = float(np.linalg.norm(v))
+        return sp.Integer(0) if x < 1e-12 else sp.Float(x, 15)
 
 
 # ------------------------------------------------------------------------------------------------ single task
