@@ -353,9 +353,16 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         elif meth == "extended":
             vec, JEe, JEp, rk = rs.extended(la, Js, xs)
             add("JE", la.sym(JEe), "matrix", label="J_E")
+            detE = None
+            if JEe.shape[0] == n and n <= 4:
+                JEs = sp.Matrix.vstack(*[t["J"] for t in spec.tasks])
+                if sp.count_ops(JEs) <= 200:
+                    from solver.math.simplify import tidy
+                    detE = sp.factor(tidy(JEs.det()))
+                    add("det_JE_sym", detE, "scalar", label="\\det J_E(q)")
             add("rank_JE", sp.Integer(rk), "number", label="\\operatorname{rank} J_E")
             add("JE_pinv", la.sym(JEp), "matrix", label="J_E^{\\#}")
-            sol.step("m_ext", JE=la.sym(JEe), JEp=la.sym(JEp), rank=rk, m=JEe.shape[0], n=n, x=la.sym(xE),
+            sol.step("m_ext", detE=detE, JE=la.sym(JEe), JEp=la.sym(JEp), rank=rk, m=JEe.shape[0], n=n, x=la.sym(xE),
                      v=la.sym(vec), acc=acc, square=JEe.shape[0] == n)
             record("e", "E", vec)
         elif meth == "priority":
@@ -368,15 +375,24 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                 if lv.k >= 2:
                     add(f"P{lv.k - 1}", la.sym(lv.P_prev), "matrix", label=f"P_{{{lv.k - 1}}}")
                     add(f"J{lv.k}P{lv.k - 1}", la.sym(lv.JP), "matrix", label=f"J_{{{lv.k}}}P_{{{lv.k - 1}}}")
+                    add(f"J{lv.k}P{lv.k - 1}_pinv", la.sym(lv.JP_pinv), "matrix",
+                        label=f"(J_{{{lv.k}}}P_{{{lv.k - 1}}})^{{\\#}}")
                     add(f"rank_J{lv.k}P{lv.k - 1}", sp.Integer(lv.rank_JP), "number",
                         label=f"\\operatorname{{rank}}(J_{{{lv.k}}}P_{{{lv.k - 1}}})")
                     alg = alg or lv.algorithmic
             add("algorithmic_singular", bool(alg), "bool", label="\\text{algorithmic singularity}")
+            J1s = spec.tasks[0]["J"].subs(problem.values)
+            J2P1 = None
+            if not (J1s.free_symbols & set(spec.q)) and not J1s.free_symbols:
+                P1s = sp.eye(n) - J1s.pinv() * J1s
+                J2P1 = (spec.tasks[1]["J"] * P1s).applyfunc(lambda e: sp.factor_terms(sp.simplify(e)))
+                add("J2P1_sym", J2P1, "matrix", label="J_2(q) P_1")
             sol.step("m_tp", levels=[{"k": lv.k, "P": la.sym(lv.P_prev), "JP": la.sym(lv.JP),
                                       "JPp": la.sym(lv.JP_pinv), "rJ": lv.rank_J, "rJP": lv.rank_JP,
                                       "alg": lv.algorithmic, "smin": sp.Float(lv.smin_JP, 4),
                                       "corr": la.sym(lv.correction), "v": la.sym(lv.qdot)} for lv in levels],
-                     names=[t["name"] for t in tasks_num], v=la.sym(vec), acc=acc, null=q0 is not None)
+                     names=[t["name"] for t in tasks_num], v=la.sym(vec), acc=acc, null=q0 is not None,
+                     J2P1_sym=J2P1)
             record("tp", "TP", vec)
         elif meth == "scaled":
             Jp1 = Jp if Jp is not None else la.pinv(JE)
