@@ -233,7 +233,18 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         add(tn("J", k), t["J"], "matrix", label=f"J_{{{k}}}(q)" if multi else "J(q)")
         add(tn("J_at", k), Ja, "matrix", label=f"J_{{{k}}}" if multi else "J")
         h = None
+        if t["f"] is not None:
+            add(tn("r_at", k), t["f"].subs(subs), "vector", label=f"r_{{{k}}}" if multi else "r")
         if acc:
+            rdot = (t["J"] * spec.qd).subs(subs)
+            add(tn("rdot_at", k), rdot, "vector", label=f"\\dot r_{{{k}}} = J_{{{k}}}\\dot q" if multi
+                else "\\dot r = J\\dot q")
+            if problem.robot is not None and sp.count_ops(t["J"]) <= 400:
+                from solver.math.simplify import tidy
+                dq = sp.Matrix(list(problem.robot.dq))
+                Jd_sym = sum((t["J"].diff(x) * dq[i] for i, x in enumerate(spec.q)), sp.zeros(*t["J"].shape))
+                add(tn("Jdot_qdot_sym", k), (Jd_sym * dq).applyfunc(tidy), "vector",
+                    label=f"\\dot J_{{{k}}}(q)\\dot q" if multi else "\\dot J(q)\\dot q")
             Jdot = sum((t["J"].diff(x) * spec.qd[i] for i, x in enumerate(spec.q)), sp.zeros(*t["J"].shape))
             h = (Jdot * spec.qd).subs(subs)
             h = h.applyfunc(sp.nsimplify) if _is_rational(h) else h
