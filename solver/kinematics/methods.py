@@ -301,11 +301,19 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         if spec.q0 is not None:
             q0s += spec.q0.subs(subs)
         if spec.H is not None:
-            grad = sp.Matrix([sp.diff(spec.H, x) for x in spec.q]).subs(subs)
+            from solver.math.simplify import tidy
+            gsym = sp.Matrix([tidy(sp.diff(spec.H, x)) for x in spec.q])
+            add("grad_H", gsym, "vector", label="\\nabla_q H(q)")
+            grad = gsym.subs(subs)
             q0s += spec.step * grad
             add("grad_H_at", grad, "vector", label="\\nabla_q H")
         if spec.Kd is not None:
             q0s += -(spec.Kd * spec.qd).subs(subs)
+        q0s = q0s.subs(subs)
+        if q0s.free_symbols:
+            raise spec.fail(("at",), "the preferred null-space vector depends on "
+                            + ", ".join(sorted(x.name for x in q0s.free_symbols)) + ", left symbolic",
+                            "give them values:")
         if exact and not _is_rational(q0s):
             la = rs.LA(False, o.rank_tol)
             exact = False
