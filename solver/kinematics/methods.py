@@ -27,8 +27,9 @@ if TYPE_CHECKING:
 ExprT = Union[str, int, float, list[Any]]
 Scalar = Union[str, int, float]
 
-METHODS = ("pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled")
-Method = Literal["pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled"]
+METHODS = ("pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled", "max_scaling")
+Method = Literal["pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled",
+                 "max_scaling"]
 EXACT_SIZE = 48  # total entries of the stacked Jacobian up to which exact data are solved exactly
 
 
@@ -50,7 +51,7 @@ class Bounds(Strict):
 def wants_methods(o: Any) -> bool:
     """True when the ask uses the method path (any of its options given)."""
     return any(getattr(o, k) is not None for k in ("tasks", "methods", "mu", "bounds", "damping",
-                                                    "joint_velocity", "acceleration")) or o.level == "acceleration"
+                                                    "joint_velocity", "acceleration", "direction")) or o.level == "acceleration"
 
 
 # ------------------------------------------------------------------------------------------------ parsing
@@ -119,6 +120,20 @@ class _MSpec:
                                                  "{lower: [...], upper: [...]}")
                 self.hi = list(b)
                 self.lo = [-x for x in b]
+        self.direction = None
+        if o.direction is not None:
+            if len(self.tasks) > 1:
+                raise self.fail(("direction",), "direction: applies to a single task")
+            if isinstance(o.direction, str) and o.direction.strip() == "stop":
+                if self.qd is None:
+                    raise self.fail(("direction",), "direction: stop needs joint_velocity:")
+                self.direction = -self.tasks[0]["J"] * self.qd
+            else:
+                self.direction = self._vec("direction", self.tasks[0]["m"])
+            if problem.robot is not None and self.qd is not None:
+                self.direction = self.direction.subs({d: self.qd[i] for i, d in enumerate(problem.robot.dq)})
+        if "max_scaling" in self.methods and (self.direction is None or self.lo is None):
+            raise self.fail(("methods",), "max_scaling needs direction: and bounds:")
         if any(m in self.methods for m in ("sns", "scaled")) and self.lo is None:
             raise self.fail(("methods",), "sns and scaled need bounds: on the joint "
                                           + ("accelerations" if self.acc else "velocities"))
@@ -133,6 +148,8 @@ class _MSpec:
             out.append("dls")
         if any(getattr(self.o, k) is not None for k in ("null", "qdot0", "gradient", "damping")):
             out.append("null_space")
+        if self.o.direction is not None:
+            return ["max_scaling"]
         if self.o.bounds is not None:
             out += ["scaled", "sns"]
         return out
@@ -168,6 +185,8 @@ class _MSpec:
         m = J.shape[0]
         key = "acceleration" if self.acc else "velocity"
         raw = getattr(t, key)
+        if raw is None and getattr(self.o, "direction", None) is not None and not path:
+            return {"name": name, "f": f, "J": J, "r": sp.zeros(m, 1), "m": m}
         if raw is None:
             raise self.fail(path or (key,), f"give {key}: (the desired task {key}, {m} components)")
         val = self.ctx.expr(*path, key)
@@ -196,8 +215,14 @@ def _is_rational(M: sp.Matrix) -> bool:
     return all(sp.nsimplify(x).is_Rational if x.is_Float else bool(x.is_Rational) for x in M)
 
 
-def _num(e: sp.Expr) -> sp.Expr:
-    return e if not e.free_symbols else e
+def _exact(x: sp.Expr) -> sp.Expr:
+    """Rational for a Rational-valued Float-free number; the expression itself otherwise (π stays π)."""
+    return sp.nsimplify(x) if x.is_Rational or x.atoms(sp.Float) else sp.simplify(x) if sp.count_ops(x) > 8 else x
+
+
+def _exact_number(M: sp.Matrix) -> bool:
+    """Exact numbers (no Float) of moderate size, e.g. 3*pi**2/4."""
+    return all(x.is_number and not x.atoms(sp.Float) and sp.count_ops(x) <= 30 for x in M)
 
 
 def _vec_latex_name(acc: bool) -> str:
@@ -261,18 +286,22 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         names = ", ".join(sorted(s.name for s in free))
         raise spec.fail(("at",), f"the methods are computed on numbers; {names} left symbolic",
                         "give them values: (or in at:)")
-    mats = [t["Ja"] for t in tasks_num] + [t["x"] for t in tasks_num]
+    mats = [t["Ja"] for t in tasks_num]
     if spec.W is not None:
         mats.append(spec.W.subs(subs))
-    extra = [spec.qd] if spec.qd is not None else []
+    vecs = [t["x"] for t in tasks_num] + ([spec.qd] if spec.qd is not None else [])
+    if spec.direction is not None:
+        vecs.append(spec.direction)
     size = sum(t["Ja"].shape[0] for t in tasks_num) * spec.n
-    exact = size <= EXACT_SIZE and all(_is_rational(M.subs(subs)) for M in mats + extra) and \
+    # exact when the matrices are rational and the vectors exact numbers (π, surds: only scaled and compared)
+    exact = size <= EXACT_SIZE and all(_is_rational(M.subs(subs)) for M in mats) and \
+        all(_exact_number(M.subs(subs)) for M in vecs) and \
         (spec.mu is None or _is_rational(sp.Matrix([spec.mu]).subs(subs))) and \
         (spec.Kd is None or _is_rational(spec.Kd.subs(subs))) and \
-        (spec.lo is None or _is_rational(sp.Matrix(spec.lo + spec.hi).subs(subs)))
+        (spec.lo is None or _exact_number(sp.Matrix(spec.lo + spec.hi).subs(subs)))
     la = rs.LA(exact, o.rank_tol)
     Js = [la.mat(t["Ja"].applyfunc(sp.nsimplify) if exact else t["Ja"]) for t in tasks_num]
-    xs = [la.mat(t["x"].applyfunc(sp.nsimplify) if exact else t["x"]) for t in tasks_num]
+    xs = [la.mat(t["x"].applyfunc(_exact) if exact else t["x"]) for t in tasks_num]
     sol.step("m_setup", tasks=tasks_num, q=sp.Matrix(spec.q), n=spec.n, acc=acc, state=spec.state,
              qd=spec.qd, exact=exact, tol=o.rank_tol, multi=multi, methods=spec.methods,
              values={k: val for k, val in problem.values.items()
@@ -314,13 +343,13 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             raise spec.fail(("at",), "the preferred null-space vector depends on "
                             + ", ".join(sorted(x.name for x in q0s.free_symbols)) + ", left symbolic",
                             "give them values:")
-        if exact and not _is_rational(q0s):
+        if exact and not _exact_number(q0s):
             la = rs.LA(False, o.rank_tol)
             exact = False
             Js = [la.mat(t["Ja"]) for t in tasks_num]
             xs = [la.mat(t["x"]) for t in tasks_num]
             JE, xE = la.vstack(Js), la.vstack(xs)
-        q0 = la.mat(q0s.applyfunc(sp.nsimplify) if exact else q0s)
+        q0 = la.mat(q0s.applyfunc(_exact) if exact else q0s)
         add(f"{v}0", la.sym(q0), "vector", label=f"{vl}_0")
         sol.step("m_null", q0=la.sym(q0), grad=grad, H=spec.H, step=getattr(spec, "step", None), Kd=spec.Kd,
                  acc=acc, given=spec.q0)
@@ -416,17 +445,45 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         elif meth == "scaled":
             Jp1 = Jp if Jp is not None else la.pinv(JE)
             vps = Jp1 @ xE
-            lo = [sp.nsimplify(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
-            hi = [sp.nsimplify(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
+            lo = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
+            hi = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
             k = rs.ps_scaling(la, vps, lo, hi)
             vec = vps / k
             add("ps_scaling", la.scalar(k), "number", label="k")
             sol.step("m_scaled", vps=la.sym(vps), k=la.scalar(k), v=la.sym(vec), x=la.sym(xE), xs=la.sym(xE / k),
                      lo=lo, hi=hi, acc=acc, needed=k != 1)
             record("ps_scaled", "PS,scaled", vec)
+        elif meth == "max_scaling":
+            lo = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
+            hi = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
+            d = spec.direction.subs(subs)
+            d = la.mat(d.applyfunc(_exact) if exact else d)
+            Jp1 = Jp if Jp is not None else la.pinv(JE)
+            a_v = Jp1 @ d
+            b_v = Jp1 @ xE
+            ms = rs.max_scaling(la, a_v, b_v, lo, hi)
+            add("direction", la.sym(d), "vector", label="d")
+            add("a_dir", la.sym(a_v), "vector", label="a = J^{\\#} d")
+            add("b_drift", la.sym(b_v), "vector", label="b = J^{\\#}(r_d - \\dot J\\dot q)")
+            add("lambda_i", sp.Matrix([_inf(u) for u in ms.upper]), "vector", label="\\lambda_i")
+            for i, u in enumerate(ms.upper):
+                if _inf(u).is_finite:
+                    add(f"lambda_{i + 1}", _inf(u), "number", label=f"\\lambda_{{{i + 1}}}")
+            add("scaling_feasible", ms.lam is not None, "bool", label="\\text{feasible}")
+            vec = None
+            if ms.lam is not None and ms.lam != float("inf") and ms.lam != sp.oo:
+                vec = a_v * ms.lam + b_v
+                add("lambda_max", la.scalar(ms.lam), "number", label="\\lambda^*")
+                add("task_max", la.sym(d * ms.lam), "vector", label="\\ddot r = \\lambda^* d" if acc else "\\dot r = \\lambda^* d")
+            sol.step("m_maxs", d=la.sym(d), a=la.sym(a_v), b=la.sym(b_v), lo=lo, hi=hi, acc=acc,
+                     ivs=[None if iv is None else (_inf(iv[0]), _inf(iv[1])) for iv in ms.intervals],
+                     upper=[_inf(u) for u in ms.upper], lam=None if ms.lam is None else _inf(ms.lam),
+                     v=la.sym(vec) if vec is not None else None, stop=isinstance(spec.o.direction, str))
+            if vec is not None:
+                record("max", "max", vec)
         elif meth == "sns":
-            lo = [sp.nsimplify(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
-            hi = [sp.nsimplify(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
+            lo = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
+            hi = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
             res = rs.sns(la, JE, xE, lo, hi)
             add("sns_scale", la.scalar(res.s), "number", label="s")
             add("sns_iterations", sp.Integer(len(res.steps)), "number", label="\\text{SNS iterations}")
@@ -456,7 +513,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         nm = la.norm(vec)
         add(f"norm_{name}", nm, None, label=f"\\|{vl}_{{\\mathrm{{{label}}}}}\\|")
         table.append({"label": label, "name": name + sfx, "v": la.sym(vec), "norm": nm,
-                      "v_num": la.sym(vec).applyfunc(lambda x: x if x.is_Integer else sp.Float(x, 5)),
+                      "v_num": la.sym(vec).applyfunc(lambda x: x if x.is_Integer else x.evalf(5)),
                       "norm_num": sp.Float(float(nm), 6), "errs": [sp.Float(float(e), 6) for e in errs]})
     if spec.lo is not None:
         lo = [float(b.subs(subs)) for b in spec.lo]
@@ -505,6 +562,15 @@ def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs
 
         sol.figures.append(Figure("bounds" + spec.o.suffix, "Joint " + ("accelerations" if acc else "velocities")
                                   + " of each method against their bounds (dashed).", sample))
+
+
+def _inf(x: Any) -> sp.Expr:
+    """A number for display, with ±∞."""
+    if x in (float("inf"), sp.oo):
+        return sp.oo
+    if x in (float("-inf"), -sp.oo):
+        return -sp.oo
+    return x if isinstance(x, sp.Basic) else sp.Float(float(x), 15)
 
 
 def _reach(task: sp.Matrix, subs: dict) -> float:

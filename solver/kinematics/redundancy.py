@@ -71,6 +71,9 @@ class RedundancyAsk(Strict):
                           "null_space (null:/gradient:/damping:), priority and extended (tasks:), scaled and sns "
                           "(bounds:); default: those the given options call for")
     mu: Optional[Scalar] = Field(None, description="damping factor μ of damped least squares")
+    direction: Optional[ExprT] = Field(
+        None, description="task direction d for max_scaling: the task λ d with the largest λ ≥ 0 whose minimum-norm "
+                          "command is within bounds:; `stop` for d = −J q̇ (decelerate along the current velocity)")
     bounds: Optional[Union[Bounds, ExprT]] = Field(
         None, description="joint bounds on q̇ (velocity level) or q̈ (acceleration level): n values (±) or "
                           "{lower: [...], upper: [...]}")

@@ -35,7 +35,7 @@ class LA:
     # conversion
     def mat(self, M: Any) -> Any:
         if self.exact:
-            return sp.Matrix(M).applyfunc(sp.nsimplify) if not isinstance(M, sp.MatrixBase) else sp.Matrix(M)
+            return sp.Matrix(M)
         if isinstance(M, sp.MatrixBase):
             return np.array(M.evalf(30).tolist(), dtype=float).reshape(M.shape)
         return np.atleast_2d(np.asarray(M, dtype=float))
@@ -288,3 +288,36 @@ def ps_scaling(la: LA, v: Any, lo: Sequence[Any], hi: Sequence[Any]) -> Any:
         elif x < 0 and lo[i] < 0:
             k = max(k, x / lo[i])
     return k
+
+
+# ------------------------------------------------------------------------------------------------ largest scaling
+@dataclass
+class MaxScaling:
+    lam: Any                          # the largest feasible λ ≥ 0 (None: no feasible λ; math.inf: unbounded)
+    intervals: list[tuple[Any, Any] | None]  # per joint, the λ ≥ 0 it allows ([low, up], None if none)
+    upper: list[Any]                  # per joint, its largest allowed λ (-inf if none, inf if unbounded)
+
+
+def max_scaling(la: LA, a: Any, b: Any, lo: Sequence[Any], hi: Sequence[Any]) -> MaxScaling:
+    """max λ s.t. λ ≥ 0 and lo ≤ aλ + b ≤ hi (componentwise): each joint allows an interval of λ; λ* is the
+    smallest upper end when the largest lower end does not exceed it, else the set is empty."""
+    eps = 0 if la.exact else 1e-12
+    inf = sp.oo if la.exact else float("inf")
+    zero = sp.Integer(0) if la.exact else 0.0
+    ivs: list[tuple[Any, Any] | None] = []
+    for i in range(len(lo)):
+        ai, bi = a[i, 0], b[i, 0]
+        if abs(ai) <= eps:
+            ivs.append((zero, inf) if lo[i] - eps <= bi <= hi[i] + eps else None)
+            continue
+        s1, s2 = (lo[i] - bi) / ai, (hi[i] - bi) / ai
+        if s1 > s2:
+            s1, s2 = s2, s1
+        low = max(zero, s1)
+        ivs.append((low, s2) if s2 >= low - eps else None)
+    upper = [iv[1] if iv is not None else -inf for iv in ivs]
+    if any(iv is None for iv in ivs):
+        return MaxScaling(None, ivs, upper)
+    lam = min(upper)
+    low = max(iv[0] for iv in ivs if iv is not None)
+    return MaxScaling(lam if low <= lam + eps else None, ivs, upper)
