@@ -476,7 +476,8 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                 add("lambda_max", la.scalar(ms.lam), "number", label="\\lambda^*")
                 add("task_max", la.sym(d * ms.lam), "vector", label="\\ddot r = \\lambda^* d" if acc else "\\dot r = \\lambda^* d")
             sol.step("m_maxs", d=la.sym(d), a=la.sym(a_v), b=la.sym(b_v), lo=lo, hi=hi, acc=acc,
-                     ivs=[None if iv is None else (_inf(iv[0]), _inf(iv[1])) for iv in ms.intervals],
+                     ivs=[None if iv is None else (_show(iv[0]), _show(iv[1])) for iv in ms.intervals],
+                     lo_m=sp.Matrix([la.scalar(x) for x in lo]), hi_m=sp.Matrix([la.scalar(x) for x in hi]),
                      upper=[_inf(u) for u in ms.upper], lam=None if ms.lam is None else _inf(ms.lam),
                      v=la.sym(vec) if vec is not None else None, stop=isinstance(spec.o.direction, str))
             if vec is not None:
@@ -490,6 +491,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             for st in res.steps:
                 add(f"{v}_sns_{st.it}", la.sym(st.qdot), "vector", label=f"{vl}^{{({st.it})}}")
             rows = [{"it": st.it, "sat": [i + 1 for i in st.saturated], "v": la.sym(st.qdot),
+                     "v_num": la.sym(st.qdot).applyfunc(lambda x: x if x.is_Rational else x.evalf(5)),
                      "viol": [i + 1 for i in st.violating],
                      "scale": la.scalar(st.scale) if st.scale is not None else None,
                      "crit": st.critical + 1 if st.critical is not None else None,
@@ -571,6 +573,12 @@ def _inf(x: Any) -> sp.Expr:
     if x in (float("-inf"), -sp.oo):
         return -sp.oo
     return x if isinstance(x, sp.Basic) else sp.Float(float(x), 15)
+
+
+def _show(x: Any) -> sp.Expr:
+    """±∞ or a 4-digit float, for tables."""
+    y = _inf(x)
+    return y if y.is_infinite else sp.Float(y.evalf(15), 4)
 
 
 def _reach(task: sp.Matrix, subs: dict) -> float:
