@@ -259,3 +259,100 @@ def test_ask_sns_and_comparison_render():
     assert "Saturation in the Null Space" in md and "**Comparison.**" in md
     tex = render(p, sols, "tex")
     assert "Saturation in the Null Space" in tex and "Comparison" in tex
+
+
+# ----------------------------------------------------------------------------------------------- issue 8, items 15-16
+I15 = """
+id: i15
+title: planar 4R with symbolic masses
+symbols: {m1: m1, m2: m2, m3: m3, m4: m4}
+robot:
+  joints: [R, R, R, R]
+  links:
+    - {mass: m1, com: [cos(q1)/2, sin(q1)/2], angle: q1, inertia: m1/12}
+    - {mass: m2, com: [cos(q1) + cos(q1+q2)/2, sin(q1) + sin(q1+q2)/2], angle: q1+q2, inertia: m2/12}
+    - {mass: m3, com: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3)/2, sin(q1) + sin(q1+q2) + sin(q1+q2+q3)/2],
+       angle: q1+q2+q3, inertia: m3/12}
+    - {mass: m4, com: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3) + cos(q1+q2+q3+q4)/2,
+                       sin(q1) + sin(q1+q2) + sin(q1+q2+q3) + sin(q1+q2+q3+q4)/2], angle: q1+q2+q3+q4, inertia: m4/12}
+asks:
+  - kind: redundancy
+    task:
+      - cos(q1) + cos(q1+q2) + cos(q1+q2+q3) + cos(q1+q2+q3+q4)
+      - sin(q1) + sin(q1+q2) + sin(q1+q2+q3) + sin(q1+q2+q3+q4)
+    weight: inertia
+    velocity: [1, 0]
+    at: {q1: 0, q2: pi/2, q3: 0, q4: pi/2}
+"""
+
+
+def test_item15_symbolic_inertia_weighted_pinv_at_a_configuration():
+    """2x4 task, symbolic masses, weight: inertia, at: given -> symbolic J_W^# and q̇, equal to numpy at random
+    masses."""
+    p = load_problem_text(I15)
+    res = all_results(solve_problem(p))
+    assert "J_pinv" in res and "qdot_ps" in res
+    Jp, qd = res["J_pinv"].value, res["qdot_ps"].value
+    assert Jp.free_symbols and {s.name for s in Jp.free_symbols} <= {"m1", "m2", "m3", "m4"}
+    from solver.dynamics.model import derive
+    B = derive(p.robot).B
+    q = {p.robot.q[0]: 0, p.robot.q[1]: sp.pi / 2, p.robot.q[2]: 0, p.robot.q[3]: sp.pi / 2}
+    for _ in range(3):
+        ms = {s: sp.Float(RNG.uniform(0.5, 5)) for s in Jp.free_symbols}
+        W = np.array(B.subs(q).subs({sp.Symbol(k.name, **k.assumptions0): v for k, v in ms.items()})
+                     .subs(ms).evalf().tolist(), dtype=float)
+        J = jac4_unit(np.array([0, np.pi / 2, 0, np.pi / 2]))
+        ref = np.linalg.inv(W) @ J.T @ np.linalg.inv(J @ np.linalg.inv(W) @ J.T)
+        got = np.array(Jp.subs(ms).evalf().tolist(), dtype=float)
+        assert np.allclose(got, ref, atol=1e-9)
+        assert np.allclose(np.array(qd.subs(ms).evalf().tolist(), dtype=float).ravel(), ref @ [1, 0], atol=1e-9)
+
+
+def jac4_unit(q: np.ndarray) -> np.ndarray:
+    c = np.cumsum(q)
+    return np.array([[-sum(np.sin(c[k]) for k in range(j, 4)) for j in range(4)],
+                     [sum(np.cos(c[k]) for k in range(j, 4)) for j in range(4)]])
+
+
+def test_item15_too_big_says_why():
+    text = I15.replace("    at: {q1: 0, q2: pi/2, q3: 0, q4: pi/2}\n", "")
+    from solver.publish.render import render
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    md = render(p, sols, "md")
+    assert "not given symbolically" in md and "(no at:)" in md
+    text = I15.replace("q3: 0,", "q3: 0.7,")  # sin(7/10): the exact symbolic result is huge
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    md = render(p, sols, "md")
+    assert "J_pinv" not in all_results(sols) and "did not finish within" in md
+
+
+def test_item16_nested_radicals_go_numeric_and_say_so():
+    from solver.publish.render import render
+    text = """
+id: i16
+title: 3R, projected gradient at angles with nested radicals
+symbols: {}
+robot: {joints: [R, R, R]}
+asks:
+  - kind: redundancy
+    task: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3), sin(q1) + sin(q1+q2) + sin(q1+q2+q3)]
+    velocity: [1, -1]
+    gradient: sin(q2)^2 + sin(q3)^2
+    at: {q1: 2*pi/5, q2: pi/2, q3: -pi/4}
+"""
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    res = all_results(sols)
+    v = res["qdot"].value
+    assert all(x.is_Float or x == 0 for x in v)
+    q = np.array([2 * np.pi / 5, np.pi / 2, -np.pi / 4])
+    c = np.cumsum(q)
+    J = np.array([[-sum(np.sin(c[k]) for k in range(j, 3)) for j in range(3)],
+                  [sum(np.cos(c[k]) for k in range(j, 3)) for j in range(3)]])
+    Jp = np.linalg.pinv(J)
+    g = np.array([0, np.sin(2 * q[1]), np.sin(2 * q[2])])
+    ref = Jp @ [1, -1] + (np.eye(3) - Jp @ J) @ g
+    assert np.allclose(np.array(v.evalf().tolist(), dtype=float).ravel(), ref, atol=1e-9)
+    assert "floating point: nested radicals" in render(p, sols, "md")
