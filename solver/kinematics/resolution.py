@@ -296,6 +296,7 @@ class MaxScaling:
     lam: Any                          # the largest feasible λ ≥ 0 (None: no feasible λ; math.inf: unbounded)
     intervals: list[tuple[Any, Any] | None]  # per joint, the λ ≥ 0 it allows ([low, up], None if none)
     upper: list[Any]                  # per joint, its largest allowed λ (-inf if none, inf if unbounded)
+    low: Any = 0                      # the smallest feasible λ (when lam is not None)
 
 
 def max_scaling(la: LA, a: Any, b: Any, lo: Sequence[Any], hi: Sequence[Any]) -> MaxScaling:
@@ -320,4 +321,4 @@ def max_scaling(la: LA, a: Any, b: Any, lo: Sequence[Any], hi: Sequence[Any]) ->
         return MaxScaling(None, ivs, upper)
     lam = min(upper)
     low = max(iv[0] for iv in ivs if iv is not None)
-    return MaxScaling(lam if low <= lam + eps else None, ivs, upper)
+    return MaxScaling(lam if low <= lam + eps else None, ivs, upper, low)
