@@ -356,3 +356,17 @@ asks:
     ref = Jp @ [1, -1] + (np.eye(3) - Jp @ J) @ g
     assert np.allclose(np.array(v.evalf().tolist(), dtype=float).ravel(), ref, atol=1e-9)
     assert "floating point: nested radicals" in render(p, sols, "md")
+
+
+def test_sns_property_check_accepts_feasible_solutions():
+    from solver.kinematics.methods import check_sns
+    from solver.spec import load_problem
+    from conftest import PROBLEMS
+    p = load_problem(PROBLEMS / "2018-07-11-ex2.yaml")
+    res = all_results(solve_problem(p))
+    ok = check_sns(p, res, "qddot_sns", [-9, -5, 3, 2], None, None)
+    assert ok.correct and ok.fraction == 1.0
+    alt = check_sns(p, res, "qddot_sns", [-9, -5.5, 4, 1.5], None, None)  # α = 1.5 of the printed family
+    assert alt.correct and alt.fraction == 0.5
+    assert not check_sns(p, res, "qddot_sns", [-25 / 3, -25 / 6, 0, 25 / 6], None, None).correct  # PS: q̈4 > 2
+    assert not check_sns(p, res, "qddot_sns", [-4, -2, 0, 2], None, None).correct  # scaled: task not realized

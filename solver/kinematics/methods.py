@@ -16,6 +16,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.kinematics import resolution as rs
+from solver.registry import PropertyVerdict, property_check
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
 from solver.spec.expr import shape_of
@@ -322,6 +323,11 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
     JE = la.vstack(Js)
     xE = la.vstack(xs)
     n = spec.n
+    add("J_task", la.sym(JE), "matrix", label="J" if not multi else "J_E")
+    add("task_x", la.sym(xE), "vector", label="\\ddot r_d - \\dot J\\dot q" if acc else "\\dot r_d")
+    if spec.lo is not None:
+        add("bounds_lower", sp.Matrix([b.subs(subs) for b in spec.lo]), "vector", label="\\text{lower bounds}")
+        add("bounds_upper", sp.Matrix([b.subs(subs) for b in spec.hi]), "vector", label="\\text{upper bounds}")
     # preferred (null-space) vector
     q0 = None
     if spec.q0 is not None or spec.H is not None or spec.Kd is not None:
@@ -586,3 +592,39 @@ def _reach(task: sp.Matrix, subs: dict) -> float:
         return max(0.2, float(sp.sqrt(sum(c ** 2 for c in task.subs(subs))).evalf()))
     except (TypeError, ValueError):
         return 1.0
+
+
+@property_check("qdot_sns", "qddot_sns")
+def check_sns(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """Any joint vector within the bounds realizing the task (scaled by no less than SNS's factor) is feasible;
+    full credit when its norm is not larger than the SNS solution's, half otherwise."""
+    sfx = name[len("qddot_sns" if name.startswith("qddot") else "qdot_sns"):]
+    need = ["J_task", "task_x", "bounds_lower", "bounds_upper", "sns_scale"]
+    if any(results.get(k + sfx) is None for k in need) or results.get(name) is None:
+        return None
+    try:
+        v = np.array(sp.Matrix(value).evalf().tolist(), dtype=float).ravel()
+    except (TypeError, ValueError, AttributeError):
+        return None
+    J = np.array(results["J_task" + sfx].value.evalf().tolist(), dtype=float)
+    x = np.array(results["task_x" + sfx].value.evalf().tolist(), dtype=float).ravel()
+    lo = np.array(results["bounds_lower" + sfx].value.evalf().tolist(), dtype=float).ravel()
+    hi = np.array(results["bounds_upper" + sfx].value.evalf().tolist(), dtype=float).ravel()
+    s = float(results["sns_scale" + sfx].value)
+    ref = np.array(results[name].value.evalf().tolist(), dtype=float).ravel()
+    if v.shape != ref.shape:
+        return PropertyVerdict(False, 0.0, [f"the answer must have {ref.size} components"])
+    tol = 1e-6 * max(1.0, float(np.max(np.abs(hi))))
+    if np.any(v < lo - tol) or np.any(v > hi + tol):
+        bad = [str(i + 1) for i in range(v.size) if v[i] < lo[i] - tol or v[i] > hi[i] + tol]
+        return PropertyVerdict(False, 0.0, ["joint(s) " + ", ".join(bad) + " out of bounds"])
+    Jv = J @ v
+    xn = float(np.linalg.norm(x)) or 1.0
+    k = float(Jv @ x) / xn ** 2
+    if np.linalg.norm(Jv - k * x) > 1e-6 * max(1.0, xn) or k < s - 1e-6:
+        return PropertyVerdict(False, 0.0, ["within the bounds, but the task is not realized"
+                                            + (" (only scaled)" if k < s - 1e-6 else " (wrong direction)")])
+    if np.linalg.norm(v) > np.linalg.norm(ref) * (1 + 1e-6) + 1e-9:
+        return PropertyVerdict(True, 0.5, [f"feasible and realizes the task, but its norm {np.linalg.norm(v):.4g} "
+                                           f"is larger than SNS's {np.linalg.norm(ref):.4g}"])
+    return PropertyVerdict(True, 1.0, ["feasible (within every bound) and realizes the task"])
