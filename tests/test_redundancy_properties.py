@@ -370,3 +370,36 @@ def test_sns_property_check_accepts_feasible_solutions():
     assert alt.correct and alt.fraction == 0.5
     assert not check_sns(p, res, "qddot_sns", [-25 / 3, -25 / 6, 0, 25 / 6], None, None).correct  # PS: q̈4 > 2
     assert not check_sns(p, res, "qddot_sns", [-4, -2, 0, 2], None, None).correct  # scaled: task not realized
+
+
+def test_motion_reaches_the_algorithmic_singularity_of_a_4r():
+    """Planar 4R, tasks: end effector moving along x at constant speed, link 2 angle q1 + q2 fixed, and the angle of
+    the last link fixed: the extended Jacobian (4x4) loses rank where the motion must stop; the configuration
+    found satisfies the tasks (on the path) and det J_E = 0."""
+    text = ASK_4R.replace("""    task:
+      - l1*cos(q1) + l2*cos(q1 + q2) + l3*cos(q1 + q2 + q3) + l4*cos(q1 + q2 + q3 + q4)
+      - l1*sin(q1) + l2*sin(q1 + q2) + l3*sin(q1 + q2 + q3) + l4*sin(q1 + q2 + q3 + q4)
+""", """    tasks:
+      - name: p
+        task: [l1*cos(q1) + l2*cos(q1 + q2) + l3*cos(q1 + q2 + q3) + l4*cos(q1 + q2 + q3 + q4),
+               l1*sin(q1) + l2*sin(q1 + q2) + l3*sin(q1 + q2 + q3) + l4*sin(q1 + q2 + q3 + q4)]
+        velocity: [0.5, 0]
+      - {name: a, task: q1 + q2, velocity: 0}
+      - {name: e, task: q1 + q2 + q3 + q4, velocity: 0}
+    at: {q1: 0.4, q2: 0.5, q3: -1.2, q4: 0.6}
+    methods: [extended]
+    motion: {start: {q1: 0.4, q2: 0.5, q3: -1.2, q4: 0.6}, duration: 5}
+""")
+    res = all_results(solve_problem(load_problem_text(text)))
+    assert bool(res["singularity_reached"].value)
+    qs = np.array(res["q_s"].value.evalf().tolist(), dtype=float).ravel()
+    q0 = np.array([0.4, 0.5, -1.2, 0.6])
+    t = float(res["t_end"].value)
+    J = np.vstack([jac4(qs), [[1, 1, 0, 0]], [[1, 1, 1, 1]]])
+    assert abs(np.linalg.det(J)) < 1e-8
+    c = np.cumsum(qs)
+    c0 = np.cumsum(q0)
+    p = np.array([sum(L4[k] * np.cos(c[k]) for k in range(4)), sum(L4[k] * np.sin(c[k]) for k in range(4))])
+    p0 = np.array([sum(L4[k] * np.cos(c0[k]) for k in range(4)), sum(L4[k] * np.sin(c0[k]) for k in range(4))])
+    assert np.allclose(p, p0 + np.array([0.5, 0]) * t, atol=1e-8)
+    assert abs((qs[0] + qs[1]) - 0.9) < 1e-8 and abs(qs.sum() - 0.3) < 1e-8

@@ -44,6 +44,18 @@ class TaskItem(Strict):
     acceleration: Optional[ExprT] = Field(None, description="desired task acceleration r̈ (acceleration level)")
 
 
+class Motion(Strict):
+    """A motion at velocity level from a start configuration, with constant task velocities."""
+
+    start: dict[str, Scalar] = Field(..., description="q at t = 0 {q1: ..., ...}")
+    duration: float = Field(..., gt=0, le=1e4, description="seconds to integrate (stops earlier at a singularity)")
+    method: Optional[Literal["pseudoinverse", "weighted", "dls", "extended", "priority"]] = Field(
+        None, description="the method commanding q̇ (default: the first of methods: that applies)")
+    steps: int = Field(400, ge=10, le=20000, description="integration steps (RK4; smaller near a singularity)")
+    sigma_min: float = Field(1e-4, gt=0, lt=1, description="stop when the smallest singular value of the "
+                                                           "(stacked or projected) Jacobian falls below this")
+
+
 class Bounds(Strict):
     lower: ExprT = Field(..., description="lower bounds (n values)")
     upper: ExprT = Field(..., description="upper bounds (n values)")
@@ -52,7 +64,7 @@ class Bounds(Strict):
 def wants_methods(o: Any) -> bool:
     """True when the ask uses the method path (any of its options given)."""
     return any(getattr(o, k) is not None for k in ("tasks", "methods", "mu", "bounds", "damping",
-                                                    "joint_velocity", "acceleration", "direction")) or o.level == "acceleration"
+                                                    "joint_velocity", "acceleration", "direction", "motion")) or o.level == "acceleration"
 
 
 # ------------------------------------------------------------------------------------------------ parsing
@@ -529,11 +541,159 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         for row in table:
             row["within"] = all(lo[i] - 1e-9 <= float(row["v"][i]) <= hi[i] + 1e-9 for i in range(n))
     sol.step("m_compare", table=table, names=[t["name"] for t in tasks_num], acc=acc, bounds=spec.lo is not None)
-    _sketch(sol, problem, spec, tasks_num, table, subs, acc)
+    motion = None
+    if o.motion is not None:
+        motion = _motion(sol, problem, spec, add, tasks_num)
+    _sketch(sol, problem, spec, tasks_num, table, subs, acc, motion)
     return sol
 
 
-def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs: dict, acc: bool) -> None:  # type: ignore[no-untyped-def]
+def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | None:  # type: ignore[no-untyped-def]
+    """Integrate q̇ = method(q) (RK4, constant task velocities) from the start configuration; stop where the
+    monitored smallest singular value falls below sigma_min (the first singularity met)."""
+    mo = spec.o.motion
+    if spec.acc:
+        raise spec.fail(("motion",), "motion: is at velocity level (level: velocity)")
+    meth = mo.method or next((m for m in spec.methods if m in ("pseudoinverse", "weighted", "dls", "extended",
+                                                                "priority")), "pseudoinverse")
+    if meth == "priority" and len(tasks) < 2:
+        raise spec.fail(("motion", "method"), "priority needs two or more tasks")
+    by_name = {x.name: x for x in spec.q}
+    start = []
+    for x in spec.q:
+        if x.name not in mo.start:
+            raise spec.fail(("motion", "start"), f"start: must give every coordinate; missing {x.name}")
+    for name in mo.start:
+        if name not in by_name:
+            raise spec.fail(("motion", "start", name), f"'{name}' is not a coordinate")
+    start = [float(sp.N(spec.ctx.expr("motion", "start", x.name).subs(problem.values))) for x in spec.q]
+    la = rs.LA(False, spec.o.rank_tol)
+    Jf = [sp.lambdify([spec.q], t["J"].subs(problem.values), "numpy") for t in tasks]
+    xs = [np.array(sp.Matrix(t["r"]).subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1)
+          for t in tasks]
+    W = None
+    if meth == "weighted":
+        Wf = sp.lambdify([spec.q], spec.W.subs(problem.values), "numpy")
+    mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if meth == "dls" else None
+
+    def jac(q: np.ndarray) -> list[np.ndarray]:
+        return [np.atleast_2d(np.array(f(list(q)), dtype=float)) for f in Jf]
+
+    # with task functions, the singular configuration is refined on r(q) = r(q(0)) + ṙ t, det J_E(q) = 0
+    fb = all(tk["f"] is not None for tk in tasks)
+    ff = [sp.lambdify([spec.q], tk["f"].subs(problem.values), "numpy") for tk in tasks] if fb else []
+    r0 = [np.array(f(start), dtype=float).reshape(-1, 1) for f in ff]
+    now = [0.0]
+
+    def vel(q: np.ndarray) -> tuple[np.ndarray, float]:
+        Js = jac(q)
+        xs_t = xs
+        JE, xE = np.vstack(Js), np.vstack(xs_t)
+        if meth == "priority":
+            v, levels = rs.task_priority(la, Js, xs_t)
+            sig = min([float(np.linalg.svd(Js[0], compute_uv=False)[-1])] + [lv.smin_JP for lv in levels[1:]])
+        else:
+            sv = np.linalg.svd(JE, compute_uv=False)
+            sig = float(sv[min(JE.shape) - 1])
+            if meth == "dls":
+                v = rs.dls(la, JE, mu) @ xE
+            elif meth == "weighted":
+                v = rs.weighted_pinv(la, JE, np.array(Wf(list(q)), dtype=float)) @ xE
+            else:
+                v = la.pinv(JE) @ xE
+        return v.ravel(), sig
+
+    q = np.array(start)
+    t, dt0 = 0.0, mo.duration / mo.steps
+    ts, qs, vs, sigs = [], [], [], []
+    reached = False
+    while t < mo.duration - 1e-12 and len(ts) < 50 * mo.steps:
+        now[0] = t
+        v, sig = vel(q)
+        ts.append(t), qs.append(q.copy()), vs.append(v), sigs.append(sig)
+        if sig < mo.sigma_min:
+            reached = True
+            break
+        dt = min(dt0, mo.duration - t, 0.002 / max(1e-12, float(np.max(np.abs(v)))) if np.max(np.abs(v)) > 0
+                 else dt0)
+        k1 = v
+        now[0] = t + dt / 2
+        k2 = vel(q + dt / 2 * k1)[0]
+        k3 = vel(q + dt / 2 * k2)[0]
+        now[0] = t + dt
+        k4 = vel(q + dt * k3)[0]
+        q = q + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        t += dt
+    if not reached:
+        now[0] = t
+        v, sig = vel(q)
+        ts.append(t), qs.append(q.copy()), vs.append(v), sigs.append(sig)
+    refined = False
+    m_tot = sum(x.shape[0] for x in xs)
+    if reached and fb and m_tot == len(spec.q) and meth != "priority":
+        z = np.concatenate([qs[-1], [ts[-1]]])
+        xv = np.vstack(xs).ravel()
+        rv = np.vstack(r0).ravel()
+
+        def F(zz: np.ndarray) -> np.ndarray:
+            qq, tt = zz[:-1], zz[-1]
+            rq = np.concatenate([np.array(f(list(qq)), dtype=float).ravel() for f in ff])
+            return np.concatenate([rq - rv - xv * tt, [np.linalg.det(np.vstack(jac(qq)))]])
+
+        for _ in range(30):
+            Fz = F(z)
+            if np.linalg.norm(Fz) < 1e-12:
+                break
+            D = np.column_stack([(F(z + e) - F(z - e)) / 2e-7 for e in np.eye(z.size) * 1e-7])
+            try:
+                z = z - np.linalg.solve(D, Fz)
+            except np.linalg.LinAlgError:
+                break
+        if np.linalg.norm(F(z)) < 1e-9 and np.linalg.norm(z[:-1] - qs[-1]) < 0.05:
+            qs[-1], ts[-1], refined = z[:-1], float(z[-1]), True
+    qe = sp.Matrix([sp.Float(x, 15) if abs(x) > 1e-12 else sp.Integer(0) for x in qs[-1]])
+    add("q_end", qe, "vector", label="q(t_{end})")
+    add("t_end", sp.Float(ts[-1], 15), "number", label="t_{end}")
+    add("singularity_reached", bool(reached), "bool", label="\\text{singularity reached}")
+    if reached:
+        add("q_s", qe, "vector", label="q_s")
+    pos = next((t for t in tasks if t["f"] is not None and t["m"] == 2), None)
+    p_end = None
+    if pos is not None:
+        p_end = pos["f"].subs(problem.values).subs(dict(zip(spec.q, list(qe))))
+        add("p_end", p_end.evalf(15), "vector", label="p(t_{end})")
+    sol.step("m_motion", method=meth, start=sp.Matrix(start), duration=mo.duration, reached=reached,
+             t_end=sp.Float(ts[-1], 6), q_end=qe.evalf(6), sig=sp.Float(sigs[-1], 3), sigma_min=mo.sigma_min,
+             p_end=None if p_end is None else p_end.evalf(6), refined=refined)
+    lo = [float(sp.N(b.subs(problem.values))) for b in spec.lo] if spec.lo is not None else None
+    hi = [float(sp.N(b.subs(problem.values))) for b in spec.hi] if spec.hi is not None else None
+    T, V, S = list(ts), np.array(vs), list(sigs)
+    peak = np.max(np.abs(V), axis=1)
+    keep = peak <= 20 * max(1e-9, float(np.median(peak)))  # the blow-up at a singularity would hide the rest
+    if not np.all(keep):
+        T, V, S = [x for x, k in zip(T, keep) if k], V[keep], [x for x, k in zip(S, keep) if k]
+
+    def sample() -> list[Panel]:
+        curves = [Curve(f"$\\dot q_{{{i + 1}}}$", T, [float(x) for x in V[:, i]]) for i in range(V.shape[1])]
+        hl = []
+        if hi is not None:
+            hl = sorted({(h, "bound") for h in hi} | {(lv, "bound") for lv in lo})
+        return [Panel("$t$ [s]", "$\\dot q$", curves, hlines=hl),
+                Panel("$t$ [s]", "$\\sigma_{min}$", [Curve("$\\sigma_{min}$", T, S)])]
+
+    sol.figures.append(Figure("motion" + spec.o.suffix, f"Joint velocities along the motion ({meth}) and the "
+                              "smallest singular value monitored" + (", with the bounds (dashed)" if hi else "")
+                              + (" (the last samples, where the joint velocity blows up at the singularity, are not "
+                                 "drawn)" if not np.all(keep) else "") + ".", sample))
+    pts = [(float(sp.N(pos["f"][0].subs(problem.values).subs(dict(zip(spec.q, list(qq)))))),
+            float(sp.N(pos["f"][1].subs(problem.values).subs(dict(zip(spec.q, list(qq))))))) for qq in qs[::max(1, len(qs) // 60)]] \
+        if pos is not None else None
+    return {"start": dict(zip(spec.q, [sp.Float(x, 6) for x in start])),
+            "end": dict(zip(spec.q, list(qe))), "path": pts, "reached": reached}
+
+
+def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs: dict, acc: bool,  # type: ignore[no-untyped-def]
+            motion: dict | None = None) -> None:
     """The planar robot at the state, with the desired task vector of the first planar-position task."""
     if spec.o.sketch is False or problem.robot is None:
         return
@@ -552,8 +712,17 @@ def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs
             pos = task.subs(subs)
             arrows.append(("$\\ddot r_d$" if acc else "$\\dot r_d$", spec.state, pos,
                            [x * scale * _reach(task, subs) for x in vals]))
-    fig = robot_sketch(problem, [("$q$", spec.state)], task=task, arrows=arrows,
-                       name="sketch" + spec.o.suffix, caption="The robot at the state used, with the task direction")
+    confs = [("$q$", spec.state)]
+    paths = None
+    if motion is not None:
+        same = all(abs(float(sp.N(spec.state[x])) - float(motion["start"][x])) < 1e-5 for x in spec.q)
+        confs = [("$q(0)$", motion["start"])] + ([] if same else confs) + \
+            [("$q_s$" if motion["reached"] else "$q(t_{end})$", motion["end"])]
+        if motion["path"]:
+            paths = [("path", motion["path"])]
+    fig = robot_sketch(problem, confs, task=task, arrows=arrows, paths=paths,
+                       name="sketch" + spec.o.suffix, caption="The robot at the state used, with the task direction"
+                       + (" (and at the start of the motion, with the end-effector path)" if motion else ""))
     if fig is not None:
         sol.figures.append(fig)
     if spec.lo is not None and table:

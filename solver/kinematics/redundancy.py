@@ -22,7 +22,7 @@ import sympy as sp
 from pydantic import Field, model_validator
 
 from solver.kinematics import resolution as rs
-from solver.kinematics.methods import Bounds, Method, TaskItem, solve_methods, wants_methods
+from solver.kinematics.methods import Bounds, Method, Motion, TaskItem, solve_methods, wants_methods
 from solver.math.simplify import tidy
 from solver.registry import ask_kind
 from solver.results import Solution
@@ -83,6 +83,9 @@ class RedundancyAsk(Strict):
     rank_tol: float = Field(rs.DEFAULT_TOL, gt=0, lt=1e-2,
                             description="a singular value σ ≤ rank_tol · max(1, σ_max) counts as zero")
     sketch: bool = Field(True, description="draw the planar robot at the state (method path)")
+    motion: Optional[Motion] = Field(
+        None, description="velocity level: integrate q̇ of one method from start: for duration: seconds (constant "
+                          "task velocities), stopping at the first singularity; plots q̇(t) with the bounds")
 
     @model_validator(mode="after")
     def _exclusive(self) -> "RedundancyAsk":
