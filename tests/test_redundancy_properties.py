@@ -403,3 +403,33 @@ def test_motion_reaches_the_algorithmic_singularity_of_a_4r():
     p0 = np.array([sum(L4[k] * np.cos(c0[k]) for k in range(4)), sum(L4[k] * np.sin(c0[k]) for k in range(4))])
     assert np.allclose(p, p0 + np.array([0.5, 0]) * t, atol=1e-8)
     assert abs((qs[0] + qs[1]) - 0.9) < 1e-8 and abs(qs.sum() - 0.3) < 1e-8
+
+
+def test_reduced_gradient_properties():
+    """J q̇_RG = x; with x = 0, Ḣ = ∇Hᵀq̇ = step·‖∇'H‖² ≥ 0 (RG climbs H along the self-motion)."""
+    for _ in range(5):
+        J = jac7(rand_q(7))[:3]
+        g = RNG.normal(size=(7, 1))
+        x = RNG.normal(size=(3, 1))
+        a = rs.best_partition(F, J)
+        v, gr = rs.reduced_gradient(F, J, x, g, a, 0.7)
+        assert np.allclose(J @ v, x)
+        v0, gr0 = rs.reduced_gradient(F, J, np.zeros((3, 1)), g, a, 0.7)
+        assert np.isclose((g.T @ v0)[0, 0], 0.7 * (gr0.T @ gr0)[0, 0])
+
+
+def test_named_manipulability_gradient_by_finite_differences():
+    q = np.array([0.2, 0.9, -0.4, 0.3])
+    text = ASK_4R + f"""    at: {_at(q)}
+    velocity: [1, 0]
+    gradient: manipulability
+    methods: [null_space, reduced_gradient]
+"""
+    res = all_results(solve_problem(load_problem_text(text)))
+    g = np.array(sp.Matrix(res["grad_H_at"].value).evalf().tolist(), dtype=float).ravel()
+    H = lambda qq: np.sqrt(np.linalg.det(jac4(qq) @ jac4(qq).T))  # noqa: E731
+    fd = np.array([(H(q + e) - H(q - e)) / 2e-6 for e in np.eye(4) * 1e-6])
+    assert np.allclose(g, fd, atol=1e-6)
+    for name in ("qdot", "qdot_rg"):
+        v = np.array(sp.Matrix(res[name].value).evalf().tolist(), dtype=float).ravel()
+        assert np.allclose(jac4(q) @ v, [1, 0])

@@ -28,9 +28,11 @@ if TYPE_CHECKING:
 ExprT = Union[str, int, float, list[Any]]
 Scalar = Union[str, int, float]
 
-METHODS = ("pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled", "max_scaling")
+METHODS = ("pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled", "max_scaling",
+           "reduced_gradient")
 Method = Literal["pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled",
-                 "max_scaling"]
+                 "max_scaling", "reduced_gradient"]
+NAMED_H = ("manipulability", "joint_range")
 EXACT_SIZE = 48  # total entries of the stacked Jacobian up to which exact data are solved exactly
 
 
@@ -63,6 +65,8 @@ class Bounds(Strict):
 
 def wants_methods(o: Any) -> bool:
     """True when the ask uses the method path (any of its options given)."""
+    if isinstance(o.gradient, str) and o.gradient.strip() in NAMED_H:
+        return True
     return any(getattr(o, k) is not None for k in ("tasks", "methods", "mu", "bounds", "damping",
                                                     "joint_velocity", "acceleration", "direction", "motion")) or o.level == "acceleration"
 
@@ -114,7 +118,12 @@ class _MSpec:
             if getattr(o, key) is not None:
                 self.q0 = self._vec(key, self.n)
         self.H = None
-        if o.gradient is not None:
+        self.H_name = None
+        if isinstance(o.gradient, str) and o.gradient.strip() in NAMED_H:
+            self.H_name = o.gradient.strip()
+            self.H = self._named_H(self.H_name)
+            self.step = ctx.expr("step") if "step" in o.model_fields_set else sp.Integer(1)
+        elif o.gradient is not None:
             H = ctx.expr("gradient")
             if isinstance(H, list):
                 raise self.fail(("gradient",), "gradient: must be a scalar function H(q)")
@@ -152,6 +161,22 @@ class _MSpec:
                                           + ("accelerations" if self.acc else "velocities"))
         if len(self.tasks) > 1 and ("null_space" in self.methods or "weighted" in self.methods):
             pass
+
+    def _named_H(self, name: str) -> sp.Expr:
+        """manipulability √det(JJᵀ) of the stacked tasks; joint_range −1/(2n) Σ ((q_i − q̄_i)/(q_M,i − q_m,i))²."""
+        if name == "manipulability":
+            JE = sp.Matrix.vstack(*[t["J"] for t in self.tasks]).subs(self.problem.values)
+            return sp.sqrt((JE * JE.T).det())
+        rng = self.o.joint_ranges
+        if not rng:
+            raise self.fail(("gradient",), "gradient: joint_range needs joint_ranges: {q1: [min, max], ...}")
+        terms = []
+        for x in self.q:
+            if x.name not in rng:
+                raise self.fail(("joint_ranges",), f"joint_ranges: misses {x.name}")
+            lo, hi = (self.ctx.expr("joint_ranges", x.name, k) for k in (0, 1))
+            terms.append(((x - (lo + hi) / 2) / (hi - lo)) ** 2)
+        return -sp.Add(*terms) / (2 * len(self.q))
 
     def _default_methods(self) -> list[str]:
         out = ["pseudoinverse"] if len(self.tasks) == 1 else ["extended", "priority"]
@@ -342,6 +367,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         add("bounds_upper", sp.Matrix([b.subs(subs) for b in spec.hi]), "vector", label="\\text{upper bounds}")
     # preferred (null-space) vector
     q0 = None
+    grad = None
     if spec.q0 is not None or spec.H is not None or spec.Kd is not None:
         q0s = sp.zeros(n, 1)
         grad = None
@@ -349,9 +375,12 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             q0s += spec.q0.subs(subs)
         if spec.H is not None:
             from solver.math.simplify import tidy
-            gsym = sp.Matrix([tidy(sp.diff(spec.H, x)) for x in spec.q])
-            add("grad_H", gsym, "vector", label="\\nabla_q H(q)")
-            grad = gsym.subs(subs)
+            if spec.H_name == "manipulability":  # √det(JJᵀ): its symbolic gradient is long; evaluated at the state
+                grad = sp.Matrix([sp.diff(spec.H, x) for x in spec.q]).subs(subs).evalf(15)
+            else:
+                gsym = sp.Matrix([tidy(sp.diff(spec.H, x)) for x in spec.q])
+                add("grad_H", gsym, "vector", label="\\nabla_q H(q)")
+                grad = gsym.subs(subs)
             q0s += spec.step * grad
             add("grad_H_at", grad, "vector", label="\\nabla_q H")
         if spec.Kd is not None:
@@ -369,7 +398,8 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             JE, xE = la.vstack(Js), la.vstack(xs)
         q0 = la.mat(q0s.applyfunc(_exact) if exact else q0s)
         add(f"{v}0", la.sym(q0), "vector", label=f"{vl}_0")
-        sol.step("m_null", q0=la.sym(q0), grad=grad, H=spec.H, step=getattr(spec, "step", None), Kd=spec.Kd,
+        sol.step("m_null", q0=la.sym(q0), grad=grad, H=None if spec.H_name == "manipulability" else spec.H,
+                 H_name=spec.H_name, step=getattr(spec, "step", None), Kd=spec.Kd,
                  acc=acc, given=spec.q0)
 
     results: list[tuple[str, str, Any]] = []  # (method label, result name, vector)
@@ -416,6 +446,31 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             add("P", la.sym(P), "matrix", label="I - J^{\\#}J")
             sol.step("m_ns", P=la.sym(P), vps=la.sym(vps), vn=la.sym(P @ q0), v=la.sym(vec), acc=acc)
             record("", "", vec)
+        elif meth == "reduced_gradient":
+            if q0 is None or spec.H is None:
+                raise spec.fail(("methods",), "reduced_gradient needs gradient: (H(q), or a named H)")
+            gnum = grad if grad is not None else sp.Matrix([sp.diff(spec.H, x) for x in spec.q]).subs(subs)
+            gvec = la.mat(gnum.applyfunc(_exact) if exact else gnum.evalf(15))
+            if spec.o.partition:
+                names = [x.name for x in spec.q]
+                bad = [p for p in spec.o.partition if p not in names]
+                if bad or len(spec.o.partition) != JE.shape[0]:
+                    raise spec.fail(("partition",), f"partition: must name {JE.shape[0]} coordinates (the joints of "
+                                                    "the square J_a)")
+                a_idx = [names.index(p) for p in spec.o.partition]
+            else:
+                a_idx = rs.best_partition(la, JE)
+            Ja = JE[:, a_idx]
+            if la.rank(Ja) < JE.shape[0]:
+                raise spec.fail(("partition",), "J_a is singular here: choose other joints in partition:")
+            stp = spec.step.subs(problem.values) if isinstance(spec.step, sp.Basic) else spec.step
+            stp = _exact(sp.sympify(stp)) if exact else float(sp.N(stp))
+            vec, gr = rs.reduced_gradient(la, JE, xE, gvec, a_idx, stp)
+            add("grad_reduced", la.sym(gr), "vector", label="\\nabla' H")
+            sol.step("m_rg", a=[spec.q[i] for i in a_idx], b=[x for i, x in enumerate(spec.q) if i not in a_idx],
+                     Ja=la.sym(Ja), gr=la.sym(gr), v=la.sym(vec), step=la.scalar(stp), acc=acc,
+                     grad=la.sym(gvec))
+            record("rg", "RG", vec)
         elif meth == "extended":
             vec, JEe, JEp, rk = rs.extended(la, Js, xs)
             add("JE", la.sym(JEe), "matrix", label="J_E")

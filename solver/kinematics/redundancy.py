@@ -51,7 +51,9 @@ class RedundancyAsk(Strict):
         None, description="preferred joint velocity q̇₀, projected in the null space of J (quote the key, \"null\": "
                           "a bare null: is YAML's empty key; or write qdot0:)")
     qdot0: Optional[ExprT] = Field(None, description="the same as null: (preferred joint velocity q̇₀)")
-    gradient: Optional[Scalar] = Field(None, description="scalar H(q): q̇₀ = step · ∇H(q) projected in the null space")
+    gradient: Optional[Scalar] = Field(
+        None, description="scalar H(q): q̇₀ = step · ∇H(q) projected in the null space; or a named H "
+                          "(method path): manipulability (√det JJᵀ), joint_range (needs joint_ranges:)")
     step: Scalar = Field(1, description="step along ∇H (negative to decrease H)")
     symbolic: Optional[bool] = Field(
         None, description="give J_W^# and q̇_ps also as functions of q (1×n up to n = 4, 2×2, 2×3 Jacobians): "
@@ -83,6 +85,11 @@ class RedundancyAsk(Strict):
     rank_tol: float = Field(rs.DEFAULT_TOL, gt=0, lt=1e-2,
                             description="a singular value σ ≤ rank_tol · max(1, σ_max) counts as zero")
     sketch: bool = Field(True, description="draw the planar robot at the state (method path)")
+    joint_ranges: Optional[dict[str, tuple[Scalar, Scalar]]] = Field(
+        None, description="{q1: [min, max], ...} for gradient: joint_range")
+    partition: Optional[list[str]] = Field(
+        None, description="reduced_gradient: the m coordinates q_a whose columns J_a are inverted (default: the best "
+                          "conditioned choice)")
     motion: Optional[Motion] = Field(
         None, description="velocity level: integrate q̇ of one method from start: for duration: seconds (constant "
                           "task velocities), stopping at the first singularity; plots q̇(t) with the bounds")
