@@ -297,6 +297,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         add(tn("J_at", k), Ja, "matrix", label=f"J_{{{k}}}" if multi else "J")
         h = None
         if t["f"] is not None:
+            add(tn("f", k), t["f"], "vector", label=f"f_{{{k}}}(q)" if multi else "f(q)")
             add(tn("r_at", k), t["f"].subs(subs), "vector", label=f"r_{{{k}}}" if multi else "r")
         if acc:
             rdot = (t["J"] * spec.qd).subs(subs)
@@ -523,6 +524,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             k = rs.ps_scaling(la, vps, lo, hi)
             vec = vps / k
             add("ps_scaling", la.scalar(k), "number", label="k")
+            add("ps_fraction", la.scalar(1 / k), "number", label="1/k")
             sol.step("m_scaled", vps=la.sym(vps), k=la.scalar(k), v=la.sym(vec), x=la.sym(xE), xs=la.sym(xE / k),
                      lo=lo, hi=hi, acc=acc, needed=k != 1)
             record("ps_scaled", "PS,scaled", vec)
@@ -587,6 +589,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                 label=f"J_{{{t['name']}}}{vl} - " + ("(\\ddot r - \\dot J\\dot q)" if acc else "\\dot r"))
         nm = la.norm(vec)
         add(f"norm_{name}", nm, None, label=f"\\|{vl}_{{\\mathrm{{{label}}}}}\\|")
+        add(f"achieved_{name}", la.sym(JE @ vec), "vector", label=f"J{vl}_{{\\mathrm{{{label}}}}}")
         table.append({"label": label, "name": name + sfx, "v": la.sym(vec), "norm": nm,
                       "v_num": la.sym(vec).applyfunc(lambda x: x if x.is_Integer else x.evalf(5)),
                       "norm_num": sp.Float(float(nm), 6), "errs": [sp.Float(float(e), 6) for e in errs]})
