@@ -433,3 +433,25 @@ def test_named_manipulability_gradient_by_finite_differences():
     for name in ("qdot", "qdot_rg"):
         v = np.array(sp.Matrix(res[name].value).evalf().tolist(), dtype=float).ravel()
         assert np.allclose(jac4(q) @ v, [1, 0])
+
+
+def test_acceleration_level_motion():
+    """Integrated at acceleration level with q̈ = J^#(r̈ − J̇q̇): the task velocity grows as r̈ t; with SNS every
+    joint acceleration stays within its bounds along the motion."""
+    base = ASK_4R + """    level: acceleration
+    at: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}
+    joint_velocity: [0.4, -0.7, 0.5, 0.2]
+    acceleration: [0.3, -0.8]
+    bounds: [1.5, 1.5, 1.5, 1.5]
+"""
+    ps = all_results(solve_problem(load_problem_text(base + """    methods: [pseudoinverse]
+    motion: {start: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}, duration: 0.5, method: pseudoinverse, steps: 100}
+""")))
+    q = np.array(ps["q_end"].value.evalf().tolist(), dtype=float).ravel()
+    qd = np.array(ps["qdot_end"].value.evalf().tolist(), dtype=float).ravel()
+    v0 = jac4(np.array([0.3, 0.9, -0.6, 1.1])) @ np.array([0.4, -0.7, 0.5, 0.2])
+    assert np.allclose(jac4(q) @ qd, v0 + np.array([0.3, -0.8]) * 0.5, atol=1e-6)
+    sns_ = all_results(solve_problem(load_problem_text(base + """    methods: [sns]
+    motion: {start: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}, duration: 0.5, method: sns, steps: 100}
+""")))
+    assert bool(sns_["motion_within_bounds"].value)

@@ -51,8 +51,10 @@ class Motion(Strict):
 
     start: dict[str, Scalar] = Field(..., description="q at t = 0 {q1: ..., ...}")
     duration: float = Field(..., gt=0, le=1e4, description="seconds to integrate (stops earlier at a singularity)")
-    method: Optional[Literal["pseudoinverse", "weighted", "dls", "extended", "priority"]] = Field(
-        None, description="the method commanding q̇ (default: the first of methods: that applies)")
+    method: Optional[Literal["pseudoinverse", "weighted", "dls", "extended", "priority", "null_space", "sns",
+                             "scaled"]] = Field(
+        None, description="the method commanding q̇ (q̈ at acceleration level; null_space, sns and scaled only "
+                          "there); default: the first of methods: that applies")
     steps: int = Field(400, ge=10, le=20000, description="integration steps (RK4; smaller near a singularity)")
     sigma_min: float = Field(1e-4, gt=0, lt=1, description="stop when the smallest singular value of the "
                                                            "(stacked or projected) Jacobian falls below this")
@@ -611,7 +613,9 @@ def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | No
     monitored smallest singular value falls below sigma_min (the first singularity met)."""
     mo = spec.o.motion
     if spec.acc:
-        raise spec.fail(("motion",), "motion: is at velocity level (level: velocity)")
+        return _motion_acc(sol, problem, spec, add, tasks)
+    if mo.method in ("null_space", "sns", "scaled"):
+        raise spec.fail(("motion", "method"), f"{mo.method} along a motion is available at acceleration level")
     meth = mo.method or next((m for m in spec.methods if m in ("pseudoinverse", "weighted", "dls", "extended",
                                                                 "priority")), "pseudoinverse")
     if meth == "priority" and len(tasks) < 2:
@@ -733,9 +737,7 @@ def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | No
 
     def sample() -> list[Panel]:
         curves = [Curve(f"$\\dot q_{{{i + 1}}}$", T, [float(x) for x in V[:, i]]) for i in range(V.shape[1])]
-        hl = []
-        if hi is not None:
-            hl = sorted({(h, "bound") for h in hi} | {(lv, "bound") for lv in lo})
+        hl = _bound_lines(lo, hi)
         return [Panel("$t$ [s]", "$\\dot q$", curves, hlines=hl),
                 Panel("$t$ [s]", "$\\sigma_{min}$", [Curve("$\\sigma_{min}$", T, S)])]
 
@@ -748,6 +750,115 @@ def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | No
         if pos is not None else None
     return {"start": dict(zip(spec.q, [sp.Float(x, 6) for x in start])),
             "end": dict(zip(spec.q, list(qe))), "path": pts, "reached": reached}
+
+
+def _motion_acc(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | None:  # type: ignore[no-untyped-def]
+    """Acceleration level: integrate (q, q̇) with q̈ = method(q, q̇) applied to x = r̈_d − J̇(q)q̇ (constant r̈_d), RK4;
+    stop at a singularity (σ_min below sigma_min). The report plots q̈(t) (with the bounds) and q̇(t)."""
+    mo = spec.o.motion
+    meth = mo.method or next((m for m in spec.methods if m in ("pseudoinverse", "weighted", "dls", "extended",
+                                                                "priority", "null_space", "sns", "scaled")),
+                             "pseudoinverse")
+    if meth == "priority" and len(tasks) < 2:
+        raise spec.fail(("motion", "method"), "priority needs two or more tasks")
+    if meth in ("sns", "scaled") and spec.lo is None:
+        raise spec.fail(("motion", "method"), f"{meth} needs bounds:")
+    for x in spec.q:
+        if x.name not in mo.start:
+            raise spec.fail(("motion", "start"), f"start: must give every coordinate; missing {x.name}")
+    n = len(spec.q)
+    q_start = np.array([float(sp.N(spec.ctx.expr("motion", "start", x.name).subs(problem.values))) for x in spec.q])
+    qd_start = np.array([float(sp.N(v.subs(problem.values))) for v in spec.qd])
+    la = rs.LA(False, spec.o.rank_tol)
+    dq = sp.symbols(f"_dq1:{n + 1}")
+    Jf, hf = [], []
+    for t in tasks:
+        J = t["J"].subs(problem.values)
+        Jdot = sum((J.diff(x) * dq[i] for i, x in enumerate(spec.q)), sp.zeros(*J.shape))
+        Jf.append(sp.lambdify([spec.q], J, "numpy"))
+        hf.append(sp.lambdify([spec.q, dq], Jdot * sp.Matrix(dq), "numpy"))
+    rdd = [np.array(t["r"].subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1) for t in tasks]
+    lo = [float(sp.N(b.subs(problem.values))) for b in spec.lo] if spec.lo is not None else None
+    hi = [float(sp.N(b.subs(problem.values))) for b in spec.hi] if spec.hi is not None else None
+    Kd = np.array(spec.Kd.subs(problem.values).evalf().tolist(), dtype=float) if spec.Kd is not None else None
+    mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if meth == "dls" else None
+    Wf = sp.lambdify([spec.q], spec.W.subs(problem.values), "numpy") if meth == "weighted" else None
+    q0c = np.array(spec.q0.subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1) \
+        if spec.q0 is not None and not spec.q0.free_symbols else None
+
+    def acc(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, float]:
+        Js = [np.atleast_2d(np.array(f(list(q)), dtype=float)) for f in Jf]
+        xs = [r - np.array(h(list(q), list(qd)), dtype=float).reshape(-1, 1) for r, h in zip(rdd, hf)]
+        JE, xE = np.vstack(Js), np.vstack(xs)
+        sv = np.linalg.svd(JE, compute_uv=False)
+        sig = float(sv[min(JE.shape) - 1])
+        if meth == "priority":
+            a, levels = rs.task_priority(la, Js, xs)
+            sig = min([float(np.linalg.svd(Js[0], compute_uv=False)[-1])] + [lv.smin_JP for lv in levels[1:]])
+        elif meth == "dls":
+            a = rs.dls(la, JE, mu) @ xE
+        elif meth == "weighted":
+            a = rs.weighted_pinv(la, JE, np.array(Wf(list(q)), dtype=float)) @ xE
+        elif meth == "sns":
+            a = rs.sns(la, JE, xE, lo, hi).qdot
+        else:
+            Jp = la.pinv(JE)
+            a = Jp @ xE
+            if meth == "scaled":
+                a = a / rs.ps_scaling(la, a, lo, hi)
+            elif meth == "null_space":
+                v0 = np.zeros((n, 1))
+                if Kd is not None:
+                    v0 = v0 - Kd @ qd.reshape(-1, 1)
+                if q0c is not None:
+                    v0 = v0 + q0c
+                a = a + (np.eye(n) - Jp @ JE) @ v0
+        return a.ravel(), sig
+
+    q, qd = q_start.copy(), qd_start.copy()
+    t, dt = 0.0, mo.duration / mo.steps
+    ts, qs, qds, qdds, sigs = [], [], [], [], []
+    reached = False
+    while t < mo.duration - 1e-12:
+        a, sig = acc(q, qd)
+        ts.append(t), qs.append(q.copy()), qds.append(qd.copy()), qdds.append(a), sigs.append(sig)
+        if sig < mo.sigma_min:
+            reached = True
+            break
+        h = min(dt, mo.duration - t)
+        k1q, k1v = qd, a
+        k2q, k2v = qd + h / 2 * k1v, acc(q + h / 2 * k1q, qd + h / 2 * k1v)[0]
+        k3q, k3v = qd + h / 2 * k2v, acc(q + h / 2 * k2q, qd + h / 2 * k2v)[0]
+        k4q, k4v = qd + h * k3v, acc(q + h * k3q, qd + h * k3v)[0]
+        q = q + h / 6 * (k1q + 2 * k2q + 2 * k3q + k4q)
+        qd = qd + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        t += h
+    if not reached:
+        a, sig = acc(q, qd)
+        ts.append(t), qs.append(q.copy()), qds.append(qd.copy()), qdds.append(a), sigs.append(sig)
+    qe = sp.Matrix([sp.Float(x, 15) if abs(x) > 1e-12 else sp.Integer(0) for x in qs[-1]])
+    add("q_end", qe, "vector", label="q(t_{end})")
+    add("qdot_end", sp.Matrix([sp.Float(x, 15) for x in qds[-1]]), "vector", label="\\dot q(t_{end})")
+    add("t_end", sp.Float(ts[-1], 15), "number", label="t_{end}")
+    add("singularity_reached", bool(reached), "bool", label="\\text{singularity reached}")
+    QDD = np.array(qdds)
+    if hi is not None:
+        within = bool(np.all(QDD <= np.array(hi) + 1e-7) and np.all(QDD >= np.array(lo) - 1e-7))
+        add("motion_within_bounds", within, "bool", label="\\text{within bounds along the motion}")
+    sol.step("m_motion", method=meth, start=sp.Matrix(q_start), duration=mo.duration, reached=reached,
+             t_end=sp.Float(ts[-1], 6), q_end=qe.evalf(6), sig=sp.Float(sigs[-1], 3), sigma_min=mo.sigma_min,
+             p_end=None, refined=False, acc=True)
+    T, QD = list(ts), np.array(qds)
+
+    def sample() -> list[Panel]:
+        ca = [Curve(f"$\\ddot q_{{{i + 1}}}$", T, [float(x) for x in QDD[:, i]]) for i in range(n)]
+        cv = [Curve(f"$\\dot q_{{{i + 1}}}$", T, [float(x) for x in QD[:, i]]) for i in range(n)]
+        return [Panel("$t$ [s]", "$\\ddot q$", ca, hlines=_bound_lines(lo, hi)), Panel("$t$ [s]", "$\\dot q$", cv)]
+
+    sol.figures.append(Figure("motion" + spec.o.suffix, f"Joint accelerations (with the bounds, dashed) and "
+                              f"velocities along the motion ({meth}).", sample))
+    return {"start": dict(zip(spec.q, [sp.Float(x, 6) for x in q_start])), "end": dict(zip(spec.q, list(qe))),
+            "path": None, "reached": reached}
 
 
 def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs: dict, acc: bool,  # type: ignore[no-untyped-def]
@@ -797,6 +908,14 @@ def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs
 
         sol.figures.append(Figure("bounds" + spec.o.suffix, "Joint " + ("accelerations" if acc else "velocities")
                                   + " of each method against their bounds (dashed).", sample))
+
+
+def _bound_lines(lo: list | None, hi: list | None) -> list[tuple[float, str]]:
+    """Horizontal lines at the distinct bounds, one legend entry ("bounds") for all."""
+    if hi is None or lo is None:
+        return []
+    vals = sorted(set(round(float(v), 12) for v in list(hi) + list(lo)))
+    return [(v, "bounds" if k == 0 else "") for k, v in enumerate(vals)]
 
 
 def _inf(x: Any) -> sp.Expr:
