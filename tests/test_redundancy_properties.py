@@ -455,3 +455,35 @@ def test_acceleration_level_motion():
     motion: {start: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}, duration: 0.5, method: sns, steps: 100}
 """)))
     assert bool(sns_["motion_within_bounds"].value)
+
+
+def test_variable_damping_only_near_singularity():
+    q_far, q_near = np.array([0.3, 0.9, -0.6, 1.1]), np.array([0.3, 1e-3, 2e-3, -1e-3])
+    for q, damped in ((q_far, False), (q_near, True)):
+        res = all_results(solve_problem(load_problem_text(ASK_4R + f"""    at: {_at(q)}
+    velocity: [0.3, -0.2]
+    mu: {{epsilon: 0.1, max: 0.2}}
+    methods: [pseudoinverse, dls]
+""")))
+        mu = float(res["mu_dls"].value)
+        smin = np.linalg.svd(jac4(q), compute_uv=False)[-1]
+        assert (mu > 0) == damped == (smin < 0.1)
+        assert np.isclose(mu ** 2, 0.04 * (1 - (smin / 0.1) ** 2) if damped else 0.0)
+        v = np.array(res["qdot_dls"].value.evalf().tolist(), dtype=float).ravel()
+        ref = jac4(q).T @ np.linalg.solve(jac4(q) @ jac4(q).T + mu ** 2 * np.eye(2), [0.3, -0.2])
+        assert np.allclose(v, ref, atol=1e-9)
+
+
+def test_variable_damping_exact_data():
+    res = all_results(solve_problem(load_problem_text(ASK_4R.replace("l2: 0.7", "l2: 1").replace("l3: 0.5", "l3: 1")
+                                                      .replace("l4: 0.3", "l4: 1") + """    at: {q1: 0, q2: 0, q3: 0, q4: 0}
+    velocity: [0, 1]
+    mu: {epsilon: 0.1, max: 0.5}
+    methods: [pseudoinverse, dls]
+""")))
+    assert float(res["mu_dls"].value) == 0.5  # stretched: σ_min = 0, full damping
+    v = res["qdot_dls"].value
+    assert all(x.is_Rational for x in v)
+    J = np.array([[0, 0, 0, 0], [4, 3, 2, 1]], dtype=float)
+    assert np.allclose(np.array(v.evalf().tolist(), dtype=float).ravel(),
+                       J.T @ np.linalg.solve(J @ J.T + 0.25 * np.eye(2), [0, 1]))

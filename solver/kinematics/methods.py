@@ -60,6 +60,13 @@ class Motion(Strict):
                                                            "(stacked or projected) Jacobian falls below this")
 
 
+class VariableDamping(Strict):
+    """μ chosen from the smallest singular value σ of J: μ² = μ_max²(1 − (σ/ε)²) for σ < ε, else 0."""
+
+    epsilon: float = Field(..., gt=0, description="size of the singular region (on σ_min)")
+    max: float = Field(..., gt=0, description="largest damping μ_max (at σ = 0)")
+
+
 class Bounds(Strict):
     lower: ExprT = Field(..., description="lower bounds (n values)")
     upper: ExprT = Field(..., description="upper bounds (n values)")
@@ -103,9 +110,10 @@ class _MSpec:
         if "weighted" in self.methods and self.W is None:
             raise self.fail(("methods",), "the weighted method needs weight:")
         self.mu = None
-        if o.mu is not None:
+        self.mu_auto = o.mu if isinstance(o.mu, VariableDamping) else None
+        if o.mu is not None and self.mu_auto is None:
             self.mu = ctx.expr("mu")
-        if "dls" in self.methods and self.mu is None:
+        if "dls" in self.methods and self.mu is None and self.mu_auto is None:
             raise self.fail(("methods",), "the dls method needs mu: (the damping factor μ)")
         self.Kd = None
         if o.damping is not None:
@@ -431,12 +439,18 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             sol.step("m_weighted", W=la.sym(W), Jp=la.sym(JWp), v=la.sym(vec), acc=acc)
             record("w", "W", vec)
         elif meth == "dls":
-            mu = spec.mu.subs(subs) if isinstance(spec.mu, sp.Basic) else spec.mu
-            mu = sp.nsimplify(mu) if exact else float(mu)
+            if spec.mu_auto is not None:
+                mu = rs.variable_damping(la, JE, spec.mu_auto.epsilon, spec.mu_auto.max)
+                if exact:  # σ_min is irrational in general: μ to 12 decimals, the rest stays exact
+                    mu = sp.Rational(str(round(mu, 12)))
+                add("mu_dls", la.scalar(mu), "number", label="\\mu")
+            else:
+                mu = spec.mu.subs(subs) if isinstance(spec.mu, sp.Basic) else spec.mu
+                mu = sp.nsimplify(mu) if exact else float(mu)
             Jd = rs.dls(la, JE, mu)
             vec = Jd @ xE
             add("J_dls", la.sym(Jd), "matrix", label="J_{DLS}")
-            sol.step("m_dls", mu=la.scalar(mu), J=la.sym(JE), Jd=la.sym(Jd), v=la.sym(vec), acc=acc,
+            sol.step("m_dls", mu=la.scalar(mu), auto=spec.mu_auto, J=la.sym(JE), Jd=la.sym(Jd), v=la.sym(vec), acc=acc,
                      JJ=la.sym(JE @ JE.T + mu ** 2 * la.eye(JE.shape[0])))
             record("dls", "DLS", vec)
         elif meth == "null_space":
@@ -636,7 +650,7 @@ def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | No
     W = None
     if meth == "weighted":
         Wf = sp.lambdify([spec.q], spec.W.subs(problem.values), "numpy")
-    mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if meth == "dls" else None
+    mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if (meth == "dls" and spec.mu is not None) else None
 
     def jac(q: np.ndarray) -> list[np.ndarray]:
         return [np.atleast_2d(np.array(f(list(q)), dtype=float)) for f in Jf]
@@ -781,7 +795,7 @@ def _motion_acc(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict 
     lo = [float(sp.N(b.subs(problem.values))) for b in spec.lo] if spec.lo is not None else None
     hi = [float(sp.N(b.subs(problem.values))) for b in spec.hi] if spec.hi is not None else None
     Kd = np.array(spec.Kd.subs(problem.values).evalf().tolist(), dtype=float) if spec.Kd is not None else None
-    mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if meth == "dls" else None
+    mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if (meth == "dls" and spec.mu is not None) else None
     Wf = sp.lambdify([spec.q], spec.W.subs(problem.values), "numpy") if meth == "weighted" else None
     q0c = np.array(spec.q0.subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1) \
         if spec.q0 is not None and not spec.q0.free_symbols else None
@@ -796,7 +810,8 @@ def _motion_acc(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict 
             a, levels = rs.task_priority(la, Js, xs)
             sig = min([float(np.linalg.svd(Js[0], compute_uv=False)[-1])] + [lv.smin_JP for lv in levels[1:]])
         elif meth == "dls":
-            a = rs.dls(la, JE, mu) @ xE
+            muv = mu if mu is not None else rs.variable_damping(la, JE, spec.mu_auto.epsilon, spec.mu_auto.max)
+            a = rs.dls(la, JE, muv) @ xE
         elif meth == "weighted":
             a = rs.weighted_pinv(la, JE, np.array(Wf(list(q)), dtype=float)) @ xE
         elif meth == "sns":

@@ -22,7 +22,8 @@ import sympy as sp
 from pydantic import Field, model_validator
 
 from solver.kinematics import resolution as rs
-from solver.kinematics.methods import Bounds, Method, Motion, TaskItem, solve_methods, wants_methods
+from solver.kinematics.methods import (Bounds, Method, Motion, TaskItem, VariableDamping, solve_methods,
+                                       wants_methods)
 from solver.math.simplify import tidy
 from solver.registry import ask_kind
 from solver.results import Solution
@@ -72,7 +73,9 @@ class RedundancyAsk(Strict):
         None, description="methods compared in one table: pseudoinverse, weighted (weight:), dls (mu:), "
                           "null_space (null:/gradient:/damping:), priority and extended (tasks:), scaled and sns "
                           "(bounds:); default: those the given options call for")
-    mu: Optional[Scalar] = Field(None, description="damping factor μ of damped least squares")
+    mu: Optional[Union[VariableDamping, Scalar]] = Field(
+        None, description="damping factor μ of damped least squares, or {epsilon, max}: μ chosen from the smallest "
+                          "singular value σ, μ² = max²(1 − (σ/epsilon)²) for σ < epsilon, 0 elsewhere")
     direction: Optional[ExprT] = Field(
         None, description="task direction d for max_scaling: the task λ d with the largest λ ≥ 0 whose minimum-norm "
                           "command is within bounds:; `stop` for d = −J q̇ (decelerate along the current velocity)")

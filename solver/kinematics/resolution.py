@@ -129,9 +129,20 @@ def weighted_pinv(la: LA, J: Any, W: Any | None = None) -> Any:
 
 
 def dls(la: LA, J: Any, mu: Any) -> Any:
-    """J_DLS = Jᵀ(JJᵀ + μ²I)⁻¹ (μ ≠ 0), the minimizer of ½‖Jq̇ − ṙ‖² + ½μ²‖q̇‖² applied to ṙ."""
+    """J_DLS = Jᵀ(JJᵀ + μ²I)⁻¹ (μ ≠ 0), the minimizer of ½‖Jq̇ − ṙ‖² + ½μ²‖q̇‖² applied to ṙ; μ = 0: J^#."""
     m = la.shape(J)[0]
+    if mu == 0:
+        return la.pinv(J)
     return J.T @ la.inv(J @ J.T + mu ** 2 * la.eye(m))
+
+
+def variable_damping(la: LA, J: Any, epsilon: float, mu_max: float) -> float:
+    """The damping chosen from the smallest singular value σ of J: μ² = μ_max²(1 − (σ/ε)²) when σ < ε, 0 otherwise
+    (DLS only near a singularity, the pseudoinverse elsewhere)."""
+    s = la.svals(J)
+    m = la.shape(J)[0]
+    smin = float(s[m - 1]) if s.size >= m else 0.0
+    return float(np.sqrt(mu_max ** 2 * (1 - (smin / epsilon) ** 2))) if smin < epsilon else 0.0
 
 
 def projector(la: LA, J: Any, Jp: Any) -> Any:
