@@ -258,7 +258,7 @@ def test_symbolic_path_skipped_for_large_tasks():
     sols = solve_problem(load_problem_text(text))
     res = all_results(sols)
     assert "J" in res and "J_pinv" not in res and "J_pinv_sym" not in res
-    assert "not expanded symbolically" in render(load_problem_text(text), sols, "md")
+    assert "not given symbolically" in render(load_problem_text(text), sols, "md")
 
 
 # ------------------------------------------------------------------------------------------------ suffix, errors

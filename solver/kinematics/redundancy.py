@@ -21,6 +21,8 @@ import numpy as np
 import sympy as sp
 from pydantic import Field, model_validator
 
+from solver.kinematics import resolution as rs
+from solver.kinematics.methods import Bounds, Method, TaskItem, solve_methods, wants_methods
 from solver.math.simplify import tidy
 from solver.registry import ask_kind
 from solver.results import Solution
@@ -56,11 +58,44 @@ class RedundancyAsk(Strict):
                           "default: without at:, or when J is short; false: never")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
                         description="appended to every result name (several redundancy asks in one problem)")
+    # ---- the method path (any of these selects it; see solver/kinematics/methods.py)
+    tasks: Optional[list[TaskItem]] = Field(
+        None, description="two or more tasks in priority order [{name, task|jacobian, velocity|acceleration}], "
+                          "instead of task:/jacobian:")
+    level: Literal["velocity", "acceleration"] = Field(
+        "velocity", description="velocity: q̇ from ṙ; acceleration: q̈ from r̈ − J̇q̇ (needs joint_velocity:)")
+    joint_velocity: Optional[ExprT] = Field(None, description="q̇ at the state (acceleration level)")
+    acceleration: Optional[ExprT] = Field(None, description="desired task acceleration r̈ (acceleration level)")
+    methods: Optional[list[Method]] = Field(
+        None, description="methods compared in one table: pseudoinverse, weighted (weight:), dls (mu:), "
+                          "null_space (null:/gradient:/damping:), priority and extended (tasks:), scaled and sns "
+                          "(bounds:); default: those the given options call for")
+    mu: Optional[Scalar] = Field(None, description="damping factor μ of damped least squares")
+    direction: Optional[ExprT] = Field(
+        None, description="task direction d for max_scaling: the task λ d with the largest λ ≥ 0 whose minimum-norm "
+                          "command is within bounds:; `stop` for d = −J q̇ (decelerate along the current velocity)")
+    bounds: Optional[Union[Bounds, ExprT]] = Field(
+        None, description="joint bounds on q̇ (velocity level) or q̈ (acceleration level): n values (±) or "
+                          "{lower: [...], upper: [...]}")
+    damping: Optional[ExprT] = Field(
+        None, description="K_d (scalar, n diagonal entries or n x n): q̈₀ = −K_d q̇ is projected in the null "
+                          "space (acceleration level; added to null:/gradient: if given)")
+    rank_tol: float = Field(rs.DEFAULT_TOL, gt=0, lt=1e-2,
+                            description="a singular value σ ≤ rank_tol · max(1, σ_max) counts as zero")
+    sketch: bool = Field(True, description="draw the planar robot at the state (method path)")
 
     @model_validator(mode="after")
     def _exclusive(self) -> "RedundancyAsk":
+        if self.tasks is not None:
+            if self.task is not None or self.jacobian is not None:
+                raise ValueError("give either tasks: or task:/jacobian:")
+            if len(self.tasks) < 1:
+                raise ValueError("tasks: needs at least one task")
+            return self
         if (self.task is None) == (self.jacobian is None):
             raise ValueError("give exactly one of task: (r = f(q)) or jacobian: (J(q))")
+        if wants_methods(self):
+            return self
         given = [k for k in ("null", "qdot0", "gradient") if getattr(self, k) is not None]
         if len(given) > 1:
             raise ValueError(f"give only one of null:/qdot0: (a joint velocity) or gradient: (H(q)), "
@@ -72,6 +107,9 @@ class RedundancyAsk(Strict):
 
 # ------------------------------------------------------------------------------------------------ numerics
 SMALL_EXACT = 24  # m*n up to which numeric configurations are computed exactly
+MAX_RADICALS = 2  # distinct square roots up to which exact numbers stay exact (none nested)
+EXACT_SECONDS = 4.0  # CPU budget of an exact or symbolic evaluation before going numeric / giving up
+SYMBOLIC_OPS_BIG = 400  # operations in J and W up to which a larger-than-small symbolic J_W^# is attempted
 SYMBOLIC_OPS = 40  # with a configuration, J_pinv_sym & co. are also given when J and W have at most this many ops
 _TOL = 1e-9
 
@@ -426,12 +464,56 @@ class _Spec:
         return state
 
 
+def _radicals(*mats: sp.Matrix) -> tuple[set, bool]:
+    """The distinct square roots (and other radicals) of numbers in the entries, and whether any is nested."""
+    rads: set = set()
+    nested = False
+    for M in mats:
+        for x in M:
+            for p in x.atoms(sp.Pow):
+                if p.exp.is_Rational and not p.exp.is_Integer:
+                    rads.add(p.base)
+                    if not p.base.is_Rational:
+                        nested = True
+    return rads, nested
+
+
 def _mode(*mats: sp.Matrix | None) -> str:
     ms = [M for M in mats if M is not None]
     if any(x.free_symbols for M in ms for x in M):
         return "symbolic"
     big = any(M.shape[0] * M.shape[1] > SMALL_EXACT for M in ms)
-    return "exact" if _exact_ok(*ms) and not big else "float"
+    if not _exact_ok(*ms) or big:
+        return "float"
+    rads, nested = _radicals(*ms)
+    return "float" if nested or len(rads) > MAX_RADICALS else "exact"
+
+
+def exact_reason(*mats: sp.Matrix | None) -> str | None:
+    """Why exact numbers are computed in floating point (None when they are not)."""
+    ms = [M for M in mats if M is not None]
+    if not ms or any(x.free_symbols for M in ms for x in M) or not _exact_ok(*ms):
+        return None
+    if any(M.shape[0] * M.shape[1] > SMALL_EXACT for M in ms):
+        return f"matrices with more than {SMALL_EXACT} entries"
+    rads, nested = _radicals(*ms)
+    if nested:
+        return "nested radicals (e.g. sin(2π/5)) make exact simplification slow"
+    if len(rads) > MAX_RADICALS:
+        return f"{len(rads)} distinct radicals ({', '.join('√' + str(b) for b in sorted(rads, key=str))})"
+    return None
+
+
+def _subbed(spec: _Spec, subs: dict) -> list:
+    """J, W, ṙ and q̇₀ (or ∇H) with ``subs`` applied: the data that decide the arithmetic."""
+    out = [spec.J.subs(subs)]
+    out.append(spec.W.subs(subs) if spec.W is not None else None)
+    out.append(spec.rdot.subs(subs) if spec.rdot is not None else None)
+    if spec.H is not None:
+        out.append(sp.Matrix([sp.diff(spec.H, x) for x in spec.q]).subs(subs))
+    elif spec.q0 is not None:
+        out.append(spec.q0.subs(subs))
+    return out
 
 
 def _check_pd(W: sp.Matrix, spec: _Spec) -> None:
@@ -443,7 +525,8 @@ def _check_pd(W: sp.Matrix, spec: _Spec) -> None:
                                      f"(smallest eigenvalue {ev.min():.4g})", "use a symmetric W > 0")
 
 
-def _evaluate(spec: _Spec, subs: dict, mode_hint: str | None = None, brief: bool = False) -> dict[str, Any]:
+def _evaluate(spec: _Spec, subs: dict, mode_hint: str | None = None, brief: bool = False,
+              allow_big: bool = False) -> dict[str, Any]:
     """Every configuration-level quantity, with ``subs`` applied (may be empty: symbolic); ``brief``: only J_W^#,
     its determinant and q̇_ps."""
     J = spec.J.subs(subs) if subs else spec.J
@@ -462,7 +545,12 @@ def _evaluate(spec: _Spec, subs: dict, mode_hint: str | None = None, brief: bool
     mode = mode_hint or _mode(J, W, rdot, q0)
     ar = Arith(mode)
     if mode == "symbolic" and not _small_symbolic(spec.m, spec.n):
-        return {"mode": mode, "J": ar.clean(J), "too_big": True, "W": W, "rdot": rdot, "grad": grad}
+        ops = sp.count_ops(J) + (sp.count_ops(W) if W is not None else 0)
+        if not allow_big or ops > SYMBOLIC_OPS_BIG or spec.m > 3:
+            why = (f"J and W have {ops} operations (limit {SYMBOLIC_OPS_BIG})" if ops > SYMBOLIC_OPS_BIG
+                   else f"a {spec.m}-row task" if spec.m > 3 else "q is left symbolic (no at:)")
+            return {"mode": mode, "J": ar.clean(J), "too_big": True, "W": W, "rdot": rdot, "grad": grad,
+                    "reason": why}
     if W is not None:
         _check_pd(W, spec)
     J = ar.clean(J)
@@ -538,6 +626,11 @@ def solve_redundancy(problem, options: RedundancyAsk, ctx) -> Solution:  # type:
     """Results (each with the ask's suffix): J, J_at, grad_H, grad_H_at, J_pinv_sym, det_JJt_sym, qdot_ps_sym,
     JJt, det_JJt, J_pinv, rank, singular, qdot_ps, qdot0, qdot_null, qdot, task_error, norm2_ps, cost_ps, qdot_mn,
     cost_mn, norm2_mn."""
+    if wants_methods(options):
+        sol = Solution("redundancy", title=options.title or (
+            "Joint acceleration for redundant tasks" if options.level == "acceleration"
+            else "Joint velocity for redundant tasks"))
+        return solve_methods(problem, options, ctx, sol)
     spec = _Spec(problem, options, ctx)
     sfx = options.suffix
     sol = Solution("redundancy", title=options.title or "Joint velocity for a redundant task")
@@ -583,8 +676,23 @@ def solve_redundancy(problem, options: RedundancyAsk, ctx) -> Solution:  # type:
     if spec.state is None:
         r = sym if sym is not None else _evaluate(spec, {})
     else:
+        from solver.math.budget import BudgetExceeded, cpu_budget
         subs = {**problem.values, **spec.state}
-        r = _evaluate(spec, subs)
+        data = _subbed(spec, subs)
+        reason = None
+        try:
+            with cpu_budget(EXACT_SECONDS):
+                r = _evaluate(spec, subs, allow_big=True)
+        except BudgetExceeded:
+            reason = f"the exact (or symbolic) computation did not finish within {EXACT_SECONDS:g} s of CPU time"
+            if any(x.free_symbols for M in data if M is not None for x in M):
+                r = {"mode": "symbolic", "J": spec.J.subs(subs), "too_big": True, "W": None, "rdot": None,
+                     "grad": None, "reason": reason + " (give values to the parameters for the numeric solution)"}
+            else:
+                r = _evaluate(spec, subs, "float")
+        why = reason or (exact_reason(*data) if r["mode"] == "float" else None)
+        if why and not r.get("too_big"):
+            sol.step("numeric", reason=why)
         add("J_at", r["J"], "matrix", label="J\\big|_{*}")
         if r.get("grad") is not None:
             add("grad_H_at", r["grad"], "vector", label="\\nabla_q H\\big|_{*}")
@@ -594,7 +702,7 @@ def solve_redundancy(problem, options: RedundancyAsk, ctx) -> Solution:  # type:
         sol.step("config", state=spec.state, values={k: v for k, v in problem.values.items() if k in used},
                  r=r, J_num=_numeric_display(r["J"]), W_num=_numeric_display(r.get("W")))
     if r.get("too_big"):
-        sol.step("too_big", m=m, n=n)
+        sol.step("too_big", m=m, n=n, reason=r.get("reason"), at=spec.state is not None)
         return sol
     if "rank" in r:
         add("rank", sp.Integer(r["rank"]), "number", label="\\operatorname{rank} J")

@@ -1,0 +1,630 @@
+"""The method path of the ``redundancy`` ask: several tasks, velocity or acceleration level, and the methods
+pseudoinverse, weighted pseudoinverse, damped least squares, null-space term, task priority, extended Jacobian and
+SNS at one state, compared in one table (math in :mod:`solver.kinematics.resolution`).
+
+At acceleration level, with q̇ given at the state, each task r_k = f_k(q) has r̈_k = J_k q̈ + J̇_k q̇, and every method
+is applied to the vector r̈_k − J̇_k q̇; the preferred acceleration is q̈₀ (``null:``), −K_d q̇ (``damping:``), or
+their sum.
+"""
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any, Literal, Optional, Union
+
+import numpy as np
+import sympy as sp
+from pydantic import Field
+
+from solver.kinematics import resolution as rs
+from solver.registry import PropertyVerdict, property_check
+from solver.results import Curve, Figure, Panel, Solution
+from solver.spec.errors import UserError
+from solver.spec.expr import shape_of
+from solver.spec.models import Strict
+
+if TYPE_CHECKING:
+    pass
+
+ExprT = Union[str, int, float, list[Any]]
+Scalar = Union[str, int, float]
+
+METHODS = ("pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled", "max_scaling")
+Method = Literal["pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled",
+                 "max_scaling"]
+EXACT_SIZE = 48  # total entries of the stacked Jacobian up to which exact data are solved exactly
+
+
+class TaskItem(Strict):
+    """One task of a multi-task problem (the list order is the priority order)."""
+
+    name: str = Field(..., pattern=r"^[A-Za-z][A-Za-z0-9]*$", description="short name, used in result names")
+    task: Optional[ExprT] = Field(None, description="task function r = f(q) (vector or scalar)")
+    jacobian: Optional[ExprT] = Field(None, description="task Jacobian J(q), instead of task:")
+    velocity: Optional[ExprT] = Field(None, description="desired task velocity ṙ (velocity level)")
+    acceleration: Optional[ExprT] = Field(None, description="desired task acceleration r̈ (acceleration level)")
+
+
+class Bounds(Strict):
+    lower: ExprT = Field(..., description="lower bounds (n values)")
+    upper: ExprT = Field(..., description="upper bounds (n values)")
+
+
+def wants_methods(o: Any) -> bool:
+    """True when the ask uses the method path (any of its options given)."""
+    return any(getattr(o, k) is not None for k in ("tasks", "methods", "mu", "bounds", "damping",
+                                                    "joint_velocity", "acceleration", "direction")) or o.level == "acceleration"
+
+
+# ------------------------------------------------------------------------------------------------ parsing
+class _MSpec:
+    def __init__(self, problem, o, ctx) -> None:  # type: ignore[no-untyped-def]
+        self.problem, self.o, self.ctx = problem, o, ctx
+        self.options = o
+        robot = problem.robot
+        self.acc = o.level == "acceleration"
+        self.q: list[sp.Symbol] = list(robot.q) if robot is not None else []
+        self.tasks: list[dict[str, Any]] = []
+        if o.tasks:
+            for i, t in enumerate(o.tasks):
+                if (t.task is None) == (t.jacobian is None):
+                    raise self.fail(("tasks", i), "give exactly one of task: or jacobian: for each task")
+                self.tasks.append(self._task(("tasks", i), t, t.name))
+        else:
+            self.tasks.append(self._task((), o, "r"))
+        self.n = len(self.q)
+        self.state = self._state()
+        self.methods: list[str] = list(o.methods) if o.methods else self._default_methods()
+        self.qd = self._vec("joint_velocity", self.n) if o.joint_velocity is not None else None
+        if self.acc and self.qd is None:
+            raise self.fail(("level",), "the acceleration level needs the joint velocity at the state",
+                            "add joint_velocity: [qdot1, ..., qdotn] (zeros for a robot at rest)")
+        self.W = None
+        if o.weight is not None:
+            from solver.kinematics.redundancy import _Spec  # the weight parser of the ask
+            self.W = _Spec._weight(self)  # type: ignore[arg-type]
+        if "weighted" in self.methods and self.W is None:
+            raise self.fail(("methods",), "the weighted method needs weight:")
+        self.mu = None
+        if o.mu is not None:
+            self.mu = ctx.expr("mu")
+        if "dls" in self.methods and self.mu is None:
+            raise self.fail(("methods",), "the dls method needs mu: (the damping factor μ)")
+        self.Kd = None
+        if o.damping is not None:
+            v = ctx.expr("damping")
+            shp = shape_of(v)
+            self.Kd = (v * sp.eye(self.n) if shp == () else sp.diag(*v) if shp == (self.n,)
+                       else sp.Matrix(v) if shp == (self.n, self.n) else None)
+            if self.Kd is None:
+                raise self.fail(("damping",), f"damping must be a scalar, {self.n} diagonal entries or {self.n}x{self.n}")
+        self.q0 = None
+        for key in ("null", "qdot0"):
+            if getattr(o, key) is not None:
+                self.q0 = self._vec(key, self.n)
+        self.H = None
+        if o.gradient is not None:
+            H = ctx.expr("gradient")
+            if isinstance(H, list):
+                raise self.fail(("gradient",), "gradient: must be a scalar function H(q)")
+            self.H = H
+            self.step = ctx.expr("step") if "step" in o.model_fields_set else sp.Integer(1)
+        self.lo = self.hi = None
+        if o.bounds is not None:
+            if isinstance(o.bounds, Bounds):
+                self.lo = list(self._vec(("bounds", "lower"), self.n))
+                self.hi = list(self._vec(("bounds", "upper"), self.n))
+            else:
+                b = ctx.expr("bounds")
+                b = [b] * self.n if not isinstance(b, list) else b
+                if shape_of(b) != (self.n,):
+                    raise self.fail(("bounds",), f"bounds must have {self.n} components (symmetric ±) or be "
+                                                 "{lower: [...], upper: [...]}")
+                self.hi = list(b)
+                self.lo = [-x for x in b]
+        self.direction = None
+        if o.direction is not None:
+            if len(self.tasks) > 1:
+                raise self.fail(("direction",), "direction: applies to a single task")
+            if isinstance(o.direction, str) and o.direction.strip() == "stop":
+                if self.qd is None:
+                    raise self.fail(("direction",), "direction: stop needs joint_velocity:")
+                self.direction = -self.tasks[0]["J"] * self.qd
+            else:
+                self.direction = self._vec("direction", self.tasks[0]["m"])
+            if problem.robot is not None and self.qd is not None:
+                self.direction = self.direction.subs({d: self.qd[i] for i, d in enumerate(problem.robot.dq)})
+        if "max_scaling" in self.methods and (self.direction is None or self.lo is None):
+            raise self.fail(("methods",), "max_scaling needs direction: and bounds:")
+        if any(m in self.methods for m in ("sns", "scaled")) and self.lo is None:
+            raise self.fail(("methods",), "sns and scaled need bounds: on the joint "
+                                          + ("accelerations" if self.acc else "velocities"))
+        if len(self.tasks) > 1 and ("null_space" in self.methods or "weighted" in self.methods):
+            pass
+
+    def _default_methods(self) -> list[str]:
+        out = ["pseudoinverse"] if len(self.tasks) == 1 else ["extended", "priority"]
+        if self.o.weight is not None:
+            out.append("weighted")
+        if self.o.mu is not None:
+            out.append("dls")
+        if any(getattr(self.o, k) is not None for k in ("null", "qdot0", "gradient", "damping")):
+            out.append("null_space")
+        if self.o.direction is not None:
+            return ["max_scaling"]
+        if self.o.bounds is not None:
+            out += ["scaled", "sns"]
+        return out
+
+    def fail(self, sub: tuple, message: str, hint: str | None = None) -> UserError:
+        return UserError(message, self.problem.located.place(self.ctx.path + sub), hint)
+
+    def _vec(self, key: Any, size: int) -> sp.Matrix:
+        path = key if isinstance(key, tuple) else (key,)
+        val = self.ctx.expr(*path)
+        if not isinstance(val, list):
+            val = [val]
+        if shape_of(val) != (size,):
+            raise self.fail(path, f"{path[-1]} must have {size} components, got shape {shape_of(val)}")
+        return sp.Matrix(val)
+
+    def _task(self, path: tuple, t: Any, name: str) -> dict[str, Any]:
+        if t.task is not None:
+            if self.problem.robot is None:
+                raise self.fail(path + ("task",), "task: needs the robot's coordinates")
+            val = self.ctx.expr(*path, "task")
+            f = sp.Matrix(val if isinstance(val, list) else [val])
+            J = f.jacobian(self.q)
+        else:
+            val = self.ctx.expr(*path, "jacobian")
+            shp = shape_of(val)
+            J = sp.Matrix([[val]]) if shp == () else sp.Matrix([val]) if len(shp) == 1 else sp.Matrix(val)
+            f = None
+            if not self.q:
+                self.q = [sp.Symbol(f"q{i + 1}", real=True) for i in range(J.shape[1])]
+            if J.shape[1] != len(self.q):
+                raise self.fail(path + ("jacobian",), f"jacobian must have {len(self.q)} columns")
+        m = J.shape[0]
+        key = "acceleration" if self.acc else "velocity"
+        raw = getattr(t, key)
+        if raw is None and getattr(self.o, "direction", None) is not None and not path:
+            return {"name": name, "f": f, "J": J, "r": sp.zeros(m, 1), "m": m}
+        if raw is None:
+            raise self.fail(path or (key,), f"give {key}: (the desired task {key}, {m} components)")
+        val = self.ctx.expr(*path, key)
+        val = val if isinstance(val, list) else [val]
+        if shape_of(val) != (m,):
+            raise self.fail(path + (key,), f"{key} must have {m} components, got shape {shape_of(val)}")
+        return {"name": name, "f": f, "J": J, "r": sp.Matrix(val), "m": m}
+
+    def _state(self) -> dict[sp.Symbol, sp.Expr]:
+        if self.o.at is None:
+            raise self.fail((), "the methods need a configuration", "add at: {q1: ..., q2: ...}")
+        by_name = {s.name: s for s in self.q}
+        state = {}
+        for name in self.o.at:
+            if name not in by_name:
+                raise self.fail(("at", name), f"'{name}' in at: is not a coordinate", "use " + ", ".join(by_name))
+            state[by_name[name]] = self.ctx.expr("at", name)
+        missing = [s.name for s in self.q if s not in state]
+        if missing:
+            raise self.fail(("at",), "at: must give every coordinate; missing " + ", ".join(missing))
+        return state
+
+
+# ------------------------------------------------------------------------------------------------ helpers
+def _is_rational(M: sp.Matrix) -> bool:
+    return all(sp.nsimplify(x).is_Rational if x.is_Float else bool(x.is_Rational) for x in M)
+
+
+def _exact(x: sp.Expr) -> sp.Expr:
+    """Rational for a Rational-valued Float-free number; the expression itself otherwise (π stays π)."""
+    return sp.nsimplify(x) if x.is_Rational or x.atoms(sp.Float) else sp.simplify(x) if sp.count_ops(x) > 8 else x
+
+
+def _exact_number(M: sp.Matrix) -> bool:
+    """Exact numbers (no Float) of moderate size, e.g. 3*pi**2/4."""
+    return all(x.is_number and not x.atoms(sp.Float) and sp.count_ops(x) <= 30 for x in M)
+
+
+def _vec_latex_name(acc: bool) -> str:
+    return "\\ddot q" if acc else "\\dot q"
+
+
+# ------------------------------------------------------------------------------------------------ solver
+def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[no-untyped-def]
+    """Results (suffixed): J[_k], J_at[_k], Jdot_qdot[_k], rank[_k], J_pinv, rank_JE, JE, JE_pinv, P1..,
+    J2P1.., rank_J2P1.., algorithmic_singular, J_dls, <v>_ps, <v>_w, <v>_dls, <v>, <v>_tp, <v>_e, <v>_sns,
+    <v>_ps_scaled, ps_scaling, sns_scale, <v>_sns_<it>, norm_<v>_<method>, err_<task>_<method>
+    with <v> = qdot (velocity level) or qddot (acceleration level)."""
+    spec = _MSpec(problem, o, ctx)
+    sfx = o.suffix
+    acc = spec.acc
+    v = "qddot" if acc else "qdot"
+    vl = _vec_latex_name(acc)
+    multi = len(spec.tasks) > 1
+
+    def add(name: str, value: Any, kind: str | None = None, label: str = "") -> None:
+        sol.add(name + sfx, value, kind, label=label)
+
+    def tn(base: str, k: int) -> str:
+        return f"{base}{k}" if multi else base
+
+    subs = {**problem.values, **spec.state}
+    qd_subs = {}
+    if acc:
+        qd_subs = {d: spec.qd[i] for i, d in enumerate(problem.robot.dq)} if problem.robot is not None else {}
+    tasks_num = []
+    for k, t in enumerate(spec.tasks, start=1):
+        Ja = t["J"].subs(subs)
+        add(tn("J", k), t["J"], "matrix", label=f"J_{{{k}}}(q)" if multi else "J(q)")
+        add(tn("J_at", k), Ja, "matrix", label=f"J_{{{k}}}" if multi else "J")
+        h = None
+        if t["f"] is not None:
+            add(tn("r_at", k), t["f"].subs(subs), "vector", label=f"r_{{{k}}}" if multi else "r")
+        if acc:
+            rdot = (t["J"] * spec.qd).subs(subs)
+            add(tn("rdot_at", k), rdot, "vector", label=f"\\dot r_{{{k}}} = J_{{{k}}}\\dot q" if multi
+                else "\\dot r = J\\dot q")
+            if problem.robot is not None and sp.count_ops(t["J"]) <= 400:
+                from solver.math.simplify import tidy
+                dq = sp.Matrix(list(problem.robot.dq))
+                Jd_sym = sum((t["J"].diff(x) * dq[i] for i, x in enumerate(spec.q)), sp.zeros(*t["J"].shape))
+                add(tn("Jdot_qdot_sym", k), (Jd_sym * dq).applyfunc(tidy), "vector",
+                    label=f"\\dot J_{{{k}}}(q)\\dot q" if multi else "\\dot J(q)\\dot q")
+            Jdot = sum((t["J"].diff(x) * spec.qd[i] for i, x in enumerate(spec.q)), sp.zeros(*t["J"].shape))
+            h = (Jdot * spec.qd).subs(subs)
+            h = h.applyfunc(sp.nsimplify) if _is_rational(h) else h
+            add(tn("Jdot_qdot", k), h, "vector", label=f"\\dot J_{{{k}}}\\dot q" if multi else "\\dot J \\dot q")
+        r = t["r"].subs(subs)
+        x = r - h if h is not None else r
+        tasks_num.append({**t, "Ja": Ja, "h": h, "ra": r, "x": x})
+    free = set()
+    for t in tasks_num:
+        free |= t["Ja"].free_symbols | t["x"].free_symbols
+    if spec.W is not None:
+        free |= spec.W.subs(subs).free_symbols
+    if free:
+        names = ", ".join(sorted(s.name for s in free))
+        raise spec.fail(("at",), f"the methods are computed on numbers; {names} left symbolic",
+                        "give them values: (or in at:)")
+    mats = [t["Ja"] for t in tasks_num]
+    if spec.W is not None:
+        mats.append(spec.W.subs(subs))
+    vecs = [t["x"] for t in tasks_num] + ([spec.qd] if spec.qd is not None else [])
+    if spec.direction is not None:
+        vecs.append(spec.direction)
+    size = sum(t["Ja"].shape[0] for t in tasks_num) * spec.n
+    # exact when the matrices are rational and the vectors exact numbers (π, surds: only scaled and compared)
+    exact = size <= EXACT_SIZE and all(_is_rational(M.subs(subs)) for M in mats) and \
+        all(_exact_number(M.subs(subs)) for M in vecs) and \
+        (spec.mu is None or _is_rational(sp.Matrix([spec.mu]).subs(subs))) and \
+        (spec.Kd is None or _is_rational(spec.Kd.subs(subs))) and \
+        (spec.lo is None or _exact_number(sp.Matrix(spec.lo + spec.hi).subs(subs)))
+    la = rs.LA(exact, o.rank_tol)
+    Js = [la.mat(t["Ja"].applyfunc(sp.nsimplify) if exact else t["Ja"]) for t in tasks_num]
+    xs = [la.mat(t["x"].applyfunc(_exact) if exact else t["x"]) for t in tasks_num]
+    sol.step("m_setup", tasks=tasks_num, q=sp.Matrix(spec.q), n=spec.n, acc=acc, state=spec.state,
+             qd=spec.qd, exact=exact, tol=o.rank_tol, multi=multi, methods=spec.methods,
+             values={k: val for k, val in problem.values.items()
+                     if any(k in t["J"].free_symbols for t in spec.tasks)})
+
+    # ranks of each task
+    for k, (t, J) in enumerate(zip(tasks_num, Js), start=1):
+        rk = la.rank(J)
+        t["rank"] = rk
+        add(tn("rank", k), sp.Integer(rk), "number", label=f"\\operatorname{{rank}} J_{{{k}}}" if multi else
+            "\\operatorname{rank} J")
+        if not multi:
+            add("singular", bool(rk < t["m"]), "bool", label="\\text{singular}")
+    sv = [la.svals(J) for J in Js]
+    sol.step("m_rank", tasks=tasks_num, svals=[[sp.Float(float(s), 6) for s in x] for x in sv], tol=o.rank_tol,
+             exact=exact)
+
+    JE = la.vstack(Js)
+    xE = la.vstack(xs)
+    n = spec.n
+    add("J_task", la.sym(JE), "matrix", label="J" if not multi else "J_E")
+    add("task_x", la.sym(xE), "vector", label="\\ddot r_d - \\dot J\\dot q" if acc else "\\dot r_d")
+    if spec.lo is not None:
+        add("bounds_lower", sp.Matrix([b.subs(subs) for b in spec.lo]), "vector", label="\\text{lower bounds}")
+        add("bounds_upper", sp.Matrix([b.subs(subs) for b in spec.hi]), "vector", label="\\text{upper bounds}")
+    # preferred (null-space) vector
+    q0 = None
+    if spec.q0 is not None or spec.H is not None or spec.Kd is not None:
+        q0s = sp.zeros(n, 1)
+        grad = None
+        if spec.q0 is not None:
+            q0s += spec.q0.subs(subs)
+        if spec.H is not None:
+            from solver.math.simplify import tidy
+            gsym = sp.Matrix([tidy(sp.diff(spec.H, x)) for x in spec.q])
+            add("grad_H", gsym, "vector", label="\\nabla_q H(q)")
+            grad = gsym.subs(subs)
+            q0s += spec.step * grad
+            add("grad_H_at", grad, "vector", label="\\nabla_q H")
+        if spec.Kd is not None:
+            q0s += -(spec.Kd * spec.qd).subs(subs)
+        q0s = q0s.subs(subs)
+        if q0s.free_symbols:
+            raise spec.fail(("at",), "the preferred null-space vector depends on "
+                            + ", ".join(sorted(x.name for x in q0s.free_symbols)) + ", left symbolic",
+                            "give them values:")
+        if exact and not _exact_number(q0s):
+            la = rs.LA(False, o.rank_tol)
+            exact = False
+            Js = [la.mat(t["Ja"]) for t in tasks_num]
+            xs = [la.mat(t["x"]) for t in tasks_num]
+            JE, xE = la.vstack(Js), la.vstack(xs)
+        q0 = la.mat(q0s.applyfunc(_exact) if exact else q0s)
+        add(f"{v}0", la.sym(q0), "vector", label=f"{vl}_0")
+        sol.step("m_null", q0=la.sym(q0), grad=grad, H=spec.H, step=getattr(spec, "step", None), Kd=spec.Kd,
+                 acc=acc, given=spec.q0)
+
+    results: list[tuple[str, str, Any]] = []  # (method label, result name, vector)
+
+    def record(method: str, label: str, vec: Any) -> None:
+        name = f"{v}_{method}" if method else v
+        add(name, la.sym(vec), "vector", label=f"{vl}_{{\\mathrm{{{label}}}}}" if label else vl)
+        results.append((label or "null space", name, vec))
+
+    Jp = None
+    for meth in spec.methods:
+        if meth == "pseudoinverse":
+            Jp = la.pinv(JE)
+            vec = Jp @ xE
+            add("J_pinv", la.sym(Jp), "matrix", label="J^{\\#}")
+            if multi:
+                add("JE", la.sym(JE), "matrix", label="J_E")
+            sol.step("m_pinv", J=la.sym(JE), Jp=la.sym(Jp), x=la.sym(xE), v=la.sym(vec), acc=acc,
+                     rank=la.rank(JE), m=JE.shape[0], multi=multi, full=la.rank(JE) == JE.shape[0])
+            record("ps", "PS", vec)
+        elif meth == "weighted":
+            W = la.mat(spec.W.subs(subs).applyfunc(sp.nsimplify) if exact else spec.W.subs(subs))
+            JWp = rs.weighted_pinv(la, JE, W)
+            vec = JWp @ xE
+            add("J_pinv_W", la.sym(JWp), "matrix", label="J^{\\#}_W")
+            sol.step("m_weighted", W=la.sym(W), Jp=la.sym(JWp), v=la.sym(vec), acc=acc)
+            record("w", "W", vec)
+        elif meth == "dls":
+            mu = spec.mu.subs(subs) if isinstance(spec.mu, sp.Basic) else spec.mu
+            mu = sp.nsimplify(mu) if exact else float(mu)
+            Jd = rs.dls(la, JE, mu)
+            vec = Jd @ xE
+            add("J_dls", la.sym(Jd), "matrix", label="J_{DLS}")
+            sol.step("m_dls", mu=la.scalar(mu), J=la.sym(JE), Jd=la.sym(Jd), v=la.sym(vec), acc=acc,
+                     JJ=la.sym(JE @ JE.T + mu ** 2 * la.eye(JE.shape[0])))
+            record("dls", "DLS", vec)
+        elif meth == "null_space":
+            if q0 is None:
+                raise spec.fail(("methods",), "null_space needs null:, gradient: or damping:")
+            Jp1 = Jp if Jp is not None else la.pinv(JE)
+            P = rs.projector(la, JE, Jp1)
+            vps = Jp1 @ xE
+            vec = vps + P @ q0
+            add("P", la.sym(P), "matrix", label="I - J^{\\#}J")
+            sol.step("m_ns", P=la.sym(P), vps=la.sym(vps), vn=la.sym(P @ q0), v=la.sym(vec), acc=acc)
+            record("", "", vec)
+        elif meth == "extended":
+            vec, JEe, JEp, rk = rs.extended(la, Js, xs)
+            add("JE", la.sym(JEe), "matrix", label="J_E")
+            detE = None
+            if JEe.shape[0] == n and n <= 4:
+                JEs = sp.Matrix.vstack(*[t["J"] for t in spec.tasks])
+                if sp.count_ops(JEs) <= 200:
+                    from solver.math.simplify import tidy
+                    detE = sp.factor(tidy(JEs.det()))
+                    add("det_JE_sym", detE, "scalar", label="\\det J_E(q)")
+            add("rank_JE", sp.Integer(rk), "number", label="\\operatorname{rank} J_E")
+            add("JE_pinv", la.sym(JEp), "matrix", label="J_E^{\\#}")
+            sol.step("m_ext", detE=detE, JE=la.sym(JEe), JEp=la.sym(JEp), rank=rk, m=JEe.shape[0], n=n, x=la.sym(xE),
+                     v=la.sym(vec), acc=acc, square=JEe.shape[0] == n)
+            record("e", "E", vec)
+        elif meth == "priority":
+            if not multi:
+                raise spec.fail(("methods",), "priority needs two or more tasks: (tasks: [...])")
+            vec, levels = rs.task_priority(la, Js, xs, q0)
+            alg = False
+            add("J1_pinv", la.sym(levels[0].JP_pinv), "matrix", label="J_1^{\\#}")
+            for lv in levels:
+                if lv.k >= 2:
+                    add(f"P{lv.k - 1}", la.sym(lv.P_prev), "matrix", label=f"P_{{{lv.k - 1}}}")
+                    add(f"J{lv.k}P{lv.k - 1}", la.sym(lv.JP), "matrix", label=f"J_{{{lv.k}}}P_{{{lv.k - 1}}}")
+                    add(f"J{lv.k}P{lv.k - 1}_pinv", la.sym(lv.JP_pinv), "matrix",
+                        label=f"(J_{{{lv.k}}}P_{{{lv.k - 1}}})^{{\\#}}")
+                    add(f"rank_J{lv.k}P{lv.k - 1}", sp.Integer(lv.rank_JP), "number",
+                        label=f"\\operatorname{{rank}}(J_{{{lv.k}}}P_{{{lv.k - 1}}})")
+                    alg = alg or lv.algorithmic
+            add("algorithmic_singular", bool(alg), "bool", label="\\text{algorithmic singularity}")
+            J1s = spec.tasks[0]["J"].subs(problem.values)
+            J2P1 = None
+            if not (J1s.free_symbols & set(spec.q)) and not J1s.free_symbols:
+                P1s = sp.eye(n) - J1s.pinv() * J1s
+                J2P1 = (spec.tasks[1]["J"] * P1s).applyfunc(lambda e: sp.factor_terms(sp.simplify(e)))
+                add("J2P1_sym", J2P1, "matrix", label="J_2(q) P_1")
+            sol.step("m_tp", levels=[{"k": lv.k, "P": la.sym(lv.P_prev), "JP": la.sym(lv.JP),
+                                      "JPp": la.sym(lv.JP_pinv), "rJ": lv.rank_J, "rJP": lv.rank_JP,
+                                      "alg": lv.algorithmic, "smin": sp.Float(lv.smin_JP, 4),
+                                      "corr": la.sym(lv.correction), "v": la.sym(lv.qdot)} for lv in levels],
+                     names=[t["name"] for t in tasks_num], v=la.sym(vec), acc=acc, null=q0 is not None,
+                     J2P1_sym=J2P1)
+            record("tp", "TP", vec)
+        elif meth == "scaled":
+            Jp1 = Jp if Jp is not None else la.pinv(JE)
+            vps = Jp1 @ xE
+            lo = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
+            hi = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
+            k = rs.ps_scaling(la, vps, lo, hi)
+            vec = vps / k
+            add("ps_scaling", la.scalar(k), "number", label="k")
+            sol.step("m_scaled", vps=la.sym(vps), k=la.scalar(k), v=la.sym(vec), x=la.sym(xE), xs=la.sym(xE / k),
+                     lo=lo, hi=hi, acc=acc, needed=k != 1)
+            record("ps_scaled", "PS,scaled", vec)
+        elif meth == "max_scaling":
+            lo = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
+            hi = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
+            d = spec.direction.subs(subs)
+            d = la.mat(d.applyfunc(_exact) if exact else d)
+            Jp1 = Jp if Jp is not None else la.pinv(JE)
+            a_v = Jp1 @ d
+            b_v = Jp1 @ xE
+            ms = rs.max_scaling(la, a_v, b_v, lo, hi)
+            add("direction", la.sym(d), "vector", label="d")
+            add("a_dir", la.sym(a_v), "vector", label="a = J^{\\#} d")
+            add("b_drift", la.sym(b_v), "vector", label="b = J^{\\#}(r_d - \\dot J\\dot q)")
+            add("lambda_i", sp.Matrix([_inf(u) for u in ms.upper]), "vector", label="\\lambda_i")
+            for i, u in enumerate(ms.upper):
+                if _inf(u).is_finite:
+                    add(f"lambda_{i + 1}", _inf(u), "number", label=f"\\lambda_{{{i + 1}}}")
+            add("scaling_feasible", ms.lam is not None, "bool", label="\\text{feasible}")
+            vec = None
+            if ms.lam is not None and ms.lam != float("inf") and ms.lam != sp.oo:
+                vec = a_v * ms.lam + b_v
+                add("lambda_max", la.scalar(ms.lam), "number", label="\\lambda^*")
+                add("task_max", la.sym(d * ms.lam), "vector", label="\\ddot r = \\lambda^* d" if acc else "\\dot r = \\lambda^* d")
+            sol.step("m_maxs", d=la.sym(d), a=la.sym(a_v), b=la.sym(b_v), lo=lo, hi=hi, acc=acc,
+                     ivs=[None if iv is None else (_show(iv[0]), _show(iv[1])) for iv in ms.intervals],
+                     lo_m=sp.Matrix([la.scalar(x) for x in lo]), hi_m=sp.Matrix([la.scalar(x) for x in hi]),
+                     upper=[_inf(u) for u in ms.upper], lam=None if ms.lam is None else _inf(ms.lam),
+                     v=la.sym(vec) if vec is not None else None, stop=isinstance(spec.o.direction, str))
+            if vec is not None:
+                record("max", "max", vec)
+        elif meth == "sns":
+            lo = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
+            hi = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
+            res = rs.sns(la, JE, xE, lo, hi)
+            add("sns_scale", la.scalar(res.s), "number", label="s")
+            add("sns_iterations", sp.Integer(len(res.steps)), "number", label="\\text{SNS iterations}")
+            for st in res.steps:
+                add(f"{v}_sns_{st.it}", la.sym(st.qdot), "vector", label=f"{vl}^{{({st.it})}}")
+            rows = [{"it": st.it, "sat": [i + 1 for i in st.saturated], "v": la.sym(st.qdot),
+                     "v_num": la.sym(st.qdot).applyfunc(lambda x: x if x.is_Rational else x.evalf(5)),
+                     "viol": [i + 1 for i in st.violating],
+                     "scale": la.scalar(st.scale) if st.scale is not None else None,
+                     "crit": st.critical + 1 if st.critical is not None else None,
+                     "bound": la.scalar(st.bound) if st.bound is not None else None,
+                     "rank": st.rank_JW} for st in res.steps]
+            sol.step("m_sns", rows=rows, v=la.sym(res.qdot), s=la.scalar(res.s), lo=lo, hi=hi, acc=acc,
+                     lo_m=sp.Matrix([la.scalar(x) for x in lo]), hi_m=sp.Matrix([la.scalar(x) for x in hi]),
+                     feasible=res.feasible, n=n, m=JE.shape[0])
+            record("sns", "SNS", res.qdot)
+    # comparison
+    table = []
+    for label, name, vec in results:
+        errs = []
+        for t, J, x in zip(tasks_num, Js, xs):
+            e = J @ vec - x
+            errs.append(la.norm(e))
+            add(f"err_norm_{t['name']}_{name}", errs[-1], None,
+                label=f"\\|J_{{{t['name']}}}{vl} - " + ("(\\ddot r - \\dot J\\dot q)" if acc else "\\dot r") + "\\|")
+            add(f"err_{t['name']}_{name}", la.sym(e), "vector",
+                label=f"J_{{{t['name']}}}{vl} - " + ("(\\ddot r - \\dot J\\dot q)" if acc else "\\dot r"))
+        nm = la.norm(vec)
+        add(f"norm_{name}", nm, None, label=f"\\|{vl}_{{\\mathrm{{{label}}}}}\\|")
+        table.append({"label": label, "name": name + sfx, "v": la.sym(vec), "norm": nm,
+                      "v_num": la.sym(vec).applyfunc(lambda x: x if x.is_Integer else x.evalf(5)),
+                      "norm_num": sp.Float(float(nm), 6), "errs": [sp.Float(float(e), 6) for e in errs]})
+    if spec.lo is not None:
+        lo = [float(b.subs(subs)) for b in spec.lo]
+        hi = [float(b.subs(subs)) for b in spec.hi]
+        for row in table:
+            row["within"] = all(lo[i] - 1e-9 <= float(row["v"][i]) <= hi[i] + 1e-9 for i in range(n))
+    sol.step("m_compare", table=table, names=[t["name"] for t in tasks_num], acc=acc, bounds=spec.lo is not None)
+    _sketch(sol, problem, spec, tasks_num, table, subs, acc)
+    return sol
+
+
+def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs: dict, acc: bool) -> None:  # type: ignore[no-untyped-def]
+    """The planar robot at the state, with the desired task vector of the first planar-position task."""
+    if spec.o.sketch is False or problem.robot is None:
+        return
+    from solver.kinematics.sketch import robot_sketch
+    task = next((t["f"] for t in tasks if t["f"] is not None and t["m"] == 2), None)
+    arrows = []
+    if task is not None:
+        t = next(t for t in tasks if t["f"] is task)
+        r = t["ra"]
+        try:
+            vals = [float(sp.N(c)) for c in r]
+        except (TypeError, ValueError):
+            vals = None
+        if vals and math.hypot(*vals) > 0:
+            scale = 0.3 / math.hypot(*vals)
+            pos = task.subs(subs)
+            arrows.append(("$\\ddot r_d$" if acc else "$\\dot r_d$", spec.state, pos,
+                           [x * scale * _reach(task, subs) for x in vals]))
+    fig = robot_sketch(problem, [("$q$", spec.state)], task=task, arrows=arrows,
+                       name="sketch" + spec.o.suffix, caption="The robot at the state used, with the task direction")
+    if fig is not None:
+        sol.figures.append(fig)
+    if spec.lo is not None and table:
+        lo = [float(b.subs(subs)) for b in spec.lo]
+        hi = [float(b.subs(subs)) for b in spec.hi]
+        rows = [(r["label"], [float(x) for x in r["v"]]) for r in table]
+
+        def sample() -> list[Panel]:
+            js = list(range(1, spec.n + 1))
+            curves = [Curve(f"{lab}", [float(j) for j in js], vals) for lab, vals in rows]
+            curves += [Curve("bounds", [float(j) for j in js], hi, dashed=True),
+                       Curve("", [float(j) for j in js], lo, dashed=True)]
+            return [Panel("joint", "$\\ddot q_i$" if acc else "$\\dot q_i$", curves)]
+
+        sol.figures.append(Figure("bounds" + spec.o.suffix, "Joint " + ("accelerations" if acc else "velocities")
+                                  + " of each method against their bounds (dashed).", sample))
+
+
+def _inf(x: Any) -> sp.Expr:
+    """A number for display, with ±∞."""
+    if x in (float("inf"), sp.oo):
+        return sp.oo
+    if x in (float("-inf"), -sp.oo):
+        return -sp.oo
+    return x if isinstance(x, sp.Basic) else sp.Float(float(x), 15)
+
+
+def _show(x: Any) -> sp.Expr:
+    """±∞ or a 4-digit float, for tables."""
+    y = _inf(x)
+    return y if y.is_infinite else sp.Float(y.evalf(15), 4)
+
+
+def _reach(task: sp.Matrix, subs: dict) -> float:
+    try:
+        return max(0.2, float(sp.sqrt(sum(c ** 2 for c in task.subs(subs))).evalf()))
+    except (TypeError, ValueError):
+        return 1.0
+
+
+@property_check("qdot_sns", "qddot_sns")
+def check_sns(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """Any joint vector within the bounds realizing the task (scaled by no less than SNS's factor) is feasible;
+    full credit when its norm is not larger than the SNS solution's, half otherwise."""
+    sfx = name[len("qddot_sns" if name.startswith("qddot") else "qdot_sns"):]
+    need = ["J_task", "task_x", "bounds_lower", "bounds_upper", "sns_scale"]
+    if any(results.get(k + sfx) is None for k in need) or results.get(name) is None:
+        return None
+    try:
+        v = np.array(sp.Matrix(value).evalf().tolist(), dtype=float).ravel()
+    except (TypeError, ValueError, AttributeError):
+        return None
+    J = np.array(results["J_task" + sfx].value.evalf().tolist(), dtype=float)
+    x = np.array(results["task_x" + sfx].value.evalf().tolist(), dtype=float).ravel()
+    lo = np.array(results["bounds_lower" + sfx].value.evalf().tolist(), dtype=float).ravel()
+    hi = np.array(results["bounds_upper" + sfx].value.evalf().tolist(), dtype=float).ravel()
+    s = float(results["sns_scale" + sfx].value)
+    ref = np.array(results[name].value.evalf().tolist(), dtype=float).ravel()
+    if v.shape != ref.shape:
+        return PropertyVerdict(False, 0.0, [f"the answer must have {ref.size} components"])
+    tol = 1e-6 * max(1.0, float(np.max(np.abs(hi))))
+    if np.any(v < lo - tol) or np.any(v > hi + tol):
+        bad = [str(i + 1) for i in range(v.size) if v[i] < lo[i] - tol or v[i] > hi[i] + tol]
+        return PropertyVerdict(False, 0.0, ["joint(s) " + ", ".join(bad) + " out of bounds"])
+    Jv = J @ v
+    xn = float(np.linalg.norm(x)) or 1.0
+    k = float(Jv @ x) / xn ** 2
+    if np.linalg.norm(Jv - k * x) > 1e-6 * max(1.0, xn) or k < s - 1e-6:
+        return PropertyVerdict(False, 0.0, ["within the bounds, but the task is not realized"
+                                            + (" (only scaled)" if k < s - 1e-6 else " (wrong direction)")])
+    if np.linalg.norm(v) > np.linalg.norm(ref) * (1 + 1e-6) + 1e-9:
+        return PropertyVerdict(True, 0.5, [f"feasible and realizes the task, but its norm {np.linalg.norm(v):.4g} "
+                                           f"is larger than SNS's {np.linalg.norm(ref):.4g}"])
+    return PropertyVerdict(True, 1.0, ["feasible (within every bound) and realizes the task"])

@@ -1,0 +1,117 @@
+"""The `minimum_norm` ask: each solution realizes the task, is optimal for its objective (scipy minimize on the
+task manifold and the Lagrange conditions), the bounds and the feasible task fraction; on a planar 3R in a vertical
+plane that no exercise uses."""
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.optimize import minimize
+
+from solver.publish.render import render
+from solver.solve import all_results, solve_problem
+from solver.spec import load_problem_text
+from solver.spec.errors import UserError
+
+ROBOT = """
+id: mn3
+title: planar 3R in a vertical plane
+symbols: {g0: gravity}
+values: {g0: 9.81}
+robot:
+  joints: [R, R, R]
+  gravity: [0, -g0, 0]
+  links:
+    - {mass: 3, com: [cos(q1)/2, sin(q1)/2], angle: q1, inertia: 1/4}
+    - {mass: 2, com: [cos(q1) + cos(q1+q2)/2, sin(q1) + sin(q1+q2)/2], angle: q1+q2, inertia: 1/6}
+    - {mass: 1, com: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3)/2, sin(q1) + sin(q1+q2) + sin(q1+q2+q3)/2],
+       angle: q1+q2+q3, inertia: 1/12}
+asks:
+  - kind: minimum_norm
+    task: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3), sin(q1) + sin(q1+q2) + sin(q1+q2+q3)]
+    at: {q1: 0.3, q2: 0.8, q3: -0.5}
+    joint_velocity: [0.5, -0.2, 0.4]
+    acceleration: [1, -2]
+    objectives: [acceleration, inertia, torque, weighted_torque]
+    weight: [1, 4, 9]
+"""
+
+
+def arr(v) -> np.ndarray:
+    return np.array(sp.Matrix(v).evalf().tolist(), dtype=float)
+
+
+CASES = {"gravity dominates": ("9.81", [45, 30, 4]), "bounds bite on the task": ("1", [8, 1.7, 1.4])}
+
+
+@pytest.fixture(scope="module", params=list(CASES))
+def solved(request):
+    g, hi = CASES[request.param]
+    base = ROBOT.replace("values: {g0: 9.81}", f"values: {{g0: {g}}}") + f"    bounds: {hi}\n"
+    p = load_problem_text(base)
+    sols = solve_problem(p)
+    return p, sols, all_results(sols), base, np.array(hi)
+
+
+def test_task_realized_and_optimal(solved):
+    _, _, r, _, _ = solved
+    B, n, J = arr(r["B_at"].value), arr(r["n_at"].value).ravel(), arr(r["J_at"].value)
+    x = np.array([1, -2]) - arr(r["Jdot_qdot"].value).ravel()
+    W = np.diag([1, 4, 9])
+    objectives = {"acc": lambda a: 0.5 * a @ a, "kin": lambda a: 0.5 * a @ B @ a,
+                  "tau": lambda a: 0.5 * (B @ a + n) @ (B @ a + n),
+                  "tauW": lambda a: 0.5 * (B @ a + n) @ W @ (B @ a + n)}
+    for k, H in objectives.items():
+        qdd = arr(r[f"qddot_{k}"].value).ravel()
+        tau = arr(r[f"tau_{k}"].value).ravel()
+        assert np.allclose(J @ qdd, x, atol=1e-9)  # the task acceleration is realized
+        assert np.allclose(B @ qdd + n, tau, atol=1e-9)  # consistent with the model
+        best = minimize(H, np.zeros(3), constraints=[{"type": "eq", "fun": lambda a: J @ a - x}],
+                        method="SLSQP", options={"ftol": 1e-14, "maxiter": 500})
+        assert np.allclose(qdd, best.x, atol=1e-5), k
+        for other in objectives:  # each is the smallest in its own objective
+            qo = arr(r[f"qddot_{other}"].value).ravel()
+            assert H(qdd) <= H(qo) + 1e-9
+    # Lagrange condition of min ½‖τ‖²: Bᵀτ ∈ range(Jᵀ)
+    tau = arr(r["tau_tau"].value).ravel()
+    lam = np.linalg.lstsq(J.T, B.T @ tau, rcond=None)[0]
+    assert np.allclose(J.T @ lam, B.T @ tau, atol=1e-8)
+
+
+def test_bounds_and_task_fraction(solved):
+    _, _, r, base, hi = solved
+    h = arr(r["Jdot_qdot"].value).ravel()
+    x = np.array([1, -2]) - h
+    scaled = {}
+    for k in ("acc", "kin", "tau", "tauW"):
+        tau = arr(r[f"tau_{k}"].value).ravel()
+        assert bool(r[f"within_{k}"].value) == bool(np.all(np.abs(tau) <= hi + 1e-9))
+        if f"scale_{k}" not in r:  # no fraction of the task in [0, 1] is feasible: check s = 0, 1/2, 1
+            scaled[k] = None
+            continue
+        s = float(r[f"scale_{k}"].value)
+        assert 0 <= s <= 1 and (s == 1) == bool(r[f"within_{k}"].value)
+        scaled[k] = s
+    assert any(s is None or s < 1 for s in scaled.values())  # the bounds bite (else the test proves nothing)
+    for k, s in scaled.items():
+        if s == 1:
+            continue
+        checks = [(s, True), (min(1.0, s + 1e-3), False)] if s is not None else \
+            [(0.0, False), (0.5, False), (1.0, False)]
+        for f, inside in checks:
+            a = f * x + h  # the task acceleration whose x is f times the original one
+            text = base.replace("acceleration: [1, -2]", f"acceleration: [{float(a[0])!r}, {float(a[1])!r}]")
+            tau = arr(all_results(solve_problem(load_problem_text(text)))[f"tau_{k}"].value).ravel()
+            assert bool(np.all(np.abs(tau) <= hi + 1e-7)) == inside, (k, f)
+
+
+def test_render_both_formats(solved):
+    p, sols, _, _, _ = solved
+    md = render(p, sols, "md")
+    assert "**Comparison.**" in md and "Minimizing" in md
+    assert "Comparison" in render(p, sols, "tex")
+
+
+def test_errors():
+    with pytest.raises(UserError, match="needs weight"):
+        solve_problem(load_problem_text(ROBOT.replace("    weight: [1, 4, 9]\n", "")))
+    with pytest.raises(UserError, match="left symbolic"):
+        solve_problem(load_problem_text(ROBOT.replace("values: {g0: 9.81}", "values: {}")))

@@ -1,0 +1,372 @@
+"""Properties of the redundancy methods (solver/kinematics/resolution.py and the method path of the `redundancy`
+ask) on robots no exercise uses: a planar 4R with unequal links and a spatial 7-dof arm (KUKA-LWR-like DH)."""
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.optimize import linprog, minimize
+
+from solver.kinematics import resolution as rs
+from solver.solve import all_results, solve_problem
+from solver.spec import load_problem_text
+
+F = rs.LA(False)
+E = rs.LA(True)
+RNG = np.random.default_rng(11)
+
+# ----------------------------------------------------------------------------------------------- robots
+DH7 = [(0, np.pi / 2, 0.31), (0, -np.pi / 2, 0), (0, -np.pi / 2, 0.4), (0, np.pi / 2, 0),
+       (0, np.pi / 2, 0.39), (0, -np.pi / 2, 0), (0, 0, 0.078)]  # (a, alpha, d)
+
+
+def jac7(q: np.ndarray) -> np.ndarray:
+    """6x7 geometric Jacobian (linear; angular) of the 7-dof arm."""
+    T = np.eye(4)
+    zs, ps = [], []
+    for (a, al, d), th in zip(DH7, q):
+        zs.append(T[:3, 2].copy())
+        ps.append(T[:3, 3].copy())
+        ct, st, ca, sa = np.cos(th), np.sin(th), np.cos(al), np.sin(al)
+        T = T @ np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d],
+                          [0, 0, 0, 1]])
+    pe = T[:3, 3]
+    return np.vstack([np.column_stack([np.cross(z, pe - p) for z, p in zip(zs, ps)]), np.column_stack(zs)])
+
+
+L4 = (1.0, 0.7, 0.5, 0.3)
+
+
+def jac4(q: np.ndarray) -> np.ndarray:
+    c = np.cumsum(q)
+    return np.array([[-sum(L4[k] * np.sin(c[k]) for k in range(j, 4)) for j in range(4)],
+                     [sum(L4[k] * np.cos(c[k]) for k in range(j, 4)) for j in range(4)]])
+
+
+def rand_q(n: int) -> np.ndarray:
+    return RNG.uniform(-np.pi, np.pi, n)
+
+
+# ----------------------------------------------------------------------------------------------- pseudoinverse
+@pytest.mark.parametrize("trial", range(5))
+def test_penrose_conditions_and_projector(trial):
+    J = jac7(rand_q(7))
+    for A in (J, J[:3], np.vstack([J[:3], J[:1]])):  # full rank 6x7, 3x7, and a rank-deficient 4x7
+        Jp = F.pinv(A)
+        assert np.allclose(A @ Jp @ A, A, atol=1e-10)
+        assert np.allclose(Jp @ A @ Jp, Jp, atol=1e-10)
+        P = rs.projector(F, A, Jp)
+        assert np.allclose(P @ P, P, atol=1e-10) and np.allclose(P, P.T, atol=1e-10)
+        assert np.allclose(A @ P, 0, atol=1e-10)
+    assert F.rank(np.vstack([J[:3], J[:1]])) == 3
+
+
+def test_exact_pinv_rational():
+    J = sp.Matrix([[1, 2, 0, -1], [0, 1, 1, 1]]) / 3
+    Jp = E.pinv(J)
+    assert J * Jp * J == J and all(x.is_Rational for x in Jp)
+    Jd = sp.Matrix.vstack(J, J[0, :] * 2)  # rank 2 of 3 rows
+    assert E.rank(Jd) == 2
+    Jdp = E.pinv(Jd)
+    assert (Jd * Jdp * Jd - Jd).applyfunc(sp.simplify) == sp.zeros(3, 4)
+
+
+def test_rank_tolerance_counts_roundoff_as_zero():
+    """A projected Jacobian zero to rounding (σ ~ 1e-16) is rank deficient: its pseudoinverse is 0, not 1e16."""
+    q1 = float(np.arccos((2 + np.sqrt(2)) / 4))
+    J1 = np.array([[-np.sin(q1), 0.0, -np.sin(q1)], [np.cos(q1), 1.0, np.cos(q1)]])
+    J2 = np.array([[0.0, 1.0, 0.0]])
+    P1 = np.eye(3) - F.pinv(J1) @ J1
+    JP = J2 @ P1
+    assert 0 < np.linalg.svd(JP, compute_uv=False)[0] < 1e-12  # not exactly zero in floating point
+    assert F.rank(JP) == 0 and np.allclose(F.pinv(JP), 0)
+    assert np.abs(np.linalg.pinv(JP, rcond=1e-20)).max() > 1e6  # what a tolerance-free pinv would give
+    v, levels = rs.task_priority(F, [J1, J2], [np.array([[0.0], [1.0]]), np.array([[0.0]])])
+    assert levels[1].algorithmic and np.allclose(J1 @ v, [[0], [1]])
+
+
+# ----------------------------------------------------------------------------------------------- DLS, weighted
+@pytest.mark.parametrize("trial", range(3))
+def test_dls_tends_to_pinv(trial):
+    J = jac7(rand_q(7))[:3]
+    for A in (J, np.vstack([J[:2], J[:1] + J[1:2]])):  # full rank and rank deficient
+        errs = [np.abs(rs.dls(F, A, mu) - F.pinv(A)).max() for mu in (1e-1, 1e-2, 1e-3, 1e-4)]
+        assert all(b < a for a, b in zip(errs, errs[1:])) and errs[-1] < 1e-5
+
+
+def test_dls_minimizes_damped_cost():
+    J, r, mu = jac4(rand_q(4)), np.array([[0.3], [-0.2]]), 0.4
+    v = rs.dls(F, J, mu) @ r
+    cost = lambda x: 0.5 * np.sum((J @ x[:, None] - r) ** 2) + 0.5 * mu ** 2 * np.sum(x ** 2)  # noqa: E731
+    best = minimize(cost, np.zeros(4), tol=1e-12).x
+    assert np.allclose(v.ravel(), best, atol=1e-5)
+
+
+def test_weighted_pinv_lagrange_conditions():
+    J = jac7(rand_q(7))[:3]
+    A = RNG.normal(size=(7, 7))
+    W = A @ A.T + 7 * np.eye(7)
+    r = RNG.normal(size=(3, 1))
+    v = rs.weighted_pinv(F, J, W) @ r
+    assert np.allclose(J @ v, r)
+    lam = np.linalg.lstsq(J.T, W @ v, rcond=None)[0]  # W v = Jᵀ λ (stationarity)
+    assert np.allclose(J.T @ lam, W @ v, atol=1e-9)
+
+
+# ----------------------------------------------------------------------------------------------- task priority
+@pytest.mark.parametrize("trial", range(5))
+def test_task_priority_first_task_exact(trial):
+    J = jac7(rand_q(7))
+    J1, J2, J3 = J[:3], J[3:5], J[5:]
+    r1, r2, r3 = (RNG.normal(size=(k, 1)) for k in (3, 2, 1))
+    v, levels = rs.task_priority(F, [J1, J2, J3], [r1, r2, r3])
+    assert np.allclose(J1 @ v, r1)  # 3 + 2 + 1 = 6 <= 7: all feasible, every task exact
+    assert np.allclose(J2 @ v, r2) and np.allclose(J3 @ v, r3)
+    # with more rows than joints below, the first task still exact, the second in least squares in N(J1)
+    K = RNG.normal(size=(5, 7))
+    v2, lv = rs.task_priority(F, [J1, K], [r1, RNG.normal(size=(5, 1))])
+    assert np.allclose(J1 @ v2, r1) and lv[1].rank_JP == 4
+
+
+def test_extended_equals_priority_when_compatible():
+    q = rand_q(4)
+    J1, J2 = jac4(q), np.array([[1.0, 1.0, 1.0, 1.0]])
+    x1, x2 = np.array([[0.2], [0.1]]), np.array([[0.5]])
+    vE, JE, _, rk = rs.extended(F, [J1, J2], [x1, x2])
+    vT, _ = rs.task_priority(F, [J1, J2], [x1, x2])
+    assert rk == 3 and np.allclose(JE @ vE, np.vstack([x1, x2])) and np.allclose(JE @ vT, np.vstack([x1, x2]))
+
+
+# ----------------------------------------------------------------------------------------------- SNS
+def _feasible(J: np.ndarray, x: np.ndarray, lo, hi) -> bool:
+    res = linprog(np.zeros(J.shape[1]), A_eq=J, b_eq=x.ravel(), bounds=list(zip(lo, hi)), method="highs")
+    return res.status == 0
+
+
+@pytest.mark.parametrize("trial", range(20))
+def test_sns_bounds_and_scaling_only_when_needed(trial):
+    J = jac7(rand_q(7))[:3]
+    x = RNG.normal(size=(3, 1)) * RNG.uniform(0.2, 3)
+    hi = RNG.uniform(0.5, 2.0, 7)
+    lo = -hi
+    res = rs.sns(F, J, x, list(lo), list(hi))
+    v = res.qdot.ravel()
+    assert np.all(v <= hi + 1e-9) and np.all(v >= lo - 1e-9)
+    assert np.allclose(J @ res.qdot, res.s * x, atol=1e-9)  # the (scaled) task is executed exactly
+    if _feasible(J, x, lo, hi) and res.s < 1:
+        # SNS is a heuristic: it may scale a feasible task, but never by much on these data
+        assert res.s > 0.5
+    if not _feasible(J, x, lo, hi):
+        assert res.s < 1
+    if np.all(np.abs(F.pinv(J) @ x).ravel() <= hi):  # PS feasible: SNS returns it unchanged
+        assert res.s == 1 and np.allclose(res.qdot, F.pinv(J) @ x) and len(res.steps) == 1
+
+
+def test_sns_exact_printed_case():
+    J = sp.Matrix([[-2, -2, -1, 0], [0, -1, -1, -1]]) / 5
+    res = rs.sns(E, J, sp.Matrix([5, 0]), [-9, -6, -4, -2], [9, 6, 4, 2])
+    assert list(res.qdot) == [-9, -5, 3, 2] and res.s == 1 and res.saturated == [0, 3]
+
+
+def test_max_scaling_matches_lp():
+    for _ in range(10):
+        J = jac4(rand_q(4))
+        d = RNG.normal(size=(2, 1))
+        h = RNG.normal(size=(2, 1)) * 2
+        Jp = F.pinv(J)
+        a, b = Jp @ d, -(Jp @ h)
+        U = RNG.uniform(1, 4, 4)
+        ms = rs.max_scaling(F, a, b, list(-U), list(U))
+        A_ub = np.vstack([a, -a])
+        b_ub = np.concatenate([U - b.ravel(), U + b.ravel()])
+        lp = linprog([-1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(0, None)], method="highs")
+        if lp.status == 2:
+            assert ms.lam is None
+        elif lp.status == 0:
+            assert ms.lam is not None and abs(ms.lam - lp.x[0]) < 1e-7
+
+
+# ----------------------------------------------------------------------------------------------- the ask
+ASK_4R = """
+id: t4r
+title: planar 4R, unequal links
+symbols: {l1: l1, l2: l2, l3: l3, l4: l4}
+values: {l1: 1, l2: 0.7, l3: 0.5, l4: 0.3}
+robot:
+  joints: [R, R, R, R]
+  dh:
+    table: [{a: l1, theta: q1}, {a: l2, theta: q2}, {a: l3, theta: q3}, {a: l4, theta: q4}]
+    links: [{}, {}, {}, {}]
+asks:
+  - kind: redundancy
+    task:
+      - l1*cos(q1) + l2*cos(q1 + q2) + l3*cos(q1 + q2 + q3) + l4*cos(q1 + q2 + q3 + q4)
+      - l1*sin(q1) + l2*sin(q1 + q2) + l3*sin(q1 + q2 + q3) + l4*sin(q1 + q2 + q3 + q4)
+"""
+
+
+def _at(q) -> str:
+    return "{" + ", ".join(f"q{i + 1}: {float(x)!r}" for i, x in enumerate(q)) + "}"
+
+
+def test_acceleration_level_matches_finite_differences():
+    q, qd = np.array([0.3, 0.9, -0.6, 1.1]), np.array([0.4, -0.7, 0.5, 0.2])
+    rdd = np.array([0.3, -0.8])
+    text = ASK_4R + f"""    level: acceleration
+    at: {_at(q)}
+    joint_velocity: {list(map(float, qd))}
+    acceleration: {list(map(float, rdd))}
+    damping: 2
+    mu: 0.01
+    methods: [pseudoinverse, null_space, dls]
+"""
+    res = all_results(solve_problem(load_problem_text(text)))
+    for name in ("qddot_ps", "qddot"):
+        qdd = np.array(sp.Matrix(res[name].value).evalf().tolist(), dtype=float).ravel()
+        h = 1e-5
+
+        def pdot(t):
+            qt = q + qd * t + 0.5 * qdd * t ** 2
+            return jac4(qt) @ (qd + qdd * t)
+
+        assert np.allclose((pdot(h) - pdot(-h)) / (2 * h), rdd, atol=1e-6)  # d/dt (J q̇) = r̈
+    qn = np.array(sp.Matrix(res["qddot"].value).evalf().tolist(), dtype=float).ravel()
+    qp = np.array(sp.Matrix(res["qddot_ps"].value).evalf().tolist(), dtype=float).ravel()
+    J = jac4(q)
+    P = np.eye(4) - np.linalg.pinv(J) @ J
+    assert np.allclose(qn - qp, P @ (-2 * qd))  # the null-space term damps q̇
+    # the velocity level at the same state
+    res_v = all_results(solve_problem(load_problem_text(ASK_4R + f"""    at: {_at(q)}
+    velocity: [0.3, -0.8]
+    methods: [pseudoinverse]
+""")))
+    v = np.array(sp.Matrix(res_v["qdot_ps"].value).evalf().tolist(), dtype=float).ravel()
+    assert np.allclose(J @ v, [0.3, -0.8])
+
+
+def test_ask_sns_and_comparison_render():
+    from solver.publish.render import render
+    text = ASK_4R + """    level: acceleration
+    at: {q1: 0.2, q2: 0.4, q3: 0.6, q4: 0.8}
+    joint_velocity: [0, 0, 0, 0]
+    acceleration: [3, -2]
+    bounds: [3, 3, 3, 3]
+"""
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    res = all_results(sols)
+    v = np.array(sp.Matrix(res["qddot_sns"].value).evalf().tolist(), dtype=float).ravel()
+    assert np.all(np.abs(v) <= 3 + 1e-9)
+    md = render(p, sols, "md")
+    assert "Saturation in the Null Space" in md and "**Comparison.**" in md
+    tex = render(p, sols, "tex")
+    assert "Saturation in the Null Space" in tex and "Comparison" in tex
+
+
+# ----------------------------------------------------------------------------------------------- issue 8, items 15-16
+I15 = """
+id: i15
+title: planar 4R with symbolic masses
+symbols: {m1: m1, m2: m2, m3: m3, m4: m4}
+robot:
+  joints: [R, R, R, R]
+  links:
+    - {mass: m1, com: [cos(q1)/2, sin(q1)/2], angle: q1, inertia: m1/12}
+    - {mass: m2, com: [cos(q1) + cos(q1+q2)/2, sin(q1) + sin(q1+q2)/2], angle: q1+q2, inertia: m2/12}
+    - {mass: m3, com: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3)/2, sin(q1) + sin(q1+q2) + sin(q1+q2+q3)/2],
+       angle: q1+q2+q3, inertia: m3/12}
+    - {mass: m4, com: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3) + cos(q1+q2+q3+q4)/2,
+                       sin(q1) + sin(q1+q2) + sin(q1+q2+q3) + sin(q1+q2+q3+q4)/2], angle: q1+q2+q3+q4, inertia: m4/12}
+asks:
+  - kind: redundancy
+    task:
+      - cos(q1) + cos(q1+q2) + cos(q1+q2+q3) + cos(q1+q2+q3+q4)
+      - sin(q1) + sin(q1+q2) + sin(q1+q2+q3) + sin(q1+q2+q3+q4)
+    weight: inertia
+    velocity: [1, 0]
+    at: {q1: 0, q2: pi/2, q3: 0, q4: pi/2}
+"""
+
+
+def test_item15_symbolic_inertia_weighted_pinv_at_a_configuration():
+    """2x4 task, symbolic masses, weight: inertia, at: given -> symbolic J_W^# and q̇, equal to numpy at random
+    masses."""
+    p = load_problem_text(I15)
+    res = all_results(solve_problem(p))
+    assert "J_pinv" in res and "qdot_ps" in res
+    Jp, qd = res["J_pinv"].value, res["qdot_ps"].value
+    assert Jp.free_symbols and {s.name for s in Jp.free_symbols} <= {"m1", "m2", "m3", "m4"}
+    from solver.dynamics.model import derive
+    B = derive(p.robot).B
+    q = {p.robot.q[0]: 0, p.robot.q[1]: sp.pi / 2, p.robot.q[2]: 0, p.robot.q[3]: sp.pi / 2}
+    for _ in range(3):
+        ms = {s: sp.Float(RNG.uniform(0.5, 5)) for s in Jp.free_symbols}
+        W = np.array(B.subs(q).subs({sp.Symbol(k.name, **k.assumptions0): v for k, v in ms.items()})
+                     .subs(ms).evalf().tolist(), dtype=float)
+        J = jac4_unit(np.array([0, np.pi / 2, 0, np.pi / 2]))
+        ref = np.linalg.inv(W) @ J.T @ np.linalg.inv(J @ np.linalg.inv(W) @ J.T)
+        got = np.array(Jp.subs(ms).evalf().tolist(), dtype=float)
+        assert np.allclose(got, ref, atol=1e-9)
+        assert np.allclose(np.array(qd.subs(ms).evalf().tolist(), dtype=float).ravel(), ref @ [1, 0], atol=1e-9)
+
+
+def jac4_unit(q: np.ndarray) -> np.ndarray:
+    c = np.cumsum(q)
+    return np.array([[-sum(np.sin(c[k]) for k in range(j, 4)) for j in range(4)],
+                     [sum(np.cos(c[k]) for k in range(j, 4)) for j in range(4)]])
+
+
+def test_item15_too_big_says_why():
+    text = I15.replace("    at: {q1: 0, q2: pi/2, q3: 0, q4: pi/2}\n", "")
+    from solver.publish.render import render
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    md = render(p, sols, "md")
+    assert "not given symbolically" in md and "(no at:)" in md
+    text = I15.replace("q3: 0,", "q3: 0.7,")  # sin(7/10): the exact symbolic result is huge
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    md = render(p, sols, "md")
+    assert "J_pinv" not in all_results(sols) and "did not finish within" in md
+
+
+def test_item16_nested_radicals_go_numeric_and_say_so():
+    from solver.publish.render import render
+    text = """
+id: i16
+title: 3R, projected gradient at angles with nested radicals
+symbols: {}
+robot: {joints: [R, R, R]}
+asks:
+  - kind: redundancy
+    task: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3), sin(q1) + sin(q1+q2) + sin(q1+q2+q3)]
+    velocity: [1, -1]
+    gradient: sin(q2)^2 + sin(q3)^2
+    at: {q1: 2*pi/5, q2: pi/2, q3: -pi/4}
+"""
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    res = all_results(sols)
+    v = res["qdot"].value
+    assert all(x.is_Float or x == 0 for x in v)
+    q = np.array([2 * np.pi / 5, np.pi / 2, -np.pi / 4])
+    c = np.cumsum(q)
+    J = np.array([[-sum(np.sin(c[k]) for k in range(j, 3)) for j in range(3)],
+                  [sum(np.cos(c[k]) for k in range(j, 3)) for j in range(3)]])
+    Jp = np.linalg.pinv(J)
+    g = np.array([0, np.sin(2 * q[1]), np.sin(2 * q[2])])
+    ref = Jp @ [1, -1] + (np.eye(3) - Jp @ J) @ g
+    assert np.allclose(np.array(v.evalf().tolist(), dtype=float).ravel(), ref, atol=1e-9)
+    assert "floating point: nested radicals" in render(p, sols, "md")
+
+
+def test_sns_property_check_accepts_feasible_solutions():
+    from solver.kinematics.methods import check_sns
+    from solver.spec import load_problem
+    from conftest import PROBLEMS
+    p = load_problem(PROBLEMS / "2018-07-11-ex2.yaml")
+    res = all_results(solve_problem(p))
+    ok = check_sns(p, res, "qddot_sns", [-9, -5, 3, 2], None, None)
+    assert ok.correct and ok.fraction == 1.0
+    alt = check_sns(p, res, "qddot_sns", [-9, -5.5, 4, 1.5], None, None)  # α = 1.5 of the printed family
+    assert alt.correct and alt.fraction == 0.5
+    assert not check_sns(p, res, "qddot_sns", [-25 / 3, -25 / 6, 0, 25 / 6], None, None).correct  # PS: q̈4 > 2
+    assert not check_sns(p, res, "qddot_sns", [-4, -2, 0, 2], None, None).correct  # scaled: task not realized
