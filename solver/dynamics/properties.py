@@ -112,41 +112,57 @@ def _nonneg(d: sp.Expr) -> bool:
     return d == 0 or bool(d.is_nonnegative)
 
 
+def worst_case(m: sp.Expr, q: list[sp.Symbol], revolute: set[sp.Symbol]) -> list[sp.Expr]:
+    """The values of m(q) at the configurations with the angles it depends on in {k π/2} (where cos, sin and their
+    squares are extreme), prismatic coordinates at 0, without the ones that are another plus something
+    non-negative (they hold whenever the other does)."""
+    angles = [a for a in angle_symbols(m) if a in revolute]
+    others = {x: sp.Integer(0) for x in q if x in m.free_symbols and x not in angles}
+    grid = [sp.Integer(0), sp.pi / 2, sp.pi, -sp.pi / 2]
+    vals: list[sp.Expr] = []
+    for pt in itertools.product(grid, repeat=len(angles)):
+        v = sp.expand(m.xreplace({**others, **dict(zip(angles, pt))}))
+        if not any(sp.expand(v - w) == 0 for w in vals):
+            vals.append(v)
+    kept = [v for i, v in enumerate(vals) if not any(j != i and _nonneg(v - w) for j, w in enumerate(vals))]
+    # a value above the mean of two others holds when both do (cos = 0 between cos = ±1)
+    return [v for i, v in enumerate(kept)
+            if not any(j != i and k != i and j < k and _nonneg(v - (w + x) / 2)
+                       for j, w in enumerate(kept) for k, x in enumerate(kept))]
+
+
 def pd_conditions(B: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol]
-                  ) -> tuple[list[sp.Expr], list[sp.Expr], bool, list[tuple[list[int], list[sp.Expr]]]]:
-    """(conditions c > 0, minors, possible, per-block minors) for B(q) ≻ 0 at every q: the leading principal minors
-    of each diagonal block, at the configurations with the angles they depend on in {k π/2} (where cos, sin and
-    their squares are extreme), prismatic coordinates at 0; a value that is another value of the same minor plus
-    something non-negative is dropped (it holds whenever the other does), the rest normalized
-    (positive factors removed). ``possible`` is False when a condition can never hold."""
+                  ) -> tuple[list[sp.Expr], list[sp.Expr], bool, list[tuple[list[int], list[sp.Expr]]], list[sp.Expr]]:
+    """(conditions c > 0, minors, possible, per-block minors, diagonal conditions) for B(q) ≻ 0 at every q: every
+    diagonal entry (necessary) and the leading principal minors of each diagonal block (Sylvester), each in its
+    worst configurations (:func:`worst_case`), normalized (positive factors removed) and reduced.
+    ``possible`` is False when a condition can never hold."""
     from solver.math.equivalence import normalize_condition, reduce_conditions
     blocks = diagonal_blocks(B)
-    conds: list[sp.Expr] = []
     minors: list[sp.Expr] = []
     per_block = []
     possible = True
-    grid = [sp.Integer(0), sp.pi / 2, sp.pi, -sp.pi / 2]
+
+    def collect(exprs: list[sp.Expr]) -> list[sp.Expr]:
+        nonlocal possible
+        out: list[sp.Expr] = []
+        for m in exprs:
+            for v in worst_case(m, q, revolute):
+                nc = normalize_condition(v)
+                if nc == -1 or bool(v.is_nonpositive):
+                    possible = False
+                if nc != 1 and not any(sp.expand(nc - x) == 0 for x in out):
+                    out.append(nc)
+        return out
+
     for blk in blocks:
         M = B.extract(blk, blk)
         mins = [tidy(M[:k, :k].det()) for k in range(1, len(blk) + 1)]
         per_block.append((blk, mins))
         minors += mins
-        for m in mins:
-            angles = [a for a in angle_symbols(m) if a in revolute]
-            others = {x: sp.Integer(0) for x in q if x in m.free_symbols and x not in angles}
-            vals: list[sp.Expr] = []
-            for pt in itertools.product(grid, repeat=len(angles)):
-                v = sp.expand(m.xreplace({**others, **dict(zip(angles, pt))}))
-                if not any(sp.expand(v - w) == 0 for w in vals):
-                    vals.append(v)
-            kept = [v for i, v in enumerate(vals) if not any(j != i and _nonneg(v - w) for j, w in enumerate(vals))]
-            for v in kept:
-                nc = normalize_condition(v)
-                if nc == -1 or bool(v.is_nonpositive):
-                    possible = False
-                if nc != 1 and not any(sp.expand(nc - x) == 0 for x in conds):
-                    conds.append(nc)
-    return reduce_conditions(conds), minors, possible, per_block
+    diag = collect([B[i, i] for i in range(B.rows)])
+    conds = collect([B[i, i] for i in range(B.rows)] + minors)
+    return reduce_conditions(conds), minors, possible, per_block, reduce_conditions(diag)
 
 
 def _real_eigenvalues(M: sp.Matrix) -> list[sp.Expr]:
@@ -230,6 +246,12 @@ class GivenFactorization(Strict):
     S: ExprT = Field(description="the n x n matrix S(q, dq) to check")
 
 
+class Candidate(Strict):
+    name: str = Field(description="result prefix, e.g. MA")
+    B: ExprT = Field(description="the n x n inertia matrix, in the robot's coordinates q1..qn")
+    g: Optional[ExprT] = Field(None, description="the gravity vector (default 0)")
+
+
 class DynamicPropertiesAsk(Strict):
     """Properties of the dynamic model of the spec's robot."""
 
@@ -245,6 +267,8 @@ class DynamicPropertiesAsk(Strict):
     transform: Optional[ExprT] = Field(None, description="coordinates: the n x n matrix T with q = T θ")
     new_coordinates: Optional[list[str]] = Field(None, description="names of θ (default th1..thn); "
                                                                   "velocities d<name>")
+    candidates: list["Candidate"] = Field([], description="feasibility: other (B, g) to judge, results prefixed "
+                                                           "<name>_ (B_indep_q1, det_B, pd_conditions, real_robot, ...)")
     state: Optional[dict[str, Union[str, int, float]]] = Field(
         None, description="power: the state (q.., dq..) where Ė, U̇, Ṫ, L̇ are evaluated")
     u: Optional[ExprT] = Field(None, description="power: the input u at that state (n expressions)")
@@ -349,6 +373,10 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             th = [sp.Symbol(s, real=True) for s in names]
             dth = [sp.Symbol("d" + s, real=True) for s in names]
             for s_, ds_ in zip(th, dth):
+                if problem.names.get(s_.name, s_) != s_ or problem.names.get(ds_.name, ds_) != ds_:
+                    raise UserError(f"'{s_.name}' is already a name of the problem",
+                                    _place(problem, ctx, "new_coordinates"), "choose other names")
+                problem.names[s_.name], problem.names[ds_.name] = s_, ds_   # expected: values may use them
                 base = latex_of(s_.name).replace("th_", "\\theta_")
                 problem.latex_names.setdefault(s_, base)
                 problem.latex_names.setdefault(ds_, f"\\dot{{{base}}}")
@@ -358,7 +386,22 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             sol.add("g_new", gt, "vector", label="g_\\theta")
             sol.step("coordinates", T=T, th=th, q=q, Bt=Bt, ct=ct, gt=gt, Tinv=T.inv())
         elif what == "feasibility":
-            _feasibility(sol, dm, robot, revolute)
+            _feasibility(sol, dm.B, dm.g, robot, revolute)
+            for k, cand in enumerate(options.candidates):
+                if not cand.name.isidentifier():
+                    raise UserError(f"candidate name '{cand.name}' is not a plain name",
+                                    _place(problem, ctx, "candidates", k, "name"), "use letters, digits and _")
+                Bc = ctx.expr("candidates", k, "B")
+                try:
+                    Bc = sp.Matrix(Bc)
+                except (TypeError, ValueError):
+                    Bc = None
+                if Bc is None or Bc.shape != (n, n):
+                    raise UserError(f"B must be a {n}x{n} matrix", _place(problem, ctx, "candidates", k, "B"))
+                gc = sp.Matrix(ctx.expr("candidates", k, "g")) if cand.g is not None else sp.zeros(n, 1)
+                if gc.shape != (n, 1):
+                    raise UserError(f"g must have {n} components", _place(problem, ctx, "candidates", k, "g"))
+                _feasibility(sol, Bc, gc, robot, revolute, cand.name + "_")
         elif what == "power":
             _power(problem, options, ctx, sol, dm, robot)
     return sol
@@ -389,22 +432,41 @@ def _inverse_dynamics(problem, options, ctx, sol, dm, robot) -> None:  # type: i
     sol.step("inverse_dynamics", qd=sp.Matrix(qd), dqd=sp.Matrix(dqd), ddqd=sp.Matrix(ddqd), ud=ud, rows=rows)
 
 
-def _feasibility(sol, dm, robot, revolute) -> None:  # type: ignore[no-untyped-def]
-    B, g, q = dm.B, dm.g, robot.q
+def base_invariance(B: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol]) -> tuple[bool, sp.Matrix | None]:
+    """Whether B(q + δ v) ≡ B(q) for v = e₁ (relative coordinates: moving the first joint moves the whole robot) or
+    v = the revolute coordinates all 1 (absolute angles: a rotation of the base adds δ to each of them); (ok, v)."""
+    d = sp.Dummy("delta")
+    cands = [sp.Matrix([int(i == 0) for i in range(len(q))]),
+             sp.Matrix([int(x in revolute and any(x in a.free_symbols for a in B.atoms(sp.sin, sp.cos)))
+                        for x in q])]
+    for v in cands:
+        if not any(v):
+            continue
+        shifted = B.xreplace({x: x + d * vi for x, vi in zip(q, v) if vi})
+        if all(is_zero(sp.expand(sp.expand_trig(x))) for x in (shifted - B)):
+            return True, v
+    return False, None
+
+
+def _feasibility(sol, B, g, robot, revolute, prefix: str = "") -> None:  # type: ignore[no-untyped-def]
+    q = robot.q
     sym = all(is_zero(x) for x in (B - B.T))
     indep = not any(q[0] in e.free_symbols for e in B)
-    conds, minors, possible, blocks = pd_conditions(B, q, revolute)
+    invariant, shift = base_invariance(B, q, revolute)
+    conds, minors, possible, blocks, diag = pd_conditions(B, q, revolute)
     A = g.jacobian(q)
     conservative = all(is_zero(sp.expand(x)) for x in (A - A.T))
-    real = bool(sym and indep and possible and conservative)
-    sol.add("B_symmetric", sym, "bool", label="B = B^T")
-    sol.add("B_indep_q1", indep, "bool", label="B \\text{ independent of } q_1")
-    sol.add("det_B", tidy(B.det()), "scalar", label="\\det B(q)")
-    sol.add("pd_conditions", conds, "conditions", label="B(q) \\succ 0\\ \\forall q")
-    sol.add("pd_possible", possible, "bool", label="B(q) \\succ 0 \\text{ possible}")
-    sol.add("g_conservative", conservative, "bool", label="\\partial g/\\partial q \\text{ symmetric}")
-    sol.add("real_robot", real, "bool", label="\\text{can be a robot model}")
-    sol.step("feasibility", sym=sym, indep=indep, conds=conds, blocks=blocks, possible=possible,
+    real = bool(sym and invariant and possible and conservative)
+    sol.add(prefix + "B_symmetric", sym, "bool", label="B = B^T")
+    sol.add(prefix + "B_indep_q1", indep, "bool", label="B \\text{ independent of } q_1")
+    sol.add(prefix + "B_base_invariant", invariant, "bool", label="B \\text{ invariant under a motion of the base}")
+    sol.add(prefix + "det_B", tidy(B.det()), "scalar", label="\\det B(q)")
+    sol.add(prefix + "diag_conditions", diag, "conditions", label="b_{ii}(q) > 0\\ \\forall q")
+    sol.add(prefix + "pd_conditions", conds, "conditions", label="B(q) \\succ 0\\ \\forall q")
+    sol.add(prefix + "pd_possible", possible, "bool", label="B(q) \\succ 0 \\text{ possible}")
+    sol.add(prefix + "g_conservative", conservative, "bool", label="\\partial g/\\partial q \\text{ symmetric}")
+    sol.add(prefix + "real_robot", real, "bool", label="\\text{can be a robot model}")
+    sol.step("feasibility", label=prefix[:-1], B=B, sym=sym, indep=indep, invariant=invariant, shift=shift, conds=conds, diag=diag, blocks=blocks, possible=possible,
              conservative=conservative, real=real, A=A, det=tidy(B.det()), q1=q[0], g=g)
 
 
@@ -469,3 +531,6 @@ def check_factorizations(problem, results, name, value, other, options) -> Prope
                                            + ", as asked"])
     return PropertyVerdict(False, 0.5, ["S q̇ = c holds, but Ḃ − 2S is " + ("" if skew else "not ") +
                                         "skew-symmetric, which is not what was asked"])
+
+
+DynamicPropertiesAsk.model_rebuild()
