@@ -258,7 +258,7 @@ class DynamicPropertiesAsk(Strict):
     kind: Literal["dynamic_properties"]
     title: Optional[str] = Field(None, description="heading of this part in the report")
     find: list[Literal["eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates",
-                       "feasibility", "power"]] = Field(description="which properties")
+                       "feasibility", "power", "forward_dynamics"]] = Field(description="which properties")
     ranges: dict[str, tuple[float, float]] = Field(
         {}, description="range per coordinate for the searches over q (needed for prismatic ones)")
     factorizations: list[GivenFactorization] = Field([], description="factorizations S to check")
@@ -404,6 +404,8 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
                 _feasibility(sol, Bc, gc, robot, revolute, cand.name + "_")
         elif what == "power":
             _power(problem, options, ctx, sol, dm, robot)
+        elif what == "forward_dynamics":
+            _forward(problem, options, ctx, sol, dm, robot)
     return sol
 
 
@@ -468,6 +470,36 @@ def _feasibility(sol, B, g, robot, revolute, prefix: str = "") -> None:  # type:
     sol.add(prefix + "real_robot", real, "bool", label="\\text{can be a robot model}")
     sol.step("feasibility", label=prefix[:-1], B=B, sym=sym, indep=indep, invariant=invariant, shift=shift, conds=conds, diag=diag, blocks=blocks, possible=possible,
              conservative=conservative, real=real, A=A, det=tidy(B.det()), q1=q[0], g=g)
+
+
+def _read_state(problem, options, ctx, robot) -> dict:  # type: ignore[no-untyped-def]
+    state = {}
+    for name in options.state or {}:
+        sym = problem.names.get(name)
+        if sym is None or sym not in robot.q + robot.dq:
+            raise UserError(f"'{name}' in state: is not a coordinate or velocity", _place(problem, ctx, "state", name),
+                            "use q1, dq1, ...")
+        state[sym] = ctx.expr("state", name)
+    return state
+
+
+def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """q̈ = B⁻¹ (G u − c − g − F_v q̇) for the given u (at the given state, else symbolic)."""
+    m = len(robot.inputs)
+    if options.u is None:
+        raise UserError("forward_dynamics needs u: [...]", _place(problem, ctx, "find"), "add u: [0, ua]")
+    u = ctx.expr("u")
+    if not isinstance(u, list) or len(u) != m:
+        raise UserError(f"u must be a list of {m} expressions", _place(problem, ctx, "u"))
+    G = robot.input_map if robot.input_map is not None else sp.eye(robot.n)
+    v = sp.Matrix(robot.dq)
+    rhs = G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(robot.n, 1))
+    state = _read_state(problem, options, ctx, robot)
+    Binv = dm.B.inv()
+    ddq = tidy_matrix((Binv * rhs).xreplace(state))
+    sol.add("ddq", ddq, "vector", label="\\ddot q")
+    sol.step("forward_dynamics", u=sp.Matrix(u), Binv=Binv.applyfunc(tidy), rhs=rhs.applyfunc(tidy), state=state,
+             ddq=ddq)
 
 
 def _power(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
