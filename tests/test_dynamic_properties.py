@@ -199,3 +199,45 @@ def test_render_and_errors():
     bad = RP.replace("    ranges: {q2: [0.2, 1.5]}\n", "")
     with pytest.raises(UserError, match="range"):
         solve_problem(load_problem_text(bad))
+
+
+PRP = """
+id: t
+title: vertical RP with an unbounded prismatic joint
+symbols: {m1: m1, m2: m2, d1: d1, g0: g0, I1: I1}
+robot:
+  joints: [R, P]
+  gravity: [0, -g0]
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [q2*cos(q1), q2*sin(q1)], angle: q1}
+asks:
+  - kind: dynamic_properties
+    find: [alpha, forward_dynamics]
+    u: [u1, 0]
+"""
+
+
+def test_affine_gravity_bound_holds_and_beta_check():
+    load_all()
+    p, r = results(PRP)
+    A = r["dg_dq"].value
+    alpha, beta = r["alpha"].value, r["beta"].value
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        vals = {s: sp.Float(rng.uniform(0.5, 2)) for s in p.symbols.values()}
+        f = sp.lambdify(p.robot.q, A.xreplace(vals))
+        a, b = float(alpha.xreplace(vals)), float(beta.xreplace(vals))
+        for q1, q2 in zip(rng.uniform(-np.pi, np.pi, 100), rng.uniform(-50, 50, 100)):
+            assert np.linalg.norm(np.array(f(q1, q2), float), 2) <= a + b * abs(q2) + 1e-9
+    chk = PROPERTY_CHECKS["beta"]
+    assert chk(p, r, "beta", beta, lambda n: None, None).correct
+    assert not chk(p, r, "beta", beta / 3, lambda n: None, None).correct
+
+
+def test_forward_dynamics():
+    p, r = results(PRP)
+    dm = derive(p.robot)
+    u1 = p.robot.inputs[0]
+    ddq = r["ddq"].value
+    assert all(is_zero(sp.expand(sp.simplify(x))) for x in dm.B * ddq + dm.c + dm.g - sp.Matrix([u1, 0]))

@@ -230,6 +230,35 @@ def eigen_bounds(B: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol], val
     return out
 
 
+def affine_bound(A: sp.Matrix, coord: sp.Symbol, others: set[sp.Symbol]) -> tuple[sp.Expr, sp.Expr] | None:
+    """(α, β) with ‖A(q)‖ ≤ α + β |s| for every q, s = ``coord`` unbounded: ‖A‖ ≤ ‖A‖_F ≤ ‖A_s‖_F + ‖A_0‖_F
+    (A_s: the entries that depend on s, A_0: the others), each entry bounded termwise (|sin|, |cos| ≤ 1), an entry
+    of A_s by u + v|s|, so that ‖A_s‖_F ≤ ‖u‖ + |s| ‖v‖ (Minkowski): α = ‖u‖ + ‖A_0‖_F, β = ‖v‖.
+    None if an entry is not affine in |s| after bounding."""
+    Q = sp.Dummy("Q", positive=True)
+    us, vs, ws = [], [], []
+    for a in A:
+        if a == 0:
+            continue
+        b = abs_bound(sp.expand(a), others | {coord}, {coord: (-Q, Q)})
+        if b is None:
+            return None
+        b = sp.expand(b.replace(lambda e: isinstance(e, sp.Max), lambda e: Q))
+        if not b.has(Q):
+            ws.append(b)
+            continue
+        poly = sp.Poly(b, Q)
+        if poly.degree() > 1:
+            return None
+        vs.append(poly.coeff_monomial(Q))
+        us.append(poly.coeff_monomial(1))
+
+    def norm(xs: list[sp.Expr]) -> sp.Expr:
+        return sp.sqrt(sp.factor(sum((x ** 2 for x in xs), sp.Integer(0)))) if len(xs) != 1 else xs[0]
+
+    return tidy(norm(us) + norm(ws)), tidy(norm(vs))
+
+
 def change_coordinates(B: sp.Matrix, g: sp.Matrix, q: list[sp.Symbol], T: sp.Matrix, th: list[sp.Symbol],
                        dth: list[sp.Symbol]) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
     """q = T θ: (B_θ, c_θ, g_θ) with B_θ = Tᵀ B(Tθ) T, g_θ = Tᵀ g(Tθ), c_θ from the Christoffel symbols of B_θ."""
@@ -315,10 +344,17 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
         elif what == "alpha":
             gb = gradient_bound(dm.g, q, revolute, ranges, problem.values)
             sol.add("dg_dq", gb.A, "matrix", label="\\partial g/\\partial q")
-            sol.add("alpha", gb.alpha, "scalar", label="\\alpha")
+            affine = None
+            if gb.method == "unbounded" and len(gb.unbounded) == 1 and gb.unbounded[0] not in revolute:
+                affine = affine_bound(gb.A, gb.unbounded[0], set(gb.coords) - set(gb.unbounded))
+            if affine is not None:
+                sol.add("alpha", affine[0], "scalar", label="\\alpha")
+                sol.add("beta", affine[1], "scalar", label="\\beta")
+            else:
+                sol.add("alpha", gb.alpha, "scalar", label="\\alpha")
             if gb.q_max is not None:
                 sol.add("q_alpha", gb.q_max, "vector", label="q_\\alpha")
-            sol.step("alpha", gb=gb)
+            sol.step("alpha", gb=gb, affine=affine, s=gb.unbounded[0] if affine is not None else None)
         elif what == "factorizations":
             if dm.C is None:
                 raise UserError("factorizations need c from B (the model gives c directly)",
@@ -488,7 +524,7 @@ def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-
     m = len(robot.inputs)
     if options.u is None:
         raise UserError("forward_dynamics needs u: [...]", _place(problem, ctx, "find"), "add u: [0, ua]")
-    u = ctx.expr("u")
+    u = problem.parse_at(ctx.path + ("u",), {**problem.names, **{x.name: x for x in robot.inputs}})
     if not isinstance(u, list) or len(u) != m:
         raise UserError(f"u must be a list of {m} expressions", _place(problem, ctx, "u"))
     G = robot.input_map if robot.input_map is not None else sp.eye(robot.n)
@@ -566,3 +602,37 @@ def check_factorizations(problem, results, name, value, other, options) -> Prope
 
 
 DynamicPropertiesAsk.model_rebuild()
+
+
+@property_check("beta")
+def check_affine_bound(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """(α, β) with ‖∂g/∂q‖ ≤ α + β|s| for every q is not unique: the answer's β (with the answer's α, else the
+    reference α) is checked at random configurations (|s| up to 100) and parameter values."""
+    A, ref_alpha = results.get("dg_dq"), results.get("alpha")
+    if A is None or ref_alpha is None or problem.robot is None:
+        return None
+    alpha = other("alpha") if other is not None else None
+    alpha = ref_alpha.value if alpha is None or isinstance(alpha, list) else alpha
+    if isinstance(value, list):
+        return None
+    beta = sp.sympify(value)
+    robot = problem.robot
+    coords = [x for x in robot.q if any(x in e.free_symbols for e in A.value)]
+    rng = np.random.default_rng(5)
+    params = sorted(set().union(*[e.free_symbols for e in A.value], alpha.free_symbols, beta.free_symbols)
+                    - set(robot.q), key=lambda s: s.name)
+    for trial in range(3):
+        vals = {p: problem.values.get(p, sp.Float(rng.uniform(0.5, 2.0))) for p in params}
+        An = sp.lambdify(coords, A.value.xreplace(vals), "numpy")
+        a, b = float(alpha.xreplace(vals)), float(beta.xreplace(vals))
+        for _ in range(200):
+            rev = np.array([robot.joints[robot.q.index(c)] == "R" for c in coords])
+            ang = rng.uniform(-np.pi, np.pi, len(coords)) if _ % 2 else rng.integers(-3, 5, len(coords)) * np.pi / 4
+            lin = rng.choice([0.0, 0.1, 1.0, 10.0, 100.0], len(coords)) * rng.uniform(-1, 1, len(coords))
+            x = np.where(rev, ang, lin)
+            s = max((abs(v) for v, c in zip(x, coords) if robot.joints[robot.q.index(c)] == "P"), default=0.0)
+            nrm = np.linalg.norm(np.array(An(*x), dtype=float), 2)
+            if nrm > a + b * s + 1e-9:
+                return PropertyVerdict(False, 0.0, [f"not a bound: ‖∂g/∂q‖ = {nrm:.4g} > α + β|s| = {a + b * s:.4g} "
+                                                    f"at q = {np.round(x, 3).tolist()}"])
+    return PropertyVerdict(True, 1.0, ["α + β|s| bounds ‖∂g/∂q‖ at every sampled configuration"])
