@@ -293,6 +293,8 @@ class DynamicPropertiesAsk(Strict):
     factorizations: list[GivenFactorization] = Field([], description="factorizations S to check")
     trajectory: Optional[ExprT] = Field(None, description="q_d(t) for inverse_dynamics: n expressions in t")
     times: list[Union[str, int, float]] = Field([], description="times where u_d(t) is evaluated (u_d_at<k>)")
+    cases: list[dict[str, Union[str, int, float]]] = Field(
+        [], description="inverse_dynamics: parameter values substituted in u_d(t) (u_d_case<k>), e.g. [{q2b: pi/2}]")
     transform: Optional[ExprT] = Field(None, description="coordinates: the n x n matrix T with q = T θ")
     new_coordinates: Optional[list[str]] = Field(None, description="names of θ (default th1..thn); "
                                                                   "velocities d<name>")
@@ -467,7 +469,20 @@ def _inverse_dynamics(problem, options, ctx, sol, dm, robot) -> None:  # type: i
         v = ud.xreplace({t: tk}).applyfunc(tidy)
         sol.add(f"u_d_at{k + 1}", v, "vector", label=f"u_d(t_{k + 1})")
         rows.append((tk, v, v.xreplace(problem.values).evalf(6) if problem.values else None))
-    sol.step("inverse_dynamics", qd=sp.Matrix(qd), dqd=sp.Matrix(dqd), ddqd=sp.Matrix(ddqd), ud=ud, rows=rows)
+    cases = []
+    for k, case in enumerate(options.cases):
+        sub = {}
+        for name in case:
+            sym = problem.names.get(name)
+            if sym is None or not isinstance(sym, sp.Symbol) or sym in robot.q + robot.dq + robot.ddq:
+                raise UserError(f"'{name}' in cases: is not a parameter", _place(problem, ctx, "cases", k, name),
+                                "use a symbol of the trajectory, declared under symbols:")
+            sub[sym] = problem.parse_at(ctx.path + ("cases", k, name), names)
+        v = ud.xreplace(sub).applyfunc(tidy)
+        sol.add(f"u_d_case{k + 1}", v, "vector", label=f"u_d\\big|_{{{k + 1}}}")
+        cases.append((sub, v))
+    sol.step("inverse_dynamics", qd=sp.Matrix(qd), dqd=sp.Matrix(dqd), ddqd=sp.Matrix(ddqd), ud=ud, rows=rows,
+             cases=cases)
 
 
 def base_invariance(B: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol]) -> tuple[bool, sp.Matrix | None]:
