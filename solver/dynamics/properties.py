@@ -394,7 +394,7 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             sol.add("p", p, "vector", label="p = B(q)\\dot q")
             beta = tidy_matrix(dm.g - (dm.S.T * sp.Matrix(dq) if dm.S is not None else sp.zeros(n, 1)))
             if dm.S is not None:
-                sol.add("beta", beta, "vector", label="\\beta = g - S^T\\dot q")
+                sol.add("beta_momentum", beta, "vector", label="\\beta = g - S^T\\dot q")
             sol.step("momentum", p=p, beta=beta if dm.S is not None else None)
         elif what == "inverse_dynamics":
             _inverse_dynamics(problem, options, ctx, sol, dm, robot)
