@@ -241,3 +241,37 @@ def test_forward_dynamics():
     u1 = p.robot.inputs[0]
     ddq = r["ddq"].value
     assert all(is_zero(sp.expand(sp.simplify(x))) for x in dm.B * ddq + dm.c + dm.g - sp.Matrix([u1, 0]))
+
+
+def test_fault_torque_imposes_the_acceleration():
+    """With τ_f at joint 1, the forward dynamics of B q̈ + c + g = u − e₁ τ_f give q̈₁ = −λ q̇₁ (planar RP)."""
+    text = PRP.replace("[alpha, forward_dynamics]", "[fault]").replace(
+        "    u: [u1, 0]\n", "    u: [u1, u2]\n    fault: {joint: 1, ddq: -5*dq1}\n")
+    p, r = results(text)
+    dm = derive(p.robot)
+    tf = r["tau_f"].value
+    vals = {s: sp.Rational(k + 3, 4) for k, s in enumerate(sorted(p.symbols.values(), key=lambda s: s.name))}
+    st = {**dict(zip(p.robot.q, [0.3, 1.1])), **dict(zip(p.robot.dq, [0.5, -1])),
+          **dict(zip(p.robot.inputs, [2, -1])), **vals}
+    B = dm.B.xreplace(st)
+    rhs = (sp.Matrix(p.robot.inputs) - dm.c - dm.g - sp.Matrix([tf, 0])).xreplace(st)
+    ddq = np.linalg.solve(np.array(B.evalf(), float), np.array(rhs.evalf(), float).ravel())
+    assert abs(ddq[0] + 5 * 0.5) < 1e-9
+    want = np.array(r["ddq_fault"].value.xreplace(st).evalf(), float).ravel()
+    assert np.allclose(ddq, want)
+
+
+def test_symbolic_inverse_is_bounded():
+    text = """
+id: t
+title: symbolic 3R given model
+symbols: {a1: a1, a2: a2, a3: a3}
+robot:
+  joints: [R, R, R]
+  model: {B: "[[a1 + a2*cos(q2), a3, 0], [a3, a2 + a3*cos(q3), 0], [0, 0, a1]]"}
+asks: [{kind: dynamic_properties, find: [forward_dynamics], u: [u1, u2, u3]}]
+"""
+    with pytest.raises(UserError, match="too large"):
+        solve_problem(load_problem_text(text))
+    p, r = results(text.replace("symbols: {a1: a1, a2: a2, a3: a3}", "symbols: {a1: a1, a2: a2, a3: a3}\nvalues: {a1: 3, a2: 1, a3: 0.5}"))
+    assert r["ddq"].value.shape == (3, 1)

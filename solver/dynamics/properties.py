@@ -281,13 +281,18 @@ class Candidate(Strict):
     g: Optional[ExprT] = Field(None, description="the gravity vector (default 0)")
 
 
+class Fault(Strict):
+    joint: int = Field(description="the joint i whose acceleration is imposed (1..n)")
+    ddq: ExprT = Field(description="the imposed acceleration of joint i, e.g. -lambda2*dq2 (incipient block)")
+
+
 class DynamicPropertiesAsk(Strict):
     """Properties of the dynamic model of the spec's robot."""
 
     kind: Literal["dynamic_properties"]
     title: Optional[str] = Field(None, description="heading of this part in the report")
     find: list[Literal["eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates",
-                       "feasibility", "power", "forward_dynamics"]] = Field(description="which properties")
+                       "feasibility", "power", "forward_dynamics", "fault"]] = Field(description="which properties")
     ranges: dict[str, tuple[float, float]] = Field(
         {}, description="range per coordinate for the searches over q (needed for prismatic ones)")
     factorizations: list[GivenFactorization] = Field([], description="factorizations S to check")
@@ -302,7 +307,9 @@ class DynamicPropertiesAsk(Strict):
                                                            "<name>_ (B_indep_q1, det_B, pd_conditions, real_robot, ...)")
     state: Optional[dict[str, Union[str, int, float]]] = Field(
         None, description="power: the state (q.., dq..) where Ė, U̇, Ṫ, L̇ are evaluated")
-    u: Optional[ExprT] = Field(None, description="power: the input u at that state (n expressions)")
+    u: Optional[ExprT] = Field(None, description="power, forward_dynamics, fault: the input u (n expressions)")
+    fault: Optional[Fault] = Field(None, description="fault: the extra torque τ_f,i at one joint that imposes its "
+                                                     "acceleration (B q̈ + c + g = G u − e_i τ_f,i)")
 
 
 def _place(problem, ctx, *sub):  # type: ignore[no-untyped-def]
@@ -444,6 +451,8 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             _power(problem, options, ctx, sol, dm, robot)
         elif what == "forward_dynamics":
             _forward(problem, options, ctx, sol, dm, robot)
+        elif what == "fault":
+            _fault(problem, options, ctx, sol, dm, robot)
     return sol
 
 
@@ -534,6 +543,19 @@ def _read_state(problem, options, ctx, robot) -> dict:  # type: ignore[no-untype
     return state
 
 
+MAX_SYMBOLIC_INVERSE = 2   # B⁻¹ with symbolic parameters only up to this size (3x3 trigonometric inverses explode)
+
+
+def _inverse(problem, ctx, B: sp.Matrix, q: list[sp.Symbol]) -> sp.Matrix:  # type: ignore[no-untyped-def]
+    """B⁻¹ (entries simplified); beyond MAX_SYMBOLIC_INVERSE the parameter values are substituted first."""
+    if B.rows > MAX_SYMBOLIC_INVERSE:
+        B = B.xreplace(problem.values)
+        if set().union(*[e.free_symbols for e in B]) - set(q):
+            raise UserError(f"B⁻¹ of a {B.rows}x{B.rows} inertia matrix with symbolic parameters is too large",
+                            _place(problem, ctx, "find"), "give numeric values: for the parameters")
+    return B.inv().applyfunc(tidy)
+
+
 def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
     """q̈ = B⁻¹ (G u − c − g − F_v q̇) for the given u (at the given state, else symbolic)."""
     m = len(robot.inputs)
@@ -546,11 +568,43 @@ def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-
     v = sp.Matrix(robot.dq)
     rhs = G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(robot.n, 1))
     state = _read_state(problem, options, ctx, robot)
-    Binv = dm.B.inv()
+    Binv = _inverse(problem, ctx, dm.B, robot.q)
     ddq = tidy_matrix((Binv * rhs).xreplace(state))
     sol.add("ddq", ddq, "vector", label="\\ddot q")
     sol.step("forward_dynamics", u=sp.Matrix(u), Binv=Binv.applyfunc(tidy), rhs=rhs.applyfunc(tidy), state=state,
              ddq=ddq)
+
+
+def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """B q̈ + n = G u − e_i τ_f with H = B⁻¹: q̈ = H (G u − n) − h_i τ_f, so q̈_i = a needs
+    τ_f = (h_iᵀ (G u − n) − a) / h_ii, and then q̈_j = h_jᵀ (G u − n) − h_ji τ_f."""
+    n = robot.n
+    if options.fault is None or options.u is None:
+        raise UserError("fault needs fault: {joint: i, ddq: ...} and u: [...]", _place(problem, ctx, "find"),
+                        "add fault: {joint: 2, ddq: -lambda2*dq2} and u: [tau1, tau2]")
+    i = options.fault.joint
+    if not 1 <= i <= n:
+        raise UserError(f"joint must be between 1 and {n}", _place(problem, ctx, "fault", "joint"))
+    names = {**problem.names, **{x.name: x for x in robot.inputs}}
+    u = problem.parse_at(ctx.path + ("u",), names)
+    m = len(robot.inputs)
+    if not isinstance(u, list) or len(u) != m:
+        raise UserError(f"u must be a list of {m} expressions", _place(problem, ctx, "u"))
+    a = problem.parse_at(ctx.path + ("fault", "ddq"), names)
+    if isinstance(a, list):
+        raise UserError("ddq must be one expression", _place(problem, ctx, "fault", "ddq"))
+    G = robot.input_map if robot.input_map is not None else sp.eye(n)
+    v = sp.Matrix(robot.dq)
+    w = G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1))
+    H = _inverse(problem, ctx, dm.B, robot.q)
+    k = i - 1
+    tau_f = tidy((H[k, :] * w)[0] / H[k, k] - a / H[k, k])
+    ddq = (H * w - H[:, k] * tau_f).applyfunc(tidy)
+    ddq[k] = tidy(ddq[k])
+    sol.add("H", H, "matrix", label="H = B^{-1}")
+    sol.add("tau_f", tau_f, "scalar", label=f"\\tau_{{f,{i}}}")
+    sol.add("ddq_fault", ddq, "vector", label="\\ddot q")
+    sol.step("fault", i=i, a=a, H=H, w=w.applyfunc(tidy), tau_f=tau_f, ddq=ddq)
 
 
 def _power(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
