@@ -275,3 +275,19 @@ asks: [{kind: dynamic_properties, find: [forward_dynamics], u: [u1, u2, u3]}]
         solve_problem(load_problem_text(text))
     p, r = results(text.replace("symbols: {a1: a1, a2: a2, a3: a3}", "symbols: {a1: a1, a2: a2, a3: a3}\nvalues: {a1: 3, a2: 1, a3: 0.5}"))
     assert r["ddq"].value.shape == (3, 1)
+
+
+def test_torque_limits_vertices_and_zero_condition():
+    text = PRP.replace("[alpha, forward_dynamics]", "[torque_limits]").replace("    u: [u1, 0]\n", "    limits: [5, 3]\n")
+    p, r = results(text)
+    dm = derive(p.robot)
+    nv = dm.c + dm.g
+    for k, v in enumerate(r["acc_vertices"].value):
+        s1, s2 = (1, 1, -1, -1)[k], (1, -1, 1, -1)[k]
+        assert all(is_zero(sp.expand(sp.simplify(x))) for x in dm.B * v + nv - sp.Matrix([5 * s1, 3 * s2]))
+    conds = r["zero_acc_conditions"].value
+    vals = {s: sp.Integer(1) for s in p.symbols.values()}
+    st = {**vals, p.robot.q[0]: 0, p.robot.q[1]: 1, p.robot.dq[0]: 0, p.robot.dq[1]: 0}
+    feasible = all(float(c.xreplace(st)) > 0 for c in conds)
+    nn = [float(x.xreplace(st)) for x in nv]
+    assert feasible == (abs(nn[0]) < 5 and abs(nn[1]) < 3)

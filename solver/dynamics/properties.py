@@ -292,7 +292,8 @@ class DynamicPropertiesAsk(Strict):
     kind: Literal["dynamic_properties"]
     title: Optional[str] = Field(None, description="heading of this part in the report")
     find: list[Literal["eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates",
-                       "feasibility", "power", "forward_dynamics", "fault"]] = Field(description="which properties")
+                       "feasibility", "power", "forward_dynamics", "fault", "torque_limits"]] = Field(
+        description="which properties")
     ranges: dict[str, tuple[float, float]] = Field(
         {}, description="range per coordinate for the searches over q (needed for prismatic ones)")
     factorizations: list[GivenFactorization] = Field([], description="factorizations S to check")
@@ -308,6 +309,7 @@ class DynamicPropertiesAsk(Strict):
     state: Optional[dict[str, Union[str, int, float]]] = Field(
         None, description="power: the state (q.., dq..) where Ė, U̇, Ṫ, L̇ are evaluated")
     u: Optional[ExprT] = Field(None, description="power, forward_dynamics, fault: the input u (n expressions)")
+    limits: Optional[ExprT] = Field(None, description="torque_limits: the bounds T_i in |u_i| <= T_i (n expressions)")
     fault: Optional[Fault] = Field(None, description="fault: the extra torque τ_f,i at one joint that imposes its "
                                                      "acceleration (B q̈ + c + g = G u − e_i τ_f,i)")
 
@@ -453,6 +455,8 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             _forward(problem, options, ctx, sol, dm, robot)
         elif what == "fault":
             _fault(problem, options, ctx, sol, dm, robot)
+        elif what == "torque_limits":
+            _torque_limits(problem, options, ctx, sol, dm, robot)
     return sol
 
 
@@ -605,6 +609,71 @@ def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-un
     sol.add("tau_f", tau_f, "scalar", label=f"\\tau_{{f,{i}}}")
     sol.add("ddq_fault", ddq, "vector", label="\\ddot q")
     sol.step("fault", i=i, a=a, H=H, w=w.applyfunc(tidy), tau_f=tau_f, ddq=ddq)
+
+
+def _case_subs(problem, ctx, options, robot) -> list[dict]:  # type: ignore[no-untyped-def]
+    out = []
+    for k, case in enumerate(options.cases):
+        sub = {}
+        for name in case:
+            sym = problem.names.get(name)
+            if sym is None or not isinstance(sym, sp.Symbol) or sym in robot.q + robot.dq + robot.ddq:
+                raise UserError(f"'{name}' in cases: is not a parameter", _place(problem, ctx, "cases", k, name),
+                                "use a symbol declared under symbols:")
+            sub[sym] = problem.parse_at(ctx.path + ("cases", k, name))
+        out.append(sub)
+    return out
+
+
+def _torque_limits(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """|u_i| ≤ T_i with u = B q̈ + n (n = c + g + F_v q̇): −T − n ≤ B q̈ ≤ T − n, a parallelogram (n = 2) of
+    accelerations with vertices B⁻¹(±T₁ − n₁, ±T₂ − n₂); the zero-torque lines b_i1 q̈₁ + b_i2 q̈₂ = 0 have slopes
+    −b_i1/b_i2; q̈ = 0 is feasible iff |n_i| ≤ T_i."""
+    n = robot.n
+    if robot.input_map is not None:
+        raise UserError("torque_limits needs one torque per coordinate (no input_map)", _place(problem, ctx, "find"))
+    if options.limits is None:
+        raise UserError("torque_limits needs limits: [T1, T2, ...]", _place(problem, ctx, "find"), "add limits: [T1, T2]")
+    T = ctx.expr("limits")
+    if not isinstance(T, list) or len(T) != n:
+        raise UserError(f"limits must be a list of {n} expressions", _place(problem, ctx, "limits"))
+    T = sp.Matrix(T)
+    v = sp.Matrix(robot.dq)
+    nv = (dm.c + dm.g + (dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1))).applyfunc(tidy)
+    Bq = (dm.B * sp.Matrix(robot.ddq)).applyfunc(tidy)
+    lo, hi = (-T - nv).applyfunc(tidy), (T - nv).applyfunc(tidy)
+    sol.add("acc_map", Bq, "vector", label="B(q)\\ddot q")
+    sol.add("tau_lower", lo, "vector", label="-T - n")
+    sol.add("tau_upper", hi, "vector", label="T - n")
+    slopes = []
+    if n == 2:
+        for i in range(2):
+            if not is_zero(dm.B[i, 1]):
+                sl = tidy(-dm.B[i, 0] / dm.B[i, 1])
+                sol.add(f"slope{i + 1}", sl, "scalar", label=f"\\text{{slope}}_{i + 1}")
+                slopes.append((i + 1, sl))
+    zero = reduce_conds([T[i] - nv[i] for i in range(n)] + [T[i] + nv[i] for i in range(n)])
+    sol.add("zero_acc_conditions", zero, "conditions", label="\\ddot q = 0 \\text{ feasible}")
+    cases = []
+    for k, sub in enumerate(_case_subs(problem, ctx, options, robot)):
+        l_k, h_k = lo.xreplace(sub).applyfunc(tidy), hi.xreplace(sub).applyfunc(tidy)
+        sol.add(f"tau_lower_case{k + 1}", l_k, "vector", label=f"(-T - n)_{{{k + 1}}}")
+        sol.add(f"tau_upper_case{k + 1}", h_k, "vector", label=f"(T - n)_{{{k + 1}}}")
+        cases.append((sub, l_k, h_k))
+    vertices = []
+    if n == 2:
+        Binv = dm.B.inv().applyfunc(tidy)
+        for s1 in (1, -1):
+            for s2 in (1, -1):
+                vertices.append((Binv * sp.Matrix([s1 * T[0] - nv[0], s2 * T[1] - nv[1]])).applyfunc(tidy))
+        sol.add("acc_vertices", vertices, "list", label="\\ddot q_{\\text{vertices}}")
+    sol.step("torque_limits", T=T, nv=nv, Bq=Bq, lo=lo, hi=hi, slopes=slopes, zero=zero, cases=cases,
+             vertices=vertices)
+
+
+def reduce_conds(conds: list[sp.Expr]) -> list[sp.Expr]:
+    from solver.math.equivalence import normalize_condition, reduce_conditions
+    return reduce_conditions([normalize_condition(c) for c in conds])
 
 
 def _power(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
