@@ -162,7 +162,7 @@ def test_feasibility():
     _, r = results(given("[[a1 + 2*a2*cos(q2), a3 + a2*cos(q2)], [a3 + a2*cos(q2), a3]]"))
     conds = r["pd_conditions"].value
     assert r["real_robot"].value is True and len(conds) == 2
-    a1, a2, a3 = sp.symbols("a1 a2 a3", positive=True)
+    a1, a2 = sp.symbols("a1 a2", positive=True)
     assert any(is_zero(sp.expand(c.subs({s: sp.Symbol(s.name, positive=True) for s in c.free_symbols}) - (a1 - 2 * a2)))
                for c in conds)
     _, r = results(given("[[a1 + 2*a2*cos(q2), a1 + a2*cos(q2)], [a1 + a2*cos(q2), a1]]"))
@@ -273,7 +273,7 @@ asks: [{kind: dynamic_properties, find: [forward_dynamics], u: [u1, u2, u3]}]
 """
     with pytest.raises(UserError, match="too large"):
         solve_problem(load_problem_text(text))
-    p, r = results(text.replace("symbols: {a1: a1, a2: a2, a3: a3}", "symbols: {a1: a1, a2: a2, a3: a3}\nvalues: {a1: 3, a2: 1, a3: 0.5}"))
+    _, r = results(text.replace("symbols: {a1: a1, a2: a2, a3: a3}", "symbols: {a1: a1, a2: a2, a3: a3}\nvalues: {a1: 3, a2: 1, a3: 0.5}"))
     assert r["ddq"].value.shape == (3, 1)
 
 

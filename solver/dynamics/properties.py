@@ -19,14 +19,25 @@
 from __future__ import annotations
 
 import itertools
-from typing import Any, Literal, Optional, Union
+from typing import Any, Literal
 
 import numpy as np
 import sympy as sp
 from pydantic import Field
 
-from solver.control.gravity_bound import _snap, abs_bound, gradient_bound, matrix_function, maximize
-from solver.dynamics.model import christoffel, coriolis, derive, factorization, require_model
+from solver.control.gravity_bound import (
+    _snap,
+    abs_bound,
+    gradient_bound,
+    matrix_function,
+    maximize,
+)
+from solver.dynamics.model import (
+    christoffel,
+    coriolis,
+    derive,
+    require_model,
+)
 from solver.math.simplify import angle_symbols, is_zero, tidy, tidy_matrix
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -170,7 +181,7 @@ def _real_eigenvalues(M: sp.Matrix) -> list[sp.Expr]:
     are complex-looking: then [])."""
     try:
         ev = [sp.radsimp(e) for e in M.eigenvals(multiple=True)]
-    except Exception:  # pragma: no cover - sympy could not find the roots
+    except Exception:  # noqa: BLE001 - sympy could not find the roots
         return []
     return ev if all(not e.has(sp.I) for e in ev) else []
 
@@ -278,7 +289,7 @@ class GivenFactorization(Strict):
 class Candidate(Strict):
     name: str = Field(description="result prefix, e.g. MA")
     B: ExprT = Field(description="the n x n inertia matrix, in the robot's coordinates q1..qn")
-    g: Optional[ExprT] = Field(None, description="the gravity vector (default 0)")
+    g: ExprT | None = Field(None, description="the gravity vector (default 0)")
 
 
 class Fault(Strict):
@@ -290,27 +301,27 @@ class DynamicPropertiesAsk(Strict):
     """Properties of the dynamic model of the spec's robot."""
 
     kind: Literal["dynamic_properties"]
-    title: Optional[str] = Field(None, description="heading of this part in the report")
+    title: str | None = Field(None, description="heading of this part in the report")
     find: list[Literal["eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates",
                        "feasibility", "power", "forward_dynamics", "fault", "torque_limits"]] = Field(
         description="which properties")
     ranges: dict[str, tuple[float, float]] = Field(
         {}, description="range per coordinate for the searches over q (needed for prismatic ones)")
     factorizations: list[GivenFactorization] = Field([], description="factorizations S to check")
-    trajectory: Optional[ExprT] = Field(None, description="q_d(t) for inverse_dynamics: n expressions in t")
-    times: list[Union[str, int, float]] = Field([], description="times where u_d(t) is evaluated (u_d_at<k>)")
-    cases: list[dict[str, Union[str, int, float]]] = Field(
-        [], description="inverse_dynamics: parameter values substituted in u_d(t) (u_d_case<k>), e.g. [{q2b: pi/2}]")
-    transform: Optional[ExprT] = Field(None, description="coordinates: the n x n matrix T with q = T θ")
-    new_coordinates: Optional[list[str]] = Field(None, description="names of θ (default th1..thn); "
+    trajectory: ExprT | None = Field(None, description="q_d(t) for inverse_dynamics: n expressions in t")
+    times: list[str | int | float] = Field([], description="times where u_d(t) is evaluated (u_d_at<k>)")
+    cases: list[dict[str, str | int | float]] = Field(
+        [], description="inverse_dynamics, torque_limits: parameter values substituted (u_d_case<k>, tau_lower_case<k>, ...), e.g. [{q2b: pi/2}]")
+    transform: ExprT | None = Field(None, description="coordinates: the n x n matrix T with q = T θ")
+    new_coordinates: list[str] | None = Field(None, description="names of θ (default th1..thn); "
                                                                   "velocities d<name>")
-    candidates: list["Candidate"] = Field([], description="feasibility: other (B, g) to judge, results prefixed "
+    candidates: list[Candidate] = Field([], description="feasibility: other (B, g) to judge, results prefixed "
                                                            "<name>_ (B_indep_q1, det_B, pd_conditions, real_robot, ...)")
-    state: Optional[dict[str, Union[str, int, float]]] = Field(
+    state: dict[str, str | int | float] | None = Field(
         None, description="power: the state (q.., dq..) where Ė, U̇, Ṫ, L̇ are evaluated")
-    u: Optional[ExprT] = Field(None, description="power, forward_dynamics, fault: the input u (n expressions)")
-    limits: Optional[ExprT] = Field(None, description="torque_limits: the bounds T_i in |u_i| <= T_i (n expressions)")
-    fault: Optional[Fault] = Field(None, description="fault: the extra torque τ_f,i at one joint that imposes its "
+    u: ExprT | None = Field(None, description="power, forward_dynamics, fault: the input u (n expressions)")
+    limits: ExprT | None = Field(None, description="torque_limits: the bounds T_i in |u_i| <= T_i (n expressions)")
+    fault: Fault | None = Field(None, description="fault: the extra torque τ_f,i at one joint that imposes its "
                                                      "acceleration (B q̈ + c + g = G u − e_i τ_f,i)")
 
 
@@ -519,7 +530,7 @@ def _feasibility(sol, B, g, robot, revolute, prefix: str = "") -> None:  # type:
     sym = all(is_zero(x) for x in (B - B.T))
     indep = not any(q[0] in e.free_symbols for e in B)
     invariant, shift = base_invariance(B, q, revolute)
-    conds, minors, possible, blocks, diag = pd_conditions(B, q, revolute)
+    conds, _, possible, blocks, diag = pd_conditions(B, q, revolute)
     A = g.jacobian(q)
     conservative = all(is_zero(sp.expand(x)) for x in (A - A.T))
     real = bool(sym and invariant and possible and conservative)
@@ -771,6 +782,6 @@ def check_affine_bound(problem, results, name, value, other, options) -> Propert
             s = max((abs(v) for v, c in zip(x, coords) if robot.joints[robot.q.index(c)] == "P"), default=0.0)
             nrm = np.linalg.norm(np.array(An(*x), dtype=float), 2)
             if nrm > a + b * s + 1e-9:
-                return PropertyVerdict(False, 0.0, [f"not a bound: ‖∂g/∂q‖ = {nrm:.4g} > α + β|s| = {a + b * s:.4g} "
-                                                    f"at q = {np.round(x, 3).tolist()}"])
+                return PropertyVerdict(False, 0.0, [(f"not a bound: ‖∂g/∂q‖ = {nrm:.4g} > α + β|s| = {a + b * s:.4g} "
+                                                     f"at q = {np.round(x, 3).tolist()}")])
     return PropertyVerdict(True, 1.0, ["α + β|s| bounds ‖∂g/∂q‖ at every sampled configuration"])
