@@ -737,6 +737,10 @@ def check_factorizations(problem, results, name, value, other, options) -> Prope
     if M is None:
         return None
     S = (Bd.value - M) / 2 if name.startswith("N") else M
+    if name.startswith("N") and other is not None:          # with the student's own S: N must be Ḃ − 2S
+        S_own = _matrix(other("S" + name[1:]), n) if other("S" + name[1:]) is not None else None
+        if S_own is not None and not all(scalar_equiv(x, 0).ok for x in (M - (Bd.value - 2 * S_own))):
+            return PropertyVerdict(False, 0.0, ["N differs from Ḃ − 2S with your S"], final=False)
     c = results["S_skew"].value * sp.Matrix(robot.dq)
     if not all(scalar_equiv(x, y).ok for x, y in zip(S * sp.Matrix(robot.dq), c)):
         return PropertyVerdict(False, 0.0, ["S q̇ differs from c(q, q̇): not a factorization"], final=False)
