@@ -188,9 +188,9 @@ def test_property_checks_accept_alternatives_and_reject_wrong():
     assert PROPERTY_CHECKS["S_skew"](p, r, "S_skew", S1.tolist(), None, None).correct
     N = r["Bdot"].value - 2 * other
     assert PROPERTY_CHECKS["N_alt"](p, r, "N_alt", N.tolist(), None, None).correct
-    own = lambda nm: other.tolist() if nm == "S_alt" else None  # noqa: E731
+    own = lambda nm: other.tolist() if nm == "S_alt" else None
     assert PROPERTY_CHECKS["N_alt"](p, r, "N_alt", N.tolist(), own, None).correct
-    theirs = lambda nm: S2.tolist() if nm == "S_alt" else None  # noqa: E731
+    theirs = lambda nm: S2.tolist() if nm == "S_alt" else None
     assert not PROPERTY_CHECKS["N_alt"](p, r, "N_alt", N.tolist(), theirs, None).correct   # N of another S
 
 
