@@ -124,3 +124,16 @@ def test_every_statement_on_a_two_exercise_exam_sheet(tmp_path):
     text = pdf_text(build(hand, "exam", "pdf", tmp_path / "e.pdf")["files"][0])
     assert all(words(p.problem.statement) in text for p in hand.parts) and "30 points" in text
     assert "Solution" not in text and "Pseudoinverse" not in text and "Inertia matrix" not in text
+
+
+@pytest.mark.parametrize("exam", sorted((ROOT / "exams").glob("*.yaml")), ids=lambda p: p.stem)
+def test_every_shipped_exam_file_builds_its_exam_sheet(exam, tmp_path):
+    """Each exam file names existing problems, and its sheet has every statement and the points it says."""
+    hand = load_sources([exam])
+    assert hand.parts and all(part.points > 0 for part in hand.parts)
+    md = build(hand, "exam", "md", tmp_path / "exam.md")["files"][0].read_text()
+    text = re.sub(r"\s+", " ", md)
+    total = sum(part.points for part in hand.parts)
+    assert f"{total:g} points" in text and "Solution" not in text
+    for part in hand.parts:
+        assert words(part.problem.statement) in re.sub(r"\s+", " ", re.sub(r"\$[^$]*\$", " ", text))

@@ -172,6 +172,38 @@ def test_planar_4r_pose_singularities_drop_rank():
         assert np.linalg.matrix_rank(f(J, pt), tol=1e-9) == 3
 
 
+ABSOLUTE_4R = """
+id: abs4r
+title: planar 4R with absolute link angles
+symbols: {a: a, b: b, c: c, d: d}
+values: {a: 1, b: 0.7, c: 0.5, d: 0.2}
+robot:
+  joints: [R, R, R, R]
+asks:
+  - kind: kinematics
+    task: [a*cos(q1) + b*cos(q2) + c*cos(q3) + d*cos(q4), a*sin(q1) + b*sin(q2) + c*sin(q3) + d*sin(q4)]
+    sketch: false
+"""
+
+
+def test_dependent_minors_absolute_angles_solved():
+    """The six minors l_i l_j sin(q_j - q_i) are not independent (two of them imply a third): the singular set,
+    all links on one line through the base, is still found in closed form (before: left implicit)."""
+    prob = load_problem_text(ABSOLUTE_4R)
+    r = all_results(solve_problem(prob))
+    q, vals = prob.robot.q, values_of(prob)
+    sing = r["singularities"].value
+    assert len(sing) == 8                       # q2, q3, q4 ∈ {q1, q1 + π}
+    assert all(len(c.free_symbols) == 1 for c in sing)
+    rng = random.Random(2)
+    J = r["J"].value
+    for pt in _family_points(sing, q, vals, rng):
+        assert np.linalg.matrix_rank(f(J, pt), tol=1e-9) < 2
+    for _ in range(5):
+        pt = {**vals, **dict(zip(q, rand_q(4, rng)))}
+        assert np.linalg.matrix_rank(f(J, pt), tol=1e-9) == 2
+
+
 def test_spatial_singularities_make_det_vanish():
     text = SPATIAL_4R.replace("  - kind: kinematics", "  - kind: kinematics\n    task: [(a2*cos(q2) + a3*cos(q2 + q3))*cos(q1), (a2*cos(q2) + a3*cos(q2 + q3))*sin(q1), d1 + a2*sin(q2) + a3*sin(q2 + q3)]\n    wrt: [q1, q2, q3]")
     # an anthropomorphic 3R position task: det J = a2 a3 s3 (a2 c2 + a3 c23)

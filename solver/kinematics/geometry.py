@@ -239,6 +239,38 @@ def _param_point(rng: random.Random, syms: Sequence[sp.Symbol], values: dict) ->
     return pt
 
 
+def _dependent_minors(sysm: list[sp.Expr], q: Sequence[sp.Symbol], prismatic: list[sp.Symbol],
+                      sampler) -> list[Family] | None:  # type: ignore[no-untyped-def]
+    """The common zeros of minors that are not independent (3R with absolute angles: sin(q1 − q2) = sin(q1 − q3)
+    = 0 implies sin(q2 − q3) = 0, three equations with two degrees of freedom, which the elimination cannot take
+    as a square system): the smallest subset of the minors solved in closed form whose every family zeroes all
+    of them (checked numerically) gives the set. None when no subset does (bounded: at most 8 minors)."""
+    if len(sysm) > 8:
+        return None
+    unknowns = set().union(*[e.free_symbols for e in sysm]) & set(q)
+    for k in range(1, len(sysm)):
+        for sub in itertools.combinations(sysm, k):
+            if set().union(*[e.free_symbols for e in sub]) & set(q) != unknowns:
+                continue  # an unknown left free by the subset would have to zero the other minors identically
+            fams = Solver(q, prismatic).solve(list(sub))
+            if not fams or any(f.pending for f in fams):
+                continue
+            if all(check_families([f], sysm, q, sampler) for f in fams):
+                return fams
+    return None
+
+
+def _atan2_angle(y: sp.Expr, x: sp.Expr) -> sp.Expr:
+    """atan2(±sin a, ±cos a) (a factor √(sin² a + cos² a) read as 1) as a, a + π: equal modulo
+    2π, which is how configurations are compared."""
+    rep = {sp.sin(a)**2 + sp.cos(a)**2: 1 for f in y.atoms(sp.sin) for a in f.args}
+    y2, x2 = y.subs(rep), x.subs(rep)
+    for sign, shift in ((1, 0), (-1, sp.pi)):
+        if isinstance(sign * y2, sp.sin) and isinstance(sign * x2, sp.cos) and (sign * y2).args == (sign * x2).args:
+            return (sign * y2).args[0] + shift
+    return sp.atan2(y, x)
+
+
 def singular_configurations(J: sp.Matrix, q: Sequence[sp.Symbol], joints: Sequence[str],
                             values: dict | None = None, dmat: sp.Expr | None = None,
                             mins: dict | None = None) -> Singular:
@@ -280,14 +312,19 @@ def singular_configurations(J: sp.Matrix, q: Sequence[sp.Symbol], joints: Sequen
         d = None
     families: list[Family] = []
     complete = True
-    for sysm in systems:
-        fams = Solver(q, prismatic).solve(sysm)
-        complete = complete and all(not f.pending for f in fams)
-        families += fams
     params = sorted(set().union(*[c.free_symbols for c in checks]) - set(q), key=lambda s: s.name)
 
     def sampler(rng: random.Random) -> dict:
         return _param_point(rng, params, values)
+
+    for sysm in systems:
+        fams = Solver(q, prismatic).solve(sysm)
+        if any(f.pending for f in fams) and len(sysm) > 1:
+            fams = _dependent_minors(sysm, q, prismatic, sampler) or fams
+        complete = complete and all(not f.pending for f in fams)
+        families += fams
+    for fam in families:  # atan2(sin q2, cos q2) -> q2 (configurations are angles modulo 2π)
+        fam.values = {x: v.replace(sp.atan2, _atan2_angle) if v.has(sp.atan2) else v for x, v in fam.values.items()}
 
     closed = [f for f in families if not f.pending]
     kept = check_families(closed, [c for c in checks if c != 0][:8], q, sampler)

@@ -1,0 +1,333 @@
+"""Recursive Newton–Euler algorithm (ask kind ``newton_euler``), in the link frames of a DH robot.
+
+Forward recursion, i = 1..n (R = ⁱ⁻¹Rᵢ, ẑ = the axis of joint i in frame i: Rᵀ e₃ standard DH, e₃ modified DH;
+ω₀ = ω̇₀ = 0 and a₀ = −g₀ (gravity as an upward acceleration of the base), σ = 1 revolute, 0 prismatic):
+
+    ωᵢ  = Rᵀ ωᵢ₋₁ + σ q̇ᵢ ẑ
+    ω̇ᵢ  = Rᵀ ω̇ᵢ₋₁ + σ (q̈ᵢ ẑ + q̇ᵢ (Rᵀ ωᵢ₋₁) × ẑ)
+    aᵢ  = Rᵀ aᵢ₋₁ + ω̇ᵢ × r + ωᵢ × (ωᵢ × r)                              (standard: r = ⁱr_{i−1,i}, fixed in link i)
+        = Rᵀ (aᵢ₋₁ + ω̇ᵢ₋₁ × P + ωᵢ₋₁ × (ωᵢ₋₁ × P))                      (modified: P = ⁱ⁻¹P_i, fixed in link i−1)
+          (+ (1 − σ)(q̈ᵢ ẑ + 2 q̇ᵢ ωᵢ × ẑ) for a prismatic joint)
+    a_cᵢ = aᵢ + ω̇ᵢ × r_cᵢ + ωᵢ × (ωᵢ × r_cᵢ)
+
+Backward recursion, i = n..1 (f_{n+1} = τ_{n+1} = 0; ⁱR_{i+1} = the next joint's R; moments about the point of
+joint i's axis: O_{i−1} standard, O_i modified; ℓᵢ = from that point to the next joint's point, sᵢ = to the CoM):
+
+    fᵢ = ⁱR_{i+1} f_{i+1} + mᵢ a_cᵢ
+    τᵢ = ⁱR_{i+1} τ_{i+1} + ℓᵢ × ⁱR_{i+1} f_{i+1} + sᵢ × mᵢ a_cᵢ + Iᵢ ω̇ᵢ + ωᵢ × Iᵢ ωᵢ
+    uᵢ = τᵢᵀ ẑ (revolute), fᵢᵀ ẑ (prismatic)     (+ F_v q̇ and the model terms outside the links)
+
+(the standard-DH form is the textbook τᵢ = ⁱR_{i+1}τ_{i+1} + (ⁱR_{i+1}f_{i+1}) × r_{i,ci} − fᵢ × (r_{i−1,i} + r_{i,ci})
++ Iᵢω̇ᵢ + ωᵢ × Iᵢωᵢ, rearranged). As a routine, NE_γ(q, q̇, q̈) with gravity switch γ gives g(q) = NE(q, 0, 0),
+c(q, q̇) = NE₀(q, q̇, 0), b_j(q) = NE₀(q, 0, e_j), B q̈ + g = NE(q, 0, q̈), T = q̇ᵀ NE₀(q, 0, q̇/2).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import sympy as sp
+from pydantic import Field
+
+from solver.dynamics.model import derive, require_model
+from solver.math.simplify import is_zero, tidy, tidy_matrix
+from solver.registry import ask_kind
+from solver.results import Solution
+from solver.spec.errors import UserError
+from solver.spec.models import ExprT, Strict
+from solver.spec.robot import Robot
+
+E3 = sp.Matrix([0, 0, 1])
+
+
+@dataclass
+class Joint:
+    """Constant data of joint i, in frame i (all functions of q)."""
+
+    R: sp.Matrix        # ⁱ⁻¹Rᵢ
+    z: sp.Matrix        # joint axis in frame i
+    r: sp.Matrix        # standard: ⁱr_{i−1,i} = Rᵢᵀ (Oᵢ − Oᵢ₋₁);  modified: ⁱ⁻¹Pᵢ = Rᵢ₋₁ᵀ (Oᵢ − Oᵢ₋₁)
+    rc: sp.Matrix       # CoM from Oᵢ, in frame i
+    prismatic: bool
+    mass: sp.Expr
+    inertia: sp.Matrix
+
+
+@dataclass
+class LinkState:
+    """What the recursions give for link i (frame i)."""
+
+    w: sp.Matrix
+    dw: sp.Matrix
+    a: sp.Matrix
+    ac: sp.Matrix
+    f: sp.Matrix = field(default_factory=lambda: sp.zeros(3, 1))
+    tau: sp.Matrix = field(default_factory=lambda: sp.zeros(3, 1))
+    u: sp.Expr = field(default_factory=lambda: sp.Integer(0))
+
+
+@dataclass
+class NEResult:
+    links: list[LinkState]
+    u: sp.Matrix               # generalized forces from the links (+ friction and extra terms when asked)
+    a0: sp.Matrix              # base acceleration used (−g₀ in frame 0, or 0)
+
+
+def _cross(a: sp.Matrix, b: sp.Matrix) -> sp.Matrix:
+    return a.cross(b)
+
+
+def joints_of(robot: Robot) -> list[Joint]:
+    """Per-joint data from the frames ⁰A₀ (base), ⁰A₁, ..., ⁰Aₙ of a DH robot."""
+    if not robot.frames or len(robot.frames) != robot.n + 1:
+        raise ValueError("Newton-Euler needs the link frames (a robot given by dh:)")
+    modified = robot.dh_convention == "modified"
+    out = []
+    for i in range(1, robot.n + 1):
+        A0, A1 = robot.frames[i - 1], robot.frames[i]
+        R0, R1 = A0[:3, :3], A1[:3, :3]
+        dp = A1[:3, 3] - A0[:3, 3]
+        R = (R0.T * R1).applyfunc(tidy)
+        z = E3 if modified else R.T * E3
+        r = (R0.T * dp) if modified else (R1.T * dp)
+        b = robot.bodies[i - 1]
+        rc = (R1.T * (b.com - A1[:3, 3])).applyfunc(tidy)
+        out.append(Joint(R, z.applyfunc(tidy), r.applyfunc(tidy), rc, robot.joints[i - 1] == "P", b.mass, b.inertia))
+    return out
+
+
+def _t(m: sp.Matrix, simplify: bool) -> sp.Matrix:
+    return m.applyfunc(tidy) if simplify else m.applyfunc(sp.expand)
+
+
+def newton_euler(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: bool = True,
+                 q: list[sp.Expr] | None = None, simplify: bool = True, extras: bool = True) -> NEResult:
+    """NE_γ(q, q̇, q̈): the generalized forces u for the given velocities and accelerations (γ: gravity on/off),
+    with every link's ω, ω̇, a, a_c (forward) and f, τ (backward) in its own frame."""
+    joints = joints_of(robot)
+    subs = dict(zip(robot.q, q)) if q is not None else {}
+    if subs:
+        joints = [Joint(j.R.subs(subs), j.z.subs(subs), j.r.subs(subs), j.rc.subs(subs), j.prismatic, j.mass,
+                        j.inertia.subs(subs)) for j in joints]
+    modified = robot.dh_convention == "modified"
+    g0 = robot.gravity if (gravity and robot.gravity is not None) else sp.zeros(3, 1)
+    if g0.shape[0] == 2:
+        g0 = g0.col_join(sp.zeros(1, 1))
+    a0 = _t(robot.frames[0][:3, :3].T * (-g0), simplify)
+    w, dw, a = sp.zeros(3, 1), sp.zeros(3, 1), a0
+    states: list[LinkState] = []
+    for i, j in enumerate(joints):
+        Rt = j.R.T
+        w_prev = Rt * w
+        if j.prismatic:
+            wi, dwi = w_prev, Rt * dw
+        else:
+            wi = w_prev + dq[i] * j.z
+            dwi = Rt * dw + ddq[i] * j.z + dq[i] * _cross(w_prev, j.z)
+        wi, dwi = _t(wi, simplify), _t(dwi, simplify)
+        if modified:
+            ai = Rt * (a + _cross(dw, j.r) + _cross(w, _cross(w, j.r)))
+        else:
+            ai = Rt * a + _cross(dwi, j.r) + _cross(wi, _cross(wi, j.r))
+        if j.prismatic:
+            ai += ddq[i] * j.z + 2 * dq[i] * _cross(wi, j.z)
+        ai = _t(ai, simplify)
+        aci = _t(ai + _cross(dwi, j.rc) + _cross(wi, _cross(wi, j.rc)), simplify)
+        states.append(LinkState(wi, dwi, ai, aci))
+        w, dw, a = wi, dwi, ai
+    f_next, t_next, R_next = sp.zeros(3, 1), sp.zeros(3, 1), sp.eye(3)
+    u = sp.zeros(robot.n, 1)
+    for i in reversed(range(robot.n)):
+        j, s = joints[i], states[i]
+        if modified:
+            ell = joints[i + 1].r if i + 1 < robot.n else sp.zeros(3, 1)
+            si = j.rc
+        else:
+            ell = j.r
+            si = j.r + j.rc
+        Rf = R_next * f_next
+        ma = j.mass * s.ac
+        s.f = _t(Rf + ma, simplify)
+        s.tau = _t(R_next * t_next + _cross(ell, Rf) + _cross(si, ma) + j.inertia * s.dw
+                   + _cross(s.w, j.inertia * s.w), simplify)
+        s.u = tidy((s.f.T * j.z)[0] if j.prismatic else (s.tau.T * j.z)[0]) if simplify else \
+            sp.expand((s.f.T * j.z)[0] if j.prismatic else (s.tau.T * j.z)[0])
+        u[i] = s.u
+        f_next, t_next, R_next = s.f, s.tau, j.R
+    if extras:
+        u += extra_terms(robot, dq, ddq, q)
+    return NEResult(states, tidy_matrix(u) if simplify else u, a0)
+
+
+def has_extras(robot: Robot) -> bool:
+    return bool(robot.kinetic_extra or robot.potential_extra or robot.given_B is not None
+                or robot.given_g is not None or robot.given_U is not None or robot.friction is not None)
+
+
+def extra_terms(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], q: list[sp.Expr] | None = None) -> sp.Matrix:
+    """Model terms the link bodies do not carry (motor kinetic energy, springs, given B/U/g, friction F_v q̇),
+    from their Lagrangian: B_x q̈ + c_x + g_x + F_v q̇."""
+    if not has_extras(robot):
+        return sp.zeros(robot.n, 1)
+    bare = Robot(q=robot.q, dq=robot.dq, ddq=robot.ddq, joints=robot.joints, gravity=None,
+                 kinetic_extra=robot.kinetic_extra, potential_extra=robot.potential_extra, friction=robot.friction,
+                 given_B=robot.given_B, given_U=robot.given_U, given_g=robot.given_g)
+    dm = derive(bare)
+    subs = {**dict(zip(robot.dq, dq)), **dict(zip(robot.ddq, ddq)), **(dict(zip(robot.q, q)) if q else {})}
+    return dm.lhs.xreplace(subs) if subs else dm.lhs
+
+
+# ------------------------------------------------------------------------------------------------ the ask
+ROUTINES = ("gravity", "coriolis", "static", "inertia", "kinetic_energy")
+
+
+class NECall(Strict):
+    """One call NE_γ(q, q̇, q̈) of the routine."""
+
+    name: str = Field(description="result name of the output vector (letters, digits, _)")
+    q: ExprT | None = Field(None, description="configuration (default: the symbolic q)")
+    dq: ExprT = Field(0, description="velocity argument: a list of n expressions, or 0")
+    ddq: ExprT = Field(0, description="acceleration argument: a list of n expressions, or 0")
+    gravity: bool = Field(True, description="with gravity (NE_g) or without (NE_0)")
+    dot_with: ExprT | None = Field(None, description="also the scalar product vᵀ y with this vector "
+                                                         "(result <name>_dot), e.g. dq for T = q̇ᵀ NE₀(q, 0, q̇/2)")
+
+
+class NewtonEulerAsk(Strict):
+    """The recursive Newton–Euler algorithm on a DH robot."""
+
+    kind: Literal["newton_euler"]
+    title: str | None = Field(None, description="heading of this part in the report")
+    model: bool = Field(True, description="run NE(q, q̇, q̈) symbolically, recursions shown step by step (results "
+                                          "ne_w<i>, ne_dw<i>, ne_a<i>, ne_ac<i>, ne_f<i>, ne_tau<i>, ne_u)")
+    gravity: bool = Field(True, description="gravity in the model run (a₀ = −g₀)")
+    routines: list[Literal["gravity", "coriolis", "static", "inertia", "kinetic_energy"]] = Field(
+        [], description="NE used as a routine: gravity = NE(q,0,0) -> ne_g; coriolis = NE₀(q,q̇,0) -> ne_c; "
+                        "static = NE(q,0,q̈) -> ne_static (B q̈ + g); inertia = NE₀(q,0,e_j), j = 1..n -> ne_B; "
+                        "kinetic_energy = q̇ᵀ NE₀(q,0,q̇/2) -> ne_T")
+    calls: list[NECall] = Field([], description="further calls with given arguments")
+    check: bool = Field(True, description="compare with the Lagrangian model (result ne_equals_lagrange)")
+    at: dict[str, str | int | float] | None = Field(
+        None, description="a state (q, dq, ddq values) where ne_u is also evaluated (ne_u_at)")
+
+
+def _vector_arg(value: Any, n: int, place, what: str) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
+    if isinstance(value, list) and len(value) == n:
+        return [sp.sympify(v) for v in value]
+    if isinstance(value, sp.MatrixBase) and len(value) == n:
+        return list(value)
+    if not isinstance(value, (list, sp.MatrixBase)) and sp.sympify(value) == 0:
+        return [sp.Integer(0)] * n
+    raise UserError(f"{what} must be a list of {n} expressions or 0", place, "e.g. [dq1, dq2]")
+
+
+@ask_kind("newton_euler", NewtonEulerAsk, "recursive Newton–Euler: forward/backward recursions, NE as a routine")
+def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results: ne_u (+ per link ne_w<i>, ne_dw<i>, ne_a<i>, ne_ac<i>, ne_f<i>, ne_tau<i>), ne_g, ne_c, ne_static,
+    ne_B, ne_T, the calls' names, ne_equals_lagrange, ne_u_at."""
+    robot = require_model(problem)
+    if not robot.frames or not robot.bodies:
+        raise UserError("newton_euler needs the link frames: give the robot by dh:",
+                        problem.located.place(("robot",)), "write the robot as a DH table with dh: {table, links}")
+    n = robot.n
+    sol = Solution("newton_euler", title=options.title or "Newton–Euler algorithm")
+    joints = joints_of(robot)
+    sol.step("setup", joints=joints, robot=robot, modified=robot.dh_convention == "modified",
+             extras=has_extras(robot))
+    zero = [sp.Integer(0)] * n
+    ne_u = None
+    if options.model:
+        res = newton_euler(robot, robot.dq, robot.ddq, options.gravity)
+        ne_u = res.u
+        for i, s in enumerate(res.links, 1):
+            sol.add(f"ne_w{i}", s.w, "vector", label=f"{{}}^{i}\\omega_{{{i}}}")
+            sol.add(f"ne_dw{i}", s.dw, "vector", label=f"{{}}^{i}\\dot\\omega_{{{i}}}")
+            sol.add(f"ne_a{i}", s.a, "vector", label=f"{{}}^{i}a_{{{i}}}")
+            sol.add(f"ne_ac{i}", s.ac, "vector", label=f"{{}}^{i}a_{{c{i}}}")
+            sol.add(f"ne_f{i}", s.f, "vector", label=f"{{}}^{i}f_{{{i}}}")
+            sol.add(f"ne_tau{i}", s.tau, "vector", label=f"{{}}^{i}\\tau_{{{i}}}")
+        sol.add("ne_u", res.u, "vector", label="u")
+        sol.step("model", res=res, gravity=options.gravity, modified=robot.dh_convention == "modified")
+    routine_out = []
+    names = {"gravity": ("ne_g", "g(q) = NE(q, 0, 0)"), "coriolis": ("ne_c", "c(q,\\dot q) = NE_0(q, \\dot q, 0)"),
+             "static": ("ne_static", "B(q)\\ddot q + g(q) = NE(q, 0, \\ddot q)"),
+             "inertia": ("ne_B", "B(q) = \\big[NE_0(q, 0, e_1)\\ \\cdots\\ NE_0(q, 0, e_n)\\big]"),
+             "kinetic_energy": ("ne_T", "T = \\dot q^T NE_0(q, 0, \\tfrac12 \\dot q)")}
+    for r in options.routines:
+        if r == "gravity":
+            val = newton_euler(robot, zero, zero, True).u
+        elif r == "coriolis":
+            val = newton_euler(robot, robot.dq, zero, False).u
+        elif r == "static":
+            val = newton_euler(robot, zero, robot.ddq, True).u
+        elif r == "inertia":
+            cols = [newton_euler(robot, zero, [sp.Integer(int(k == j)) for k in range(n)], False).u
+                    for j in range(n)]
+            val = sp.Matrix.hstack(*cols)
+        else:
+            y = newton_euler(robot, zero, [v / 2 for v in robot.dq], False).u
+            val = tidy((sp.Matrix(robot.dq).T * y)[0])
+        name, label = names[r]
+        sol.add(name, val, label=label.split(" = ")[0])
+        routine_out.append((r, label, val))
+    calls_out = []
+    for k, c in enumerate(options.calls):
+        if not c.name.replace("_", "").isalnum() or not c.name[0].isalpha():
+            raise UserError(f"call name '{c.name}' is not a plain name", problem.located.place(ctx.path + ("calls", k, "name")),
+                            "use letters, digits and _")
+        def place(f: str, k: int = k):  # type: ignore[no-untyped-def]
+            return problem.located.place(ctx.path + ("calls", k, f))
+
+        qa = _vector_arg(ctx.expr("calls", k, "q"), n, place("q"), "q") if c.q is not None else None
+        dqa = _vector_arg(ctx.expr("calls", k, "dq"), n, place("dq"), "dq")
+        ddqa = _vector_arg(ctx.expr("calls", k, "ddq"), n, place("ddq"), "ddq")
+        y = newton_euler(robot, dqa, ddqa, c.gravity, q=qa).u
+        sol.add(c.name, y, "vector", label=c.name)
+        dot = None
+        if c.dot_with is not None:
+            v = _vector_arg(ctx.expr("calls", k, "dot_with"), n, place("dot_with"), "dot_with")
+            dot = tidy((sp.Matrix(v).T * y)[0])
+            sol.add(f"{c.name}_dot", dot, "scalar", label=f"v^T {c.name}")
+        calls_out.append((c, qa, dqa, ddqa, y, dot))
+    if routine_out or calls_out:
+        sol.step("routines", routines=routine_out, calls=calls_out, robot=robot)
+    if options.check:
+        dm = derive(robot)
+        dm0 = derive(_without_gravity(robot)) if robot.gravity is not None else dm
+
+        def lag(grav: bool, dq: list, ddq: list) -> sp.Matrix:
+            """The Lagrangian left-hand side B q̈ + c + g (+ F_v q̇) with gravity on/off, at (q̇, q̈)."""
+            m = dm if grav else dm0
+            return m.lhs.xreplace({**dict(zip(robot.dq, dq)), **dict(zip(robot.ddq, ddq))})
+
+        ok = True
+        if ne_u is not None:
+            ok = all(is_zero(sp.expand(x)) for x in (ne_u - lag(options.gravity, robot.dq, robot.ddq)))
+        ref = {"gravity": lambda: lag(True, zero, zero), "coriolis": lambda: lag(False, robot.dq, zero),
+               "static": lambda: lag(True, zero, robot.ddq),
+               "inertia": lambda: sp.Matrix.hstack(*[lag(False, zero, [int(k == j) for k in range(n)])
+                                                     for j in range(n)]),
+               "kinetic_energy": lambda: sp.Matrix([dm.T])}
+        for r, _, val in routine_out:
+            d = (val if isinstance(val, sp.MatrixBase) else sp.Matrix([val])) - ref[r]()
+            ok = ok and all(is_zero(sp.expand(x)) for x in d)
+        sol.add("ne_equals_lagrange", bool(ok), "bool", label="\\text{NE} = \\text{Lagrange}")
+        sol.step("check", ok=ok, dm=dm)
+    if options.at and ne_u is not None:
+        state = {}
+        for name in options.at:
+            sym = problem.names.get(name)
+            if sym is None or sym not in robot.q + robot.dq + robot.ddq:
+                raise UserError(f"'{name}' in at: is not a coordinate, velocity or acceleration",
+                                problem.located.place(ctx.path + ("at", name)), "use q1, dq1, ddq1, ...")
+            state[sym] = ctx.expr("at", name)
+        subs = {**problem.values, **{x: v.subs(problem.values) for x, v in state.items()}}
+        val = ne_u.subs(subs).applyfunc(lambda e: sp.nsimplify(e) if e.is_number and not e.atoms(sp.Float) else e)
+        sol.add("ne_u_at", val, "vector", label="u\\big|_{*}")
+        sol.step("at", state=state, value=val)
+    return sol
+
+
+def _without_gravity(robot: Robot) -> Robot:
+    from dataclasses import replace
+    return replace(robot, gravity=None)

@@ -1,0 +1,791 @@
+"""Properties of the dynamic model (ask kind ``dynamic_properties``).
+
+    eigenvalues:      0 < λ_m ≤ λ_min(B(q)) ≤ λ_max(B(q)) ≤ λ_M for all q: the extreme values over q (numeric search
+                      over one period of each angle, recognized in closed form at angles multiple of π/12), the
+                      eigenvalues in closed form for n ≤ 2 and, with symbolic parameters, λ_M ≤ max_q tr B (termwise)
+    alpha:            ‖∂g/∂q‖ ≤ α (solver.control.gravity_bound)
+    factorizations:   c = S q̇; S₁ from the Christoffel symbols (Ḃ − 2S₁ skew); S₂ from the monomials of c, each
+                      q̇_i q̇_j (i ≤ j) of c_k put in column i (S₂)_{ki} += γ_kij q̇_j, or S₁ + S₀ with S₀ q̇ = 0
+                      when that is S₁ again; each given S checked: S q̇ ≡ c and whether Ḃ − 2S is skew
+    momentum:         p = B(q) q̇, and ṗ = u + S₁ᵀ q̇ − g(q) (with S₁ the Christoffel factorization)
+    inverse dynamics: u_d(t) = B(q_d) q̈_d + c(q_d, q̇_d) + g(q_d) along a given q_d(t)
+    coordinates:      q = T θ: B_θ = Tᵀ B(Tθ) T, g_θ = Tᵀ g(Tθ), c_θ from the Christoffel symbols of B_θ
+    feasibility:      B symmetric, independent of q₁ (the base coordinate), positive definite for all q (leading
+                      principal minors of each diagonal block at the configurations where the trigonometric terms
+                      are extreme: angles multiple of π/4; the conditions that hold whenever others do dropped),
+                      g = ∂U/∂q (∂g/∂q symmetric)
+    power:            Ė = q̇ᵀ (u − F_v q̇), U̇ = q̇ᵀ g, Ṫ = Ė − U̇, L̇ = Ṫ − U̇ at a given state
+"""
+from __future__ import annotations
+
+import itertools
+from typing import Any, Literal
+
+import numpy as np
+import sympy as sp
+from pydantic import Field
+
+from solver.control.gravity_bound import (
+    _snap,
+    abs_bound,
+    gradient_bound,
+    matrix_function,
+    maximize,
+)
+from solver.dynamics.model import (
+    christoffel,
+    coriolis,
+    derive,
+    require_model,
+)
+from solver.math.simplify import angle_symbols, is_zero, tidy, tidy_matrix
+from solver.registry import PropertyVerdict, ask_kind, property_check
+from solver.results import Solution
+from solver.spec.errors import UserError
+from solver.spec.loader import latex_of
+from solver.spec.models import ExprT, Strict
+from solver.spec.robot import Robot
+
+FINDS = ("eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates", "feasibility",
+         "power")
+
+
+# ------------------------------------------------------------------------------------------------ math
+def bdot(B: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol]) -> sp.Matrix:
+    """Ḃ = Σ_k ∂B/∂q_k q̇_k."""
+    return tidy_matrix(sum((B.diff(a) * v for a, v in zip(q, dq)), sp.zeros(*B.shape)))
+
+
+def is_skew(N: sp.Matrix) -> bool:
+    return all(is_zero(sp.expand(x)) for x in (N + N.T))
+
+
+def monomial_factorization(c: sp.Matrix, dq: list[sp.Symbol]) -> sp.Matrix:
+    """S with (S)_{ki} = Σ_{j ≥ i} γ_kij q̇_j, where c_k = Σ_{i ≤ j} γ_kij q̇_i q̇_j (each monomial in the column of
+    its first velocity)."""
+    n = len(dq)
+    S = sp.zeros(n, n)
+    for k in range(n):
+        poly = sp.Poly(sp.expand(c[k]), *dq)
+        for mono, coeff in poly.terms():
+            idx = [i for i, e in enumerate(mono) for _ in range(e)]
+            if len(idx) != 2:
+                raise ValueError("c is not quadratic in the velocities")
+            i, j = sorted(idx)
+            S[k, i] += coeff * dq[j]
+    return tidy_matrix(S)
+
+
+def null_term(dq: list[sp.Symbol]) -> sp.Matrix:
+    """S₀(q̇) with S₀ q̇ = 0 and S₀ + S₀ᵀ ≠ 0: the first row (q̇₂, −q̇₁, 0, ...)."""
+    n = len(dq)
+    S0 = sp.zeros(n, n)
+    if n >= 2:
+        S0[0, 0], S0[0, 1] = dq[1], -dq[0]
+    return S0
+
+
+def alternative_factorization(B: sp.Matrix, c: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol],
+                              S1: sp.Matrix) -> tuple[sp.Matrix, str]:
+    """A factorization S₂ ≠ S₁ (S₂ q̇ = c) with Ḃ − 2S₂ not skew: the monomial one, else S₁ + S₀."""
+    Bd = bdot(B, q, dq)
+    try:
+        S2 = monomial_factorization(c, dq)
+        if not is_skew(Bd - 2 * S2):
+            return S2, "monomials"
+    except ValueError:
+        pass
+    return tidy_matrix(S1 + null_term(dq)), "null"
+
+
+def diagonal_blocks(B: sp.Matrix) -> list[list[int]]:
+    """Index sets of the diagonal blocks of B (connected components of its non-zero pattern)."""
+    n = B.rows
+    seen, out = set(), []
+    for s in range(n):
+        if s in seen:
+            continue
+        comp, stack = [], [s]
+        seen.add(s)
+        while stack:
+            i = stack.pop()
+            comp.append(i)
+            for j in range(n):
+                if j not in seen and not is_zero(B[i, j]):
+                    seen.add(j)
+                    stack.append(j)
+        out.append(sorted(comp))
+    return out
+
+
+def _nonneg(d: sp.Expr) -> bool:
+    d = sp.factor(sp.expand(d))
+    return d == 0 or bool(d.is_nonnegative)
+
+
+def worst_case(m: sp.Expr, q: list[sp.Symbol], revolute: set[sp.Symbol]) -> list[sp.Expr]:
+    """The values of m(q) at the configurations with the angles it depends on in {k π/2} (where cos, sin and their
+    squares are extreme), prismatic coordinates at 0, without the ones that are another plus something
+    non-negative (they hold whenever the other does)."""
+    angles = [a for a in angle_symbols(m) if a in revolute]
+    others = {x: sp.Integer(0) for x in q if x in m.free_symbols and x not in angles}
+    grid = [sp.Integer(0), sp.pi / 2, sp.pi, -sp.pi / 2]
+    vals: list[sp.Expr] = []
+    for pt in itertools.product(grid, repeat=len(angles)):
+        v = sp.expand(m.xreplace({**others, **dict(zip(angles, pt))}))
+        if not any(sp.expand(v - w) == 0 for w in vals):
+            vals.append(v)
+    kept = [v for i, v in enumerate(vals) if not any(j != i and _nonneg(v - w) for j, w in enumerate(vals))]
+    # a value above the mean of two others holds when both do (cos = 0 between cos = ±1)
+    return [v for i, v in enumerate(kept)
+            if not any(j != i and k != i and j < k and _nonneg(v - (w + x) / 2)
+                       for j, w in enumerate(kept) for k, x in enumerate(kept))]
+
+
+def pd_conditions(B: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol]
+                  ) -> tuple[list[sp.Expr], list[sp.Expr], bool, list[tuple[list[int], list[sp.Expr]]], list[sp.Expr]]:
+    """(conditions c > 0, minors, possible, per-block minors, diagonal conditions) for B(q) ≻ 0 at every q: every
+    diagonal entry (necessary) and the leading principal minors of each diagonal block (Sylvester), each in its
+    worst configurations (:func:`worst_case`), normalized (positive factors removed) and reduced.
+    ``possible`` is False when a condition can never hold."""
+    from solver.math.equivalence import normalize_condition, reduce_conditions
+    blocks = diagonal_blocks(B)
+    minors: list[sp.Expr] = []
+    per_block = []
+    possible = True
+
+    def collect(exprs: list[sp.Expr]) -> list[sp.Expr]:
+        nonlocal possible
+        out: list[sp.Expr] = []
+        for m in exprs:
+            for v in worst_case(m, q, revolute):
+                nc = normalize_condition(v)
+                if nc == -1 or bool(v.is_nonpositive):
+                    possible = False
+                if nc != 1 and not any(sp.expand(nc - x) == 0 for x in out):
+                    out.append(nc)
+        return out
+
+    for blk in blocks:
+        M = B.extract(blk, blk)
+        mins = [tidy(M[:k, :k].det()) for k in range(1, len(blk) + 1)]
+        per_block.append((blk, mins))
+        minors += mins
+    diag = collect([B[i, i] for i in range(B.rows)])
+    conds = collect([B[i, i] for i in range(B.rows)] + minors)
+    return reduce_conditions(conds), minors, possible, per_block, reduce_conditions(diag)
+
+
+def _real_eigenvalues(M: sp.Matrix) -> list[sp.Expr]:
+    """The eigenvalues of a numeric symmetric matrix in closed form without I (cubic formulas of 3x3 matrices
+    are complex-looking: then [])."""
+    try:
+        ev = [sp.radsimp(e) for e in M.eigenvals(multiple=True)]
+    except Exception:  # noqa: BLE001 - sympy could not find the roots
+        return []
+    return ev if all(not e.has(sp.I) for e in ev) else []
+
+
+def eigen_bounds(B: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol], values: dict,
+                 ranges: dict[sp.Symbol, tuple[float, float]]) -> dict[str, Any]:
+    """Extreme eigenvalues of B(q) over q: numeric search with exact recognition, or termwise bounds."""
+    out: dict[str, Any] = {}
+    if B.rows <= 2:
+        out["eigs"] = [tidy(e) for e in B.eigenvals(multiple=True)] if B.rows == 2 else [B[0, 0]]
+    coords = [x for x in q if any(x in e.free_symbols for e in B)]
+    Bv = B.xreplace(values)
+    params = set().union(*[e.free_symbols for e in Bv]) - set(coords)
+    if params:
+        out["method"] = "termwise"
+        out["lambda_max"] = abs_bound(sp.expand(B.trace()), set(coords), {c: ranges[c] for c in coords if c in ranges})
+        return out
+    missing = [c for c in coords if c not in revolute and c not in ranges]
+    if missing:
+        raise ValueError(f"give a range for {', '.join(map(str, missing))}")
+    if not coords:
+        ev = sorted(_real_eigenvalues(Bv), key=lambda e: float(sp.N(e)))
+        if not ev:
+            ev = [sp.Float(x, 10) for x in np.linalg.eigvalsh(np.array(Bv.evalf(), dtype=float))]
+        out.update(method="constant", lambda_min=tidy(ev[0]), lambda_max=tidy(ev[-1]),
+                   q_lambda_min=sp.Matrix(q) * 0, q_lambda_max=sp.Matrix(q) * 0)
+        return out
+    box = [ranges.get(c, (-np.pi, np.pi)) for c in coords]
+    periodic = [c in revolute and c not in ranges for c in coords]
+    fn = matrix_function(Bv, coords)
+
+    def eig(pts: np.ndarray) -> np.ndarray:
+        return np.linalg.eigvalsh(fn(pts))
+
+    vmax, xmax = maximize(lambda p: eig(p)[:, -1], box, periodic)
+    shift = abs(vmax) + 1.0          # maximize needs a positive objective: shift − λ_min
+    vmin, xmin = maximize(lambda p: shift - eig(p)[:, 0], box, periodic)
+    vmin = shift - vmin
+    exact = True
+    for key, v, x, pick in (("lambda_max", vmax, xmax, max), ("lambda_min", vmin, xmin, min)):
+        snapped = [_snap(float(xi), c, revolute, ranges) for xi, c in zip(x, coords)]
+        val: sp.Expr = sp.Float(v, 10)
+        conf = sp.Matrix([sp.Float(float(x[coords.index(c)]), 6) if c in coords else sp.Integer(0) for c in q])
+        if all(s is not None for s in snapped):
+            at = dict(zip(coords, snapped))
+            ev = _real_eigenvalues(Bv.xreplace(at).applyfunc(sp.nsimplify))
+            cand = pick(ev, key=lambda e: float(sp.N(e))) if ev else None
+            if cand is not None and abs(float(sp.N(cand)) - v) <= 1e-8 * max(1.0, abs(v)):
+                val = sp.nsimplify(sp.radsimp(cand))
+                conf = sp.Matrix([at.get(c, sp.Integer(0)) for c in q])
+            else:
+                exact = False
+        else:
+            exact = False
+        out[key], out["q_" + key] = val, conf
+    out["method"] = "exact" if exact else "numeric"
+    return out
+
+
+def affine_bound(A: sp.Matrix, coord: sp.Symbol, others: set[sp.Symbol]) -> tuple[sp.Expr, sp.Expr] | None:
+    """(α, β) with ‖A(q)‖ ≤ α + β |s| for every q, s = ``coord`` unbounded: ‖A‖ ≤ ‖A‖_F ≤ ‖A_s‖_F + ‖A_0‖_F
+    (A_s: the entries that depend on s, A_0: the others), each entry bounded termwise (|sin|, |cos| ≤ 1), an entry
+    of A_s by u + v|s|, so that ‖A_s‖_F ≤ ‖u‖ + |s| ‖v‖ (Minkowski): α = ‖u‖ + ‖A_0‖_F, β = ‖v‖.
+    None if an entry is not affine in |s| after bounding."""
+    Q = sp.Dummy("Q", positive=True)
+    us, vs, ws = [], [], []
+    for a in A:
+        if a == 0:
+            continue
+        b = abs_bound(sp.expand(a), others | {coord}, {coord: (-Q, Q)})
+        if b is None:
+            return None
+        b = sp.expand(b.replace(lambda e: isinstance(e, sp.Max), lambda e: Q))
+        if not b.has(Q):
+            ws.append(b)
+            continue
+        poly = sp.Poly(b, Q)
+        if poly.degree() > 1:
+            return None
+        vs.append(poly.coeff_monomial(Q))
+        us.append(poly.coeff_monomial(1))
+
+    def norm(xs: list[sp.Expr]) -> sp.Expr:
+        return sp.sqrt(sp.factor(sum((x ** 2 for x in xs), sp.Integer(0)))) if len(xs) != 1 else xs[0]
+
+    return tidy(norm(us) + norm(ws)), tidy(norm(vs))
+
+
+def change_coordinates(B: sp.Matrix, g: sp.Matrix, q: list[sp.Symbol], T: sp.Matrix, th: list[sp.Symbol],
+                       dth: list[sp.Symbol]) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+    """q = T θ: (B_θ, c_θ, g_θ) with B_θ = Tᵀ B(Tθ) T, g_θ = Tᵀ g(Tθ), c_θ from the Christoffel symbols of B_θ."""
+    sub = dict(zip(q, list(T * sp.Matrix(th))))
+    Bt = tidy_matrix(T.T * B.xreplace(sub) * T)
+    gt = tidy_matrix(T.T * g.xreplace(sub))
+    ct = coriolis(christoffel(Bt, th), dth)
+    return Bt, ct, gt
+
+
+# ------------------------------------------------------------------------------------------------ the ask
+class GivenFactorization(Strict):
+    name: str = Field(description="result prefix, e.g. S2 (results <name>_valid, <name>_skew, <name>_N)")
+    S: ExprT = Field(description="the n x n matrix S(q, dq) to check")
+
+
+class Candidate(Strict):
+    name: str = Field(description="result prefix, e.g. MA")
+    B: ExprT = Field(description="the n x n inertia matrix, in the robot's coordinates q1..qn")
+    g: ExprT | None = Field(None, description="the gravity vector (default 0)")
+
+
+class Fault(Strict):
+    joint: int = Field(description="the joint i whose acceleration is imposed (1..n)")
+    ddq: ExprT = Field(description="the imposed acceleration of joint i, e.g. -lambda2*dq2 (incipient block)")
+
+
+class DynamicPropertiesAsk(Strict):
+    """Properties of the dynamic model of the spec's robot."""
+
+    kind: Literal["dynamic_properties"]
+    title: str | None = Field(None, description="heading of this part in the report")
+    find: list[Literal["eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates",
+                       "feasibility", "power", "forward_dynamics", "fault", "torque_limits"]] = Field(
+        description="which properties")
+    ranges: dict[str, tuple[float, float]] = Field(
+        {}, description="range per coordinate for the searches over q (needed for prismatic ones)")
+    factorizations: list[GivenFactorization] = Field([], description="factorizations S to check")
+    trajectory: ExprT | None = Field(None, description="q_d(t) for inverse_dynamics: n expressions in t")
+    times: list[str | int | float] = Field([], description="times where u_d(t) is evaluated (u_d_at<k>)")
+    cases: list[dict[str, str | int | float]] = Field(
+        [], description="inverse_dynamics, torque_limits: parameter values substituted (u_d_case<k>, tau_lower_case<k>, ...), e.g. [{q2b: pi/2}]")
+    transform: ExprT | None = Field(None, description="coordinates: the n x n matrix T with q = T θ")
+    new_coordinates: list[str] | None = Field(None, description="names of θ (default th1..thn); "
+                                                                  "velocities d<name>")
+    candidates: list[Candidate] = Field([], description="feasibility: other (B, g) to judge, results prefixed "
+                                                           "<name>_ (B_indep_q1, det_B, pd_conditions, real_robot, ...)")
+    state: dict[str, str | int | float] | None = Field(
+        None, description="power: the state (q.., dq..) where Ė, U̇, Ṫ, L̇ are evaluated")
+    u: ExprT | None = Field(None, description="power, forward_dynamics, fault: the input u (n expressions)")
+    limits: ExprT | None = Field(None, description="torque_limits: the bounds T_i in |u_i| <= T_i (n expressions)")
+    fault: Fault | None = Field(None, description="fault: the extra torque τ_f,i at one joint that imposes its "
+                                                     "acceleration (B q̈ + c + g = G u − e_i τ_f,i)")
+
+
+def _place(problem, ctx, *sub):  # type: ignore[no-untyped-def]
+    return problem.located.place(ctx.path + tuple(sub))
+
+
+@ask_kind("dynamic_properties", DynamicPropertiesAsk,
+          "model properties: eigenvalue bounds of B, α, factorizations of c, momentum, inverse dynamics, "
+          "other coordinates, conditions for a real robot, energy rates")
+def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results by `find`: see docs/spec.md (lambda_min/max, alpha, S_skew/S_alt/..., p, u_d, B_new, conditions...)."""
+    robot: Robot = require_model(problem)
+    dm = derive(robot)
+    n, q, dq = robot.n, robot.q, robot.dq
+    revolute = {x for x, j in zip(q, robot.joints) if j == "R"}
+    by_name = {x.name: x for x in q}
+    ranges = {}
+    for name, (lo, hi) in options.ranges.items():
+        if name not in by_name:
+            raise UserError(f"'{name}' in ranges: is not a coordinate", _place(problem, ctx, "ranges"),
+                            "use " + ", ".join(by_name))
+        if not lo < hi:
+            raise UserError(f"empty range for {name}", _place(problem, ctx, "ranges", name), "write [low, high]")
+        ranges[by_name[name]] = (float(lo), float(hi))
+    sol = Solution("dynamic_properties", title=options.title or "Properties of the dynamic model")
+    sol.step("model", B=dm.B, c=dm.c, g=dm.g, q=q)
+    for what in options.find:
+        if what == "eigenvalues":
+            try:
+                eb = eigen_bounds(dm.B, q, revolute, problem.values, ranges)
+            except ValueError as exc:
+                raise UserError(str(exc), _place(problem, ctx, "find"), "add ranges: {q2: [lo, hi]}") from None
+            if "eigs" in eb:
+                sol.add("eig_B", eb["eigs"], "list", label="\\lambda_i(B(q))")
+            for k in ("lambda_min", "lambda_max"):
+                if eb.get(k) is not None:
+                    sol.add(k, eb[k], "scalar", label="\\lambda_{m}" if k == "lambda_min" else "\\lambda_{M}")
+                if eb.get("q_" + k) is not None:
+                    sol.add("q_" + k, eb["q_" + k], "vector", label=f"q_{{{k}}}")
+            sol.step("eigenvalues", **eb, trace=tidy(dm.B.trace()))
+        elif what == "alpha":
+            gb = gradient_bound(dm.g, q, revolute, ranges, problem.values)
+            sol.add("dg_dq", gb.A, "matrix", label="\\partial g/\\partial q")
+            affine = None
+            if gb.method == "unbounded" and len(gb.unbounded) == 1 and gb.unbounded[0] not in revolute:
+                affine = affine_bound(gb.A, gb.unbounded[0], set(gb.coords) - set(gb.unbounded))
+            if affine is not None:
+                sol.add("alpha", affine[0], "scalar", label="\\alpha")
+                sol.add("beta", affine[1], "scalar", label="\\beta")
+            else:
+                sol.add("alpha", gb.alpha, "scalar", label="\\alpha")
+            if gb.q_max is not None:
+                sol.add("q_alpha", gb.q_max, "vector", label="q_\\alpha")
+            sol.step("alpha", gb=gb, affine=affine, s=gb.unbounded[0] if affine is not None else None)
+        elif what == "factorizations":
+            if dm.C is None:
+                raise UserError("factorizations need c from B (the model gives c directly)",
+                                problem.located.place(("robot", "model", "c")), "give B instead of c")
+            Bd = bdot(dm.B, q, dq)
+            S1 = dm.S
+            S2, how = alternative_factorization(dm.B, dm.c, q, dq, S1)
+            N1, N2 = tidy_matrix(Bd - 2 * S1), tidy_matrix(Bd - 2 * S2)
+            sol.add("Bdot", Bd, "matrix", label="\\dot B")
+            sol.add("S_skew", S1, "matrix", label="S_1")
+            sol.add("N_skew", N1, "matrix", label="\\dot B - 2S_1")
+            sol.add("S_alt", S2, "matrix", label="S_2")
+            sol.add("N_alt", N2, "matrix", label="\\dot B - 2S_2")
+            sol.add("skew_alt", is_skew(N2), "bool", label="\\dot B - 2S_2 \\text{ skew}")
+            checked = []
+            for k, f in enumerate(options.factorizations):
+                val = ctx.expr("factorizations", k, "S")
+                try:
+                    S = sp.Matrix(val)
+                except (TypeError, ValueError):
+                    S = None
+                if S is None or S.shape != (n, n):
+                    raise UserError(f"S must be a {n}x{n} matrix", _place(problem, ctx, "factorizations", k, "S"))
+                valid = all(is_zero(sp.expand(x)) for x in (S * sp.Matrix(dq) - dm.c))
+                N = tidy_matrix(Bd - 2 * S)
+                skew = is_skew(N)
+                sol.add(f"{f.name}_valid", valid, "bool", label=f"{f.name}\\,\\dot q = c")
+                sol.add(f"{f.name}_skew", skew, "bool", label=f"\\dot B - 2{f.name} \\text{{ skew}}")
+                sol.add(f"{f.name}_N", N, "matrix", label=f"\\dot B - 2{f.name}")
+                checked.append((f.name, S, valid, N, skew))
+            sol.step("factorizations", C=dm.C, c=dm.c, Bdot=Bd, S1=S1, N1=N1, S2=S2, N2=N2, how=how,
+                     S0=null_term(dq), checked=checked, dq=dq)
+        elif what == "momentum":
+            p = tidy_matrix(dm.B * sp.Matrix(dq))
+            sol.add("p", p, "vector", label="p = B(q)\\dot q")
+            beta = tidy_matrix(dm.g - (dm.S.T * sp.Matrix(dq) if dm.S is not None else sp.zeros(n, 1)))
+            if dm.S is not None:
+                sol.add("beta_momentum", beta, "vector", label="\\beta = g - S^T\\dot q")
+            sol.step("momentum", p=p, beta=beta if dm.S is not None else None)
+        elif what == "inverse_dynamics":
+            _inverse_dynamics(problem, options, ctx, sol, dm, robot)
+        elif what == "coordinates":
+            if options.transform is None:
+                raise UserError("coordinates needs transform: (q = T θ)", _place(problem, ctx, "find"),
+                                "add transform: [[1, 0], [1, 1]]")
+            T = sp.Matrix(ctx.expr("transform"))
+            if T.shape != (n, n) or T.det() == 0:
+                raise UserError(f"transform must be an invertible {n}x{n} matrix", _place(problem, ctx, "transform"))
+            names = options.new_coordinates or [f"th{i + 1}" for i in range(n)]
+            if len(names) != n:
+                raise UserError(f"{len(names)} names for {n} coordinates", _place(problem, ctx, "new_coordinates"))
+            th = [sp.Symbol(s, real=True) for s in names]
+            dth = [sp.Symbol("d" + s, real=True) for s in names]
+            for s_, ds_ in zip(th, dth):
+                if problem.names.get(s_.name, s_) != s_ or problem.names.get(ds_.name, ds_) != ds_:
+                    raise UserError(f"'{s_.name}' is already a name of the problem",
+                                    _place(problem, ctx, "new_coordinates"), "choose other names")
+                problem.names[s_.name], problem.names[ds_.name] = s_, ds_   # expected: values may use them
+                base = latex_of(s_.name).replace("th_", "\\theta_")
+                problem.latex_names.setdefault(s_, base)
+                problem.latex_names.setdefault(ds_, f"\\dot{{{base}}}")
+            Bt, ct, gt = change_coordinates(dm.B, dm.g, q, T, th, dth)
+            sol.add("B_new", Bt, "matrix", label="B_\\theta")
+            sol.add("c_new", ct, "vector", label="c_\\theta")
+            sol.add("g_new", gt, "vector", label="g_\\theta")
+            sol.step("coordinates", T=T, th=th, q=q, Bt=Bt, ct=ct, gt=gt, Tinv=T.inv())
+        elif what == "feasibility":
+            _feasibility(sol, dm.B, dm.g, robot, revolute)
+            for k, cand in enumerate(options.candidates):
+                if not cand.name.isidentifier():
+                    raise UserError(f"candidate name '{cand.name}' is not a plain name",
+                                    _place(problem, ctx, "candidates", k, "name"), "use letters, digits and _")
+                Bc = ctx.expr("candidates", k, "B")
+                try:
+                    Bc = sp.Matrix(Bc)
+                except (TypeError, ValueError):
+                    Bc = None
+                if Bc is None or Bc.shape != (n, n):
+                    raise UserError(f"B must be a {n}x{n} matrix", _place(problem, ctx, "candidates", k, "B"))
+                gc = sp.Matrix(ctx.expr("candidates", k, "g")) if cand.g is not None else sp.zeros(n, 1)
+                if gc.shape != (n, 1):
+                    raise UserError(f"g must have {n} components", _place(problem, ctx, "candidates", k, "g"))
+                _feasibility(sol, Bc, gc, robot, revolute, cand.name + "_")
+        elif what == "power":
+            _power(problem, options, ctx, sol, dm, robot)
+        elif what == "forward_dynamics":
+            _forward(problem, options, ctx, sol, dm, robot)
+        elif what == "fault":
+            _fault(problem, options, ctx, sol, dm, robot)
+        elif what == "torque_limits":
+            _torque_limits(problem, options, ctx, sol, dm, robot)
+    return sol
+
+
+def _inverse_dynamics(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    n = robot.n
+    if options.trajectory is None:
+        raise UserError("inverse_dynamics needs trajectory: (q_d(t), n expressions in t)",
+                        _place(problem, ctx, "find"), "add trajectory: [sin(t), t^2]")
+    t = problem.symbols.get("t") or sp.Symbol("t", real=True)
+    names = {**problem.names, "t": t}
+    qd = problem.parse_at(ctx.path + ("trajectory",), names)
+    if not isinstance(qd, list) or len(qd) != n:
+        raise UserError(f"trajectory must be a list of {n} expressions in t", _place(problem, ctx, "trajectory"))
+    qd = [sp.sympify(x) for x in qd]
+    dqd = [sp.diff(x, t) for x in qd]
+    ddqd = [sp.diff(x, t, 2) for x in qd]
+    sub = {**dict(zip(robot.q, qd)), **dict(zip(robot.dq, dqd)), **dict(zip(robot.ddq, ddqd))}
+    ud = tidy_matrix(dm.lhs.xreplace(sub))
+    sol.add("u_d", ud, "vector", label="u_d(t)")
+    rows = []
+    for k, _ in enumerate(options.times):
+        tk = problem.parse_at(ctx.path + ("times", k), names)
+        v = ud.xreplace({t: tk}).applyfunc(tidy)
+        sol.add(f"u_d_at{k + 1}", v, "vector", label=f"u_d(t_{k + 1})")
+        rows.append((tk, v, v.xreplace(problem.values).evalf(6) if problem.values else None))
+    cases = []
+    for k, case in enumerate(options.cases):
+        sub = {}
+        for name in case:
+            sym = problem.names.get(name)
+            if sym is None or not isinstance(sym, sp.Symbol) or sym in robot.q + robot.dq + robot.ddq:
+                raise UserError(f"'{name}' in cases: is not a parameter", _place(problem, ctx, "cases", k, name),
+                                "use a symbol of the trajectory, declared under symbols:")
+            sub[sym] = problem.parse_at(ctx.path + ("cases", k, name), names)
+        v = ud.xreplace(sub).applyfunc(tidy)
+        sol.add(f"u_d_case{k + 1}", v, "vector", label=f"u_d\\big|_{{{k + 1}}}")
+        cases.append((sub, v))
+    sol.step("inverse_dynamics", qd=sp.Matrix(qd), dqd=sp.Matrix(dqd), ddqd=sp.Matrix(ddqd), ud=ud, rows=rows,
+             cases=cases)
+
+
+def base_invariance(B: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol]) -> tuple[bool, sp.Matrix | None]:
+    """Whether B(q + δ v) ≡ B(q) for v = e₁ (relative coordinates: moving the first joint moves the whole robot) or
+    v = the revolute coordinates all 1 (absolute angles: a rotation of the base adds δ to each of them); (ok, v)."""
+    d = sp.Dummy("delta")
+    cands = [sp.Matrix([int(i == 0) for i in range(len(q))]),
+             sp.Matrix([int(x in revolute and any(x in a.free_symbols for a in B.atoms(sp.sin, sp.cos)))
+                        for x in q])]
+    for v in cands:
+        if not any(v):
+            continue
+        shifted = B.xreplace({x: x + d * vi for x, vi in zip(q, v) if vi})
+        if all(is_zero(sp.expand(sp.expand_trig(x))) for x in (shifted - B)):
+            return True, v
+    return False, None
+
+
+def _feasibility(sol, B, g, robot, revolute, prefix: str = "") -> None:  # type: ignore[no-untyped-def]
+    q = robot.q
+    sym = all(is_zero(x) for x in (B - B.T))
+    indep = not any(q[0] in e.free_symbols for e in B)
+    invariant, shift = base_invariance(B, q, revolute)
+    conds, _, possible, blocks, diag = pd_conditions(B, q, revolute)
+    A = g.jacobian(q)
+    conservative = all(is_zero(sp.expand(x)) for x in (A - A.T))
+    real = bool(sym and invariant and possible and conservative)
+    sol.add(prefix + "B_symmetric", sym, "bool", label="B = B^T")
+    sol.add(prefix + "B_indep_q1", indep, "bool", label="B \\text{ independent of } q_1")
+    sol.add(prefix + "B_base_invariant", invariant, "bool", label="B \\text{ invariant under a motion of the base}")
+    sol.add(prefix + "det_B", tidy(B.det()), "scalar", label="\\det B(q)")
+    sol.add(prefix + "diag_conditions", diag, "conditions", label="b_{ii}(q) > 0\\ \\forall q")
+    sol.add(prefix + "pd_conditions", conds, "conditions", label="B(q) \\succ 0\\ \\forall q")
+    sol.add(prefix + "pd_possible", possible, "bool", label="B(q) \\succ 0 \\text{ possible}")
+    sol.add(prefix + "g_conservative", conservative, "bool", label="\\partial g/\\partial q \\text{ symmetric}")
+    sol.add(prefix + "real_robot", real, "bool", label="\\text{can be a robot model}")
+    sol.step("feasibility", label=prefix[:-1], B=B, sym=sym, indep=indep, invariant=invariant, shift=shift, conds=conds, diag=diag, blocks=blocks, possible=possible,
+             conservative=conservative, real=real, A=A, det=tidy(B.det()), q1=q[0], g=g)
+
+
+def _read_state(problem, options, ctx, robot) -> dict:  # type: ignore[no-untyped-def]
+    state = {}
+    for name in options.state or {}:
+        sym = problem.names.get(name)
+        if sym is None or sym not in robot.q + robot.dq:
+            raise UserError(f"'{name}' in state: is not a coordinate or velocity", _place(problem, ctx, "state", name),
+                            "use q1, dq1, ...")
+        state[sym] = ctx.expr("state", name)
+    return state
+
+
+MAX_SYMBOLIC_INVERSE = 2   # B⁻¹ with symbolic parameters only up to this size (3x3 trigonometric inverses explode)
+
+
+def _inverse(problem, ctx, B: sp.Matrix, q: list[sp.Symbol]) -> sp.Matrix:  # type: ignore[no-untyped-def]
+    """B⁻¹ (entries simplified); beyond MAX_SYMBOLIC_INVERSE the parameter values are substituted first."""
+    if B.rows > MAX_SYMBOLIC_INVERSE:
+        B = B.xreplace(problem.values)
+        if set().union(*[e.free_symbols for e in B]) - set(q):
+            raise UserError(f"B⁻¹ of a {B.rows}x{B.rows} inertia matrix with symbolic parameters is too large",
+                            _place(problem, ctx, "find"), "give numeric values: for the parameters")
+    return B.inv().applyfunc(tidy)
+
+
+def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """q̈ = B⁻¹ (G u − c − g − F_v q̇) for the given u (at the given state, else symbolic)."""
+    m = len(robot.inputs)
+    if options.u is None:
+        raise UserError("forward_dynamics needs u: [...]", _place(problem, ctx, "find"), "add u: [0, ua]")
+    u = problem.parse_at(ctx.path + ("u",), {**problem.names, **{x.name: x for x in robot.inputs}})
+    if not isinstance(u, list) or len(u) != m:
+        raise UserError(f"u must be a list of {m} expressions", _place(problem, ctx, "u"))
+    G = robot.input_map if robot.input_map is not None else sp.eye(robot.n)
+    v = sp.Matrix(robot.dq)
+    rhs = G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(robot.n, 1))
+    state = _read_state(problem, options, ctx, robot)
+    Binv = _inverse(problem, ctx, dm.B, robot.q)
+    ddq = tidy_matrix((Binv * rhs).xreplace(state))
+    sol.add("ddq", ddq, "vector", label="\\ddot q")
+    sol.step("forward_dynamics", u=sp.Matrix(u), Binv=Binv.applyfunc(tidy), rhs=rhs.applyfunc(tidy), state=state,
+             ddq=ddq)
+
+
+def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """B q̈ + n = G u − e_i τ_f with H = B⁻¹: q̈ = H (G u − n) − h_i τ_f, so q̈_i = a needs
+    τ_f = (h_iᵀ (G u − n) − a) / h_ii, and then q̈_j = h_jᵀ (G u − n) − h_ji τ_f."""
+    n = robot.n
+    if options.fault is None or options.u is None:
+        raise UserError("fault needs fault: {joint: i, ddq: ...} and u: [...]", _place(problem, ctx, "find"),
+                        "add fault: {joint: 2, ddq: -lambda2*dq2} and u: [tau1, tau2]")
+    i = options.fault.joint
+    if not 1 <= i <= n:
+        raise UserError(f"joint must be between 1 and {n}", _place(problem, ctx, "fault", "joint"))
+    names = {**problem.names, **{x.name: x for x in robot.inputs}}
+    u = problem.parse_at(ctx.path + ("u",), names)
+    m = len(robot.inputs)
+    if not isinstance(u, list) or len(u) != m:
+        raise UserError(f"u must be a list of {m} expressions", _place(problem, ctx, "u"))
+    a = problem.parse_at(ctx.path + ("fault", "ddq"), names)
+    if isinstance(a, list):
+        raise UserError("ddq must be one expression", _place(problem, ctx, "fault", "ddq"))
+    G = robot.input_map if robot.input_map is not None else sp.eye(n)
+    v = sp.Matrix(robot.dq)
+    w = G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1))
+    H = _inverse(problem, ctx, dm.B, robot.q)
+    k = i - 1
+    tau_f = tidy((H[k, :] * w)[0] / H[k, k] - a / H[k, k])
+    ddq = (H * w - H[:, k] * tau_f).applyfunc(tidy)
+    ddq[k] = tidy(ddq[k])
+    sol.add("H", H, "matrix", label="H = B^{-1}")
+    sol.add("tau_f", tau_f, "scalar", label=f"\\tau_{{f,{i}}}")
+    sol.add("ddq_fault", ddq, "vector", label="\\ddot q")
+    sol.step("fault", i=i, a=a, H=H, w=w.applyfunc(tidy), tau_f=tau_f, ddq=ddq)
+
+
+def _case_subs(problem, ctx, options, robot) -> list[dict]:  # type: ignore[no-untyped-def]
+    out = []
+    for k, case in enumerate(options.cases):
+        sub = {}
+        for name in case:
+            sym = problem.names.get(name)
+            if sym is None or not isinstance(sym, sp.Symbol) or sym in robot.q + robot.dq + robot.ddq:
+                raise UserError(f"'{name}' in cases: is not a parameter", _place(problem, ctx, "cases", k, name),
+                                "use a symbol declared under symbols:")
+            sub[sym] = problem.parse_at(ctx.path + ("cases", k, name))
+        out.append(sub)
+    return out
+
+
+def _torque_limits(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """|u_i| ≤ T_i with u = B q̈ + n (n = c + g + F_v q̇): −T − n ≤ B q̈ ≤ T − n, a parallelogram (n = 2) of
+    accelerations with vertices B⁻¹(±T₁ − n₁, ±T₂ − n₂); the zero-torque lines b_i1 q̈₁ + b_i2 q̈₂ = 0 have slopes
+    −b_i1/b_i2; q̈ = 0 is feasible iff |n_i| ≤ T_i."""
+    n = robot.n
+    if robot.input_map is not None:
+        raise UserError("torque_limits needs one torque per coordinate (no input_map)", _place(problem, ctx, "find"))
+    if options.limits is None:
+        raise UserError("torque_limits needs limits: [T1, T2, ...]", _place(problem, ctx, "find"), "add limits: [T1, T2]")
+    T = ctx.expr("limits")
+    if not isinstance(T, list) or len(T) != n:
+        raise UserError(f"limits must be a list of {n} expressions", _place(problem, ctx, "limits"))
+    T = sp.Matrix(T)
+    v = sp.Matrix(robot.dq)
+    nv = (dm.c + dm.g + (dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1))).applyfunc(tidy)
+    Bq = (dm.B * sp.Matrix(robot.ddq)).applyfunc(tidy)
+    lo, hi = (-T - nv).applyfunc(tidy), (T - nv).applyfunc(tidy)
+    sol.add("acc_map", Bq, "vector", label="B(q)\\ddot q")
+    sol.add("tau_lower", lo, "vector", label="-T - n")
+    sol.add("tau_upper", hi, "vector", label="T - n")
+    slopes = []
+    if n == 2:
+        for i in range(2):
+            if not is_zero(dm.B[i, 1]):
+                sl = tidy(-dm.B[i, 0] / dm.B[i, 1])
+                sol.add(f"slope{i + 1}", sl, "scalar", label=f"\\text{{slope}}_{i + 1}")
+                slopes.append((i + 1, sl))
+    zero = reduce_conds([T[i] - nv[i] for i in range(n)] + [T[i] + nv[i] for i in range(n)])
+    sol.add("zero_acc_conditions", zero, "conditions", label="\\ddot q = 0 \\text{ feasible}")
+    cases = []
+    for k, sub in enumerate(_case_subs(problem, ctx, options, robot)):
+        l_k, h_k = lo.xreplace(sub).applyfunc(tidy), hi.xreplace(sub).applyfunc(tidy)
+        sol.add(f"tau_lower_case{k + 1}", l_k, "vector", label=f"(-T - n)_{{{k + 1}}}")
+        sol.add(f"tau_upper_case{k + 1}", h_k, "vector", label=f"(T - n)_{{{k + 1}}}")
+        cases.append((sub, l_k, h_k))
+    vertices = []
+    if n == 2:
+        Binv = dm.B.inv().applyfunc(tidy)
+        for s1 in (1, -1):
+            for s2 in (1, -1):
+                vertices.append((Binv * sp.Matrix([s1 * T[0] - nv[0], s2 * T[1] - nv[1]])).applyfunc(tidy))
+        sol.add("acc_vertices", vertices, "list", label="\\ddot q_{\\text{vertices}}")
+    sol.step("torque_limits", T=T, nv=nv, Bq=Bq, lo=lo, hi=hi, slopes=slopes, zero=zero, cases=cases,
+             vertices=vertices)
+
+
+def reduce_conds(conds: list[sp.Expr]) -> list[sp.Expr]:
+    from solver.math.equivalence import normalize_condition, reduce_conditions
+    return reduce_conditions([normalize_condition(c) for c in conds])
+
+
+def _power(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    n = robot.n
+    if options.state is None or options.u is None:
+        raise UserError("power needs state: {q.., dq..} and u: [...]", _place(problem, ctx, "find"),
+                        "add state: {q1: 0, dq1: 1, ...} and u: [1, 0]")
+    state = {}
+    for name in options.state:
+        sym = problem.names.get(name)
+        if sym is None or sym not in robot.q + robot.dq:
+            raise UserError(f"'{name}' in state: is not a coordinate or velocity", _place(problem, ctx, "state", name),
+                            "use q1, dq1, ...")
+        state[sym] = ctx.expr("state", name)
+    u = ctx.expr("u")
+    if not isinstance(u, list) or len(u) != n:
+        raise UserError(f"u must be a list of {n} expressions", _place(problem, ctx, "u"))
+    u = sp.Matrix(u)
+    v = sp.Matrix(robot.dq)
+    fr = dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1)
+    Edot = (v.T * (u - fr))[0]
+    Udot = (v.T * dm.g)[0]
+    vals = {k: tidy(x.xreplace(state).xreplace(problem.values)) for k, x in
+            {"Edot": Edot, "Udot": Udot, "Tdot": Edot - Udot, "Ldot": Edot - 2 * Udot}.items()}
+    labels = {"Edot": "\\dot E", "Udot": "\\dot U", "Tdot": "\\dot T", "Ldot": "\\dot L"}
+    for k, x in vals.items():
+        sol.add(k, x, "scalar", label=labels[k])
+    sol.step("power", u=u, state=state, Edot=Edot, Udot=Udot, vals=vals, friction=dm.Fv is not None)
+
+
+# ------------------------------------------------------------------------------------------------ grading
+def _matrix(value: Any, n: int) -> sp.Matrix | None:
+    try:
+        M = sp.Matrix(value)
+    except (TypeError, ValueError):
+        return None
+    return M if M.shape == (n, n) else None
+
+
+@property_check("S_skew", "S_alt", "N_skew", "N_alt")
+def check_factorizations(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """S_skew: S q̇ ≡ c and Ḃ − 2S skew; S_alt: S q̇ ≡ c and Ḃ − 2S not skew. N_*: the same for S = (Ḃ − N)/2."""
+    from solver.math.equivalence import scalar_equiv
+    robot = problem.robot
+    Bd = results.get("Bdot")
+    if robot is None or Bd is None or results.get("S_skew") is None:
+        return None
+    n = robot.n
+    M = _matrix(value, n)
+    if M is None:
+        return None
+    S = (Bd.value - M) / 2 if name.startswith("N") else M
+    if name.startswith("N") and other is not None:          # with the student's own S: N must be Ḃ − 2S
+        S_own = _matrix(other("S" + name[1:]), n) if other("S" + name[1:]) is not None else None
+        if S_own is not None and not all(scalar_equiv(x, 0).ok for x in (M - (Bd.value - 2 * S_own))):
+            return PropertyVerdict(False, 0.0, ["N differs from Ḃ − 2S with your S"], final=False)
+    c = results["S_skew"].value * sp.Matrix(robot.dq)
+    if not all(scalar_equiv(x, y).ok for x, y in zip(S * sp.Matrix(robot.dq), c)):
+        return PropertyVerdict(False, 0.0, ["S q̇ differs from c(q, q̇): not a factorization"], final=False)
+    N = Bd.value - 2 * S
+    skew = all(scalar_equiv(x, 0).ok for x in (N + N.T))
+    want_skew = name.endswith("skew")
+    if skew == want_skew:
+        return PropertyVerdict(True, 1.0, ["S q̇ = c and Ḃ − 2S " + ("skew-symmetric" if skew else "not skew-symmetric")
+                                           + ", as asked"])
+    return PropertyVerdict(False, 0.5, ["S q̇ = c holds, but Ḃ − 2S is " + ("" if skew else "not ") +
+                                        "skew-symmetric, which is not what was asked"])
+
+
+DynamicPropertiesAsk.model_rebuild()
+
+
+@property_check("beta")
+def check_affine_bound(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """(α, β) with ‖∂g/∂q‖ ≤ α + β|s| for every q is not unique: the answer's β (with the answer's α, else the
+    reference α) is checked at random configurations (|s| up to 100) and parameter values."""
+    A, ref_alpha = results.get("dg_dq"), results.get("alpha")
+    if A is None or ref_alpha is None or problem.robot is None:
+        return None
+    alpha = other("alpha") if other is not None else None
+    alpha = ref_alpha.value if alpha is None or isinstance(alpha, list) else alpha
+    if isinstance(value, list):
+        return None
+    beta = sp.sympify(value)
+    robot = problem.robot
+    coords = [x for x in robot.q if any(x in e.free_symbols for e in A.value)]
+    rng = np.random.default_rng(5)
+    params = sorted(set().union(*[e.free_symbols for e in A.value], alpha.free_symbols, beta.free_symbols)
+                    - set(robot.q), key=lambda s: s.name)
+    for trial in range(3):
+        vals = {p: problem.values.get(p, sp.Float(rng.uniform(0.5, 2.0))) for p in params}
+        An = sp.lambdify(coords, A.value.xreplace(vals), "numpy")
+        a, b = float(alpha.xreplace(vals)), float(beta.xreplace(vals))
+        for _ in range(200):
+            rev = np.array([robot.joints[robot.q.index(c)] == "R" for c in coords])
+            ang = rng.uniform(-np.pi, np.pi, len(coords)) if _ % 2 else rng.integers(-3, 5, len(coords)) * np.pi / 4
+            lin = rng.choice([0.0, 0.1, 1.0, 10.0, 100.0], len(coords)) * rng.uniform(-1, 1, len(coords))
+            x = np.where(rev, ang, lin)
+            s = max((abs(v) for v, c in zip(x, coords) if robot.joints[robot.q.index(c)] == "P"), default=0.0)
+            nrm = np.linalg.norm(np.array(An(*x), dtype=float), 2)
+            if nrm > a + b * s + 1e-9:
+                return PropertyVerdict(False, 0.0, [(f"not a bound: ‖∂g/∂q‖ = {nrm:.4g} > α + β|s| = {a + b * s:.4g} "
+                                                     f"at q = {np.round(x, 3).tolist()}")])
+    return PropertyVerdict(True, 1.0, ["α + β|s| bounds ‖∂g/∂q‖ at every sampled configuration"])

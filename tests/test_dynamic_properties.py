@@ -1,0 +1,297 @@
+"""The `dynamic_properties` ask: eigenvalue bounds contain sampled eigenvalues, α bounds sampled ‖∂g/∂q‖, every
+factorization satisfies S q̇ = c (skew / not skew as claimed), the inverse dynamics drives the model along q_d(t)
+(simulated), the model in other coordinates, the conditions for a real robot, energy rates, property checks."""
+import numpy as np
+import pytest
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+from solver.dynamics.model import derive
+from solver.math.simplify import is_zero
+from solver.publish.render import render
+from solver.registry import PROPERTY_CHECKS, load_all
+from solver.solve import all_results, solve_problem
+from solver.spec import load_problem_text
+from solver.spec.errors import UserError
+
+# a spatial 3R (anthropomorphic-like, standard DH) with numeric data: no exercise uses it
+R3 = """
+id: t
+title: spatial 3R
+symbols: {l1: l1, l2: l2, l3: l3, m1: m1, m2: m2, m3: m3, g0: g0}
+values: {l1: 0.5, l2: 0.7, l3: 0.4, m1: 3, m2: 2, m3: 1.5, g0: 9.81}
+robot:
+  joints: [R, R, R]
+  gravity: [0, 0, -g0]
+  dh:
+    table:
+      - {a: 0, alpha: pi/2, d: l1, theta: q1}
+      - {a: l2, alpha: 0, d: 0, theta: q2}
+      - {a: l3, alpha: 0, d: 0, theta: q3}
+    links:
+      - {mass: m1, com: [0, -l1/2, 0], inertia: [0.1, 0.05, 0.1]}
+      - {mass: m2, com: [-l2/2, 0, 0.05], inertia: [0.02, 0.1, 0.1]}
+      - {mass: m3, com: [-l3/2, 0, 0], inertia: [0.01, 0.05, 0.05]}
+asks:
+  - kind: dynamic_properties
+    find: [eigenvalues, alpha, factorizations, momentum, power]
+    state: {q1: 0.1, q2: 0.2, q3: -0.3, dq1: 1, dq2: -0.5, dq3: 0.25}
+    u: [1, -2, 3]
+"""
+
+RP = """
+id: t
+title: planar RP
+symbols: {m1: m1, m2: m2, d1: d1, I1: I1, g0: g0}
+values: {m1: 2, m2: 1, d1: 0.4, I1: 0.3, g0: 9.81}
+robot:
+  joints: [R, P]
+  gravity: [0, -g0, 0]
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [q2*cos(q1), q2*sin(q1)], angle: q1}
+asks:
+  - kind: dynamic_properties
+    find: [eigenvalues, inverse_dynamics, coordinates, feasibility]
+    ranges: {q2: [0.2, 1.5]}
+    trajectory: [0.5*sin(t), 1 + 0.2*t^2]
+    times: [0, 1]
+    transform: [[1, 0], [0, 2]]
+    new_coordinates: [p1, p2]
+"""
+
+
+def results(text):
+    p = load_problem_text(text)
+    return p, all_results(solve_problem(p))
+
+
+def lam(M):
+    return np.linalg.eigvalsh(np.array(M, dtype=float))
+
+
+def test_eigenvalue_and_alpha_bounds_contain_samples():
+    p, r = results(R3)
+    dm = derive(p.robot)
+    B = sp.lambdify(p.robot.q, dm.B.xreplace(p.values))
+    A = sp.lambdify(p.robot.q, dm.g.jacobian(p.robot.q).xreplace(p.values))
+    lmin, lmax = float(r["lambda_min"].value), float(r["lambda_max"].value)
+    alpha = float(r["alpha"].value.xreplace(p.values))
+    rng = np.random.default_rng(3)
+    for q in rng.uniform(-np.pi, np.pi, (300, 3)):
+        ev = lam(B(*q))
+        assert lmin - 1e-9 <= ev[0] and ev[-1] <= lmax + 1e-9
+        assert np.linalg.norm(np.array(A(*q), dtype=float), 2) <= alpha + 1e-9
+    # attained at the reported configurations
+    assert abs(lam(B(*[float(x) for x in r["q_lambda_max"].value]))[-1] - lmax) < 1e-6
+    assert abs(lam(B(*[float(x) for x in r["q_lambda_min"].value]))[0] - lmin) < 1e-6
+
+
+def test_factorizations():
+    p, r = results(R3)
+    dm = derive(p.robot)
+    v = sp.Matrix(p.robot.dq)
+    for name in ("S_skew", "S_alt"):
+        assert all(is_zero(sp.expand(x)) for x in r[name].value * v - dm.c)
+    N1, N2 = r["N_skew"].value, r["N_alt"].value
+    assert all(is_zero(sp.expand(x)) for x in N1 + N1.T)
+    assert not all(is_zero(sp.expand(x)) for x in N2 + N2.T)
+    assert r["skew_alt"].value is False
+    assert all(is_zero(sp.expand(x)) for x in r["p"].value - dm.B * v)
+
+
+def test_power():
+    p, r = results(R3)
+    dq = np.array([1, -0.5, 0.25])
+    assert abs(float(r["Edot"].value) - dq @ np.array([1, -2, 3])) < 1e-9
+    dm = derive(p.robot)
+    st = dict(zip(p.robot.q, [0.1, 0.2, -0.3]))
+    g = np.array(dm.g.xreplace(p.values).xreplace(st), dtype=float).ravel()
+    assert abs(float(r["Udot"].value) - dq @ g) < 1e-9
+    assert abs(float(r["Ldot"].value) - (float(r["Tdot"].value) - float(r["Udot"].value))) < 1e-9
+
+
+def test_inverse_dynamics_drives_the_model_along_qd():
+    p, r = results(RP)
+    dm = derive(p.robot)
+    t = sp.Symbol("t", real=True)
+    ud = sp.lambdify(t, r["u_d"].value.xreplace(p.values))
+    rob = p.robot
+    Bf = sp.lambdify(rob.q, dm.B.xreplace(p.values))
+    rest = sp.lambdify(rob.q + rob.dq, (dm.c + dm.g).xreplace(p.values))
+
+    def f(tt, x):
+        q, v = x[:2], x[2:]
+        acc = np.linalg.solve(np.array(Bf(*q), float), np.array(ud(tt), float).ravel() - np.array(rest(*q, *v), float).ravel())
+        return np.concatenate([v, acc])
+
+    sol = solve_ivp(f, (0, 2), [0, 1, 0.5, 0], rtol=1e-10, atol=1e-12)
+    T = sol.t[-1]
+    assert abs(sol.y[0, -1] - 0.5 * np.sin(T)) < 1e-6 and abs(sol.y[1, -1] - (1 + 0.2 * T ** 2)) < 1e-6
+    assert r["u_d_at1"].value.shape == (2, 1)
+
+
+def test_other_coordinates():
+    p, r = results(RP)
+    dm = derive(p.robot)
+    T = sp.Matrix([[1, 0], [0, 2]])
+    th = sp.symbols("p1 p2", real=True)
+    dth = sp.symbols("dp1 dp2", real=True)
+    sub = dict(zip(p.robot.q, T * sp.Matrix(th)))
+    vsub = dict(zip(p.robot.dq, T * sp.Matrix(dth)))
+    Bt = r["B_new"].value
+    assert all(is_zero(sp.expand(x)) for x in Bt - T.T * dm.B.xreplace(sub) * T)
+    ct = T.T * dm.c.xreplace(sub).xreplace(vsub)
+    assert all(is_zero(sp.expand(x)) for x in r["c_new"].value - ct)
+    assert all(is_zero(sp.expand(x)) for x in r["g_new"].value - T.T * dm.g.xreplace(sub))
+
+
+def given(B, g="[0, 0]", signs=""):
+    return f"""
+id: t
+title: given
+symbols: {{a1: {{meaning: a1{signs}}}, a2: a2, a3: a3}}
+robot:
+  joints: [R, R]
+  model: {{B: "{B}", g: "{g}"}}
+asks: [{{kind: dynamic_properties, find: [feasibility]}}]
+"""
+
+
+def test_feasibility():
+    _, r = results(given("[[a1 + 2*a2*cos(q2), a3 + a2*cos(q2)], [a3 + a2*cos(q2), a3]]"))
+    conds = r["pd_conditions"].value
+    assert r["real_robot"].value is True and len(conds) == 2
+    a1, a2 = sp.symbols("a1 a2", positive=True)
+    assert any(is_zero(sp.expand(c.subs({s: sp.Symbol(s.name, positive=True) for s in c.free_symbols}) - (a1 - 2 * a2)))
+               for c in conds)
+    _, r = results(given("[[a1 + 2*a2*cos(q2), a1 + a2*cos(q2)], [a1 + a2*cos(q2), a1]]"))
+    assert r["pd_possible"].value is False and r["real_robot"].value is False
+    _, r = results(given("[[a1 + a2*q1^2, a2], [a2, a2]]"))
+    assert r["B_indep_q1"].value is False and r["real_robot"].value is False
+    _, r = results(given("[[a1, 0], [0, a2]]", g="[a3*q2, 0]"))
+    assert r["g_conservative"].value is False
+
+
+def test_property_checks_accept_alternatives_and_reject_wrong():
+    load_all()
+    p, r = results(R3.replace("[eigenvalues, alpha, factorizations, momentum, power]", "[factorizations]"))
+    chk = PROPERTY_CHECKS["S_alt"]
+    S1, S2 = r["S_skew"].value, r["S_alt"].value
+    v = p.robot.dq
+    S0 = sp.zeros(3, 3)
+    S0[1, 1], S0[1, 2] = v[2], -v[1]          # S0 q̇ = 0, S0 + S0ᵀ ≠ 0
+    other = S1 + S0
+    assert chk(p, r, "S_alt", other.tolist(), None, None).correct
+    assert not chk(p, r, "S_alt", S1.tolist(), None, None).correct           # skew: not what was asked
+    assert chk(p, r, "S_alt", (S2 + sp.eye(3)).tolist(), None, None).fraction == 0.0
+    assert PROPERTY_CHECKS["S_skew"](p, r, "S_skew", S1.tolist(), None, None).correct
+    N = r["Bdot"].value - 2 * other
+    assert PROPERTY_CHECKS["N_alt"](p, r, "N_alt", N.tolist(), None, None).correct
+    own = lambda nm: other.tolist() if nm == "S_alt" else None
+    assert PROPERTY_CHECKS["N_alt"](p, r, "N_alt", N.tolist(), own, None).correct
+    theirs = lambda nm: S2.tolist() if nm == "S_alt" else None
+    assert not PROPERTY_CHECKS["N_alt"](p, r, "N_alt", N.tolist(), theirs, None).correct   # N of another S
+
+
+def test_render_and_errors():
+    p = load_problem_text(RP)
+    sols = solve_problem(p)
+    md, tex = render(p, sols, "md"), render(p, sols, "tex")
+    assert "Inverse dynamics" in md and "p_{1}" in md
+    assert "\\begin{itemize}" in tex and "$$" not in tex
+    bad = RP.replace("    ranges: {q2: [0.2, 1.5]}\n", "")
+    with pytest.raises(UserError, match="range"):
+        solve_problem(load_problem_text(bad))
+
+
+PRP = """
+id: t
+title: vertical RP with an unbounded prismatic joint
+symbols: {m1: m1, m2: m2, d1: d1, g0: g0, I1: I1}
+robot:
+  joints: [R, P]
+  gravity: [0, -g0]
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [q2*cos(q1), q2*sin(q1)], angle: q1}
+asks:
+  - kind: dynamic_properties
+    find: [alpha, forward_dynamics]
+    u: [u1, 0]
+"""
+
+
+def test_affine_gravity_bound_holds_and_beta_check():
+    load_all()
+    p, r = results(PRP)
+    A = r["dg_dq"].value
+    alpha, beta = r["alpha"].value, r["beta"].value
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        vals = {s: sp.Float(rng.uniform(0.5, 2)) for s in p.symbols.values()}
+        f = sp.lambdify(p.robot.q, A.xreplace(vals))
+        a, b = float(alpha.xreplace(vals)), float(beta.xreplace(vals))
+        for q1, q2 in zip(rng.uniform(-np.pi, np.pi, 100), rng.uniform(-50, 50, 100)):
+            assert np.linalg.norm(np.array(f(q1, q2), float), 2) <= a + b * abs(q2) + 1e-9
+    chk = PROPERTY_CHECKS["beta"]
+    assert chk(p, r, "beta", beta, lambda n: None, None).correct
+    assert not chk(p, r, "beta", beta / 3, lambda n: None, None).correct
+
+
+def test_forward_dynamics():
+    p, r = results(PRP)
+    dm = derive(p.robot)
+    u1 = p.robot.inputs[0]
+    ddq = r["ddq"].value
+    assert all(is_zero(sp.expand(sp.simplify(x))) for x in dm.B * ddq + dm.c + dm.g - sp.Matrix([u1, 0]))
+
+
+def test_fault_torque_imposes_the_acceleration():
+    """With τ_f at joint 1, the forward dynamics of B q̈ + c + g = u − e₁ τ_f give q̈₁ = −λ q̇₁ (planar RP)."""
+    text = PRP.replace("[alpha, forward_dynamics]", "[fault]").replace(
+        "    u: [u1, 0]\n", "    u: [u1, u2]\n    fault: {joint: 1, ddq: -5*dq1}\n")
+    p, r = results(text)
+    dm = derive(p.robot)
+    tf = r["tau_f"].value
+    vals = {s: sp.Rational(k + 3, 4) for k, s in enumerate(sorted(p.symbols.values(), key=lambda s: s.name))}
+    st = {**dict(zip(p.robot.q, [0.3, 1.1])), **dict(zip(p.robot.dq, [0.5, -1])),
+          **dict(zip(p.robot.inputs, [2, -1])), **vals}
+    B = dm.B.xreplace(st)
+    rhs = (sp.Matrix(p.robot.inputs) - dm.c - dm.g - sp.Matrix([tf, 0])).xreplace(st)
+    ddq = np.linalg.solve(np.array(B.evalf(), float), np.array(rhs.evalf(), float).ravel())
+    assert abs(ddq[0] + 5 * 0.5) < 1e-9
+    want = np.array(r["ddq_fault"].value.xreplace(st).evalf(), float).ravel()
+    assert np.allclose(ddq, want)
+
+
+def test_symbolic_inverse_is_bounded():
+    text = """
+id: t
+title: symbolic 3R given model
+symbols: {a1: a1, a2: a2, a3: a3}
+robot:
+  joints: [R, R, R]
+  model: {B: "[[a1 + a2*cos(q2), a3, 0], [a3, a2 + a3*cos(q3), 0], [0, 0, a1]]"}
+asks: [{kind: dynamic_properties, find: [forward_dynamics], u: [u1, u2, u3]}]
+"""
+    with pytest.raises(UserError, match="too large"):
+        solve_problem(load_problem_text(text))
+    _, r = results(text.replace("symbols: {a1: a1, a2: a2, a3: a3}", "symbols: {a1: a1, a2: a2, a3: a3}\nvalues: {a1: 3, a2: 1, a3: 0.5}"))
+    assert r["ddq"].value.shape == (3, 1)
+
+
+def test_torque_limits_vertices_and_zero_condition():
+    text = PRP.replace("[alpha, forward_dynamics]", "[torque_limits]").replace("    u: [u1, 0]\n", "    limits: [5, 3]\n")
+    p, r = results(text)
+    dm = derive(p.robot)
+    nv = dm.c + dm.g
+    for k, v in enumerate(r["acc_vertices"].value):
+        s1, s2 = (1, 1, -1, -1)[k], (1, -1, 1, -1)[k]
+        assert all(is_zero(sp.expand(sp.simplify(x))) for x in dm.B * v + nv - sp.Matrix([5 * s1, 3 * s2]))
+    conds = r["zero_acc_conditions"].value
+    vals = {s: sp.Integer(1) for s in p.symbols.values()}
+    st = {**vals, p.robot.q[0]: 0, p.robot.q[1]: 1, p.robot.dq[0]: 0, p.robot.dq[1]: 0}
+    feasible = all(float(c.xreplace(st)) > 0 for c in conds)
+    nn = [float(x.xreplace(st)) for x in nv]
+    assert feasible == (abs(nn[0]) < 5 and abs(nn[1]) < 3)
