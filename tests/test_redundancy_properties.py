@@ -487,3 +487,42 @@ def test_variable_damping_exact_data():
     J = np.array([[0, 0, 0, 0], [4, 3, 2, 1]], dtype=float)
     assert np.allclose(np.array(v.evalf().tolist(), dtype=float).ravel(),
                        J.T @ np.linalg.solve(J @ J.T + 0.25 * np.eye(2), [0, 1]))
+
+
+def test_extended_optimal_keeps_h_stationary():
+    """Baillieul's extended Jacobian on a planar 3R: starting where g = nᵀ∇H = 0 (found numerically), the joint
+    velocity realizes the task and keeps ġ = 0 (finite differences along q̇)."""
+    from scipy.optimize import brentq
+    L = (1.0, 0.8, 0.5)
+
+    def J3(q):
+        c = np.cumsum(q)
+        return np.array([[-sum(L[k] * np.sin(c[k]) for k in range(j, 3)) for j in range(3)],
+                         [sum(L[k] * np.cos(c[k]) for k in range(j, 3)) for j in range(3)]])
+
+    def g(q):  # H = sin(q2)^2 + sin(q3)^2, n = signed minors of J
+        J = J3(q)
+        n = np.array([np.linalg.det(J[:, [1, 2]]), -np.linalg.det(J[:, [0, 2]]), np.linalg.det(J[:, [0, 1]])])
+        return n @ np.array([0, np.sin(2 * q[1]), np.sin(2 * q[2])])
+
+    q3 = brentq(lambda x: g(np.array([0.3, 0.9, x])), -1.5, -0.05)
+    q = np.array([0.3, 0.9, q3])
+    assert abs(g(q)) < 1e-10
+    text = f"""
+id: xo
+title: 3R
+symbols: {{}}
+robot: {{joints: [R, R, R]}}
+asks:
+  - kind: redundancy
+    task: [cos(q1) + 0.8*cos(q1+q2) + 0.5*cos(q1+q2+q3), sin(q1) + 0.8*sin(q1+q2) + 0.5*sin(q1+q2+q3)]
+    velocity: [0.2, -0.4]
+    gradient: sin(q2)^2 + sin(q3)^2
+    at: {_at(q)}
+    methods: [extended_optimal]
+"""
+    res = all_results(solve_problem(load_problem_text(text)))
+    v = np.array(res["qdot_xo"].value.evalf().tolist(), dtype=float).ravel()
+    assert np.allclose(J3(q) @ v, [0.2, -0.4], atol=1e-9)
+    h = 1e-6
+    assert abs((g(q + h * v) - g(q - h * v)) / (2 * h)) < 1e-6

@@ -29,9 +29,9 @@ ExprT = Union[str, int, float, list[Any]]
 Scalar = Union[str, int, float]
 
 METHODS = ("pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled", "max_scaling",
-           "reduced_gradient")
+           "reduced_gradient", "extended_optimal")
 Method = Literal["pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled",
-                 "max_scaling", "reduced_gradient"]
+                 "max_scaling", "reduced_gradient", "extended_optimal"]
 NAMED_H = ("manipulability", "joint_range")
 EXACT_SIZE = 48  # total entries of the stacked Jacobian up to which exact data are solved exactly
 
@@ -488,6 +488,35 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                      Ja=la.sym(Ja), gr=la.sym(gr), v=la.sym(vec), step=la.scalar(stp), acc=acc,
                      grad=la.sym(gvec))
             record("rg", "RG", vec)
+        elif meth == "extended_optimal":
+            # Baillieul: with n - m = 1, the optimality condition of H along the self-motion, g(q) = n(q)ᵀ∇H = 0,
+            # n(q) the generalized cross product of the rows of J (signed m x m minors), completes J to a square J_ext
+            JEs = sp.Matrix.vstack(*[t["J"] for t in spec.tasks]).subs(problem.values)
+            mE = JEs.shape[0]
+            if spec.H is None or spec.n - mE != 1:
+                raise spec.fail(("methods",), "extended_optimal needs gradient: (H) and a redundancy degree n - m = 1")
+            nvec = sp.Matrix([(-1) ** j * JEs[:, [c for c in range(spec.n) if c != j]].det() for j in range(spec.n)])
+            gH = sp.Matrix([sp.diff(spec.H, x) for x in spec.q]).subs(problem.values)
+            g = (nvec.T * gH)[0, 0]
+            dg = sp.Matrix([[sp.diff(g, x) for x in spec.q]])
+            Jx = sp.Matrix.vstack(JEs, dg).subs(subs)
+            g_at = g.subs(subs)
+            Jxn = la.mat(Jx.applyfunc(_exact) if exact and _exact_number(Jx) and _is_rational(Jx) else Jx.evalf(15))
+            if la.exact and not _is_rational(Jx):
+                lf = rs.LA(False, o.rank_tol)
+                Jxn, xx = lf.mat(Jx.evalf(15)), lf.mat(la.sym(xE).evalf(15))
+            else:
+                lf, xx = la, xE
+            rk = lf.rank(Jxn)
+            rhs = lf.vstack([xx, lf.zeros(1, 1)])
+            vec_f = (lf.inv(Jxn) if rk == spec.n else lf.pinv(Jxn)) @ rhs
+            vec = la.mat(lf.sym(vec_f)) if la.exact and lf is not la else vec_f
+            add("g_opt_at", g_at.evalf(15) if not g_at.is_Rational else g_at, "number",
+                label="g(q) = n(q)^T\\nabla H")
+            add("J_ext", lf.sym(Jxn), "matrix", label="J_{ext}")
+            sol.step("m_extopt", n=lf.sym(Jxn), g=sp.Float(float(sp.N(g_at)), 6), rank=rk, v=lf.sym(vec_f),
+                     nvec=nvec if sp.count_ops(nvec) < 60 else None, acc=acc)
+            record("xo", "ext,opt", vec)
         elif meth == "extended":
             vec, JEe, JEp, rk = rs.extended(la, Js, xs)
             add("JE", la.sym(JEe), "matrix", label="J_E")
