@@ -528,3 +528,25 @@ asks:
     assert np.allclose(J3(q) @ v, [0.2, -0.4], atol=1e-9)
     h = 1e-6
     assert abs((g(q + h * v) - g(q - h * v)) / (2 * h)) < 1e-6
+
+
+def test_sns_derived_bounds_acceleration_level():
+    """Bounds from joint range, velocity and acceleration limits over T: the SNS q̈ keeps the next q̇ within V and the
+    next q within the range (q + q̇T + q̈T²/2)."""
+    q, qd = np.array([0.3, 0.9, -0.6, 1.1]), np.array([0.4, -0.7, 0.5, 0.2])
+    text = ASK_4R + f"""    level: acceleration
+    at: {_at(q)}
+    joint_velocity: {list(map(float, qd))}
+    acceleration: [3, -4]
+    bounds: {{position: [[-2, 2], [-1, 1], [-0.62, 1], [-2, 1.11]], velocity: [1, 1, 1, 1], acceleration: [5, 5, 5, 5],
+              T: 0.1}}
+    methods: [sns]
+"""
+    res = all_results(solve_problem(load_problem_text(text)))
+    a = np.array(res["qddot_sns"].value.evalf().tolist(), dtype=float).ravel()
+    T = 0.1
+    assert np.all(np.abs(a) <= 5 + 1e-9) and np.all(np.abs(qd + a * T) <= 1 + 1e-9)
+    qn = q + qd * T + 0.5 * a * T ** 2
+    assert np.all(qn >= np.array([-2, -1, -0.62, -2]) - 1e-9) and np.all(qn <= np.array([2, 1, 1, 1.11]) + 1e-9)
+    hi = np.array(res["bounds_upper"].value.evalf().tolist(), dtype=float).ravel()
+    assert np.isclose(hi[3], -2)  # joint 4 is 0.01 rad below its limit, moving up: it must decelerate

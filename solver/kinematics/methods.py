@@ -68,8 +68,13 @@ class VariableDamping(Strict):
 
 
 class Bounds(Strict):
-    lower: ExprT = Field(..., description="lower bounds (n values)")
-    upper: ExprT = Field(..., description="upper bounds (n values)")
+    lower: Optional[ExprT] = Field(None, description="lower bounds (n values)")
+    upper: Optional[ExprT] = Field(None, description="upper bounds (n values)")
+    position: Optional[list[ExprT]] = Field(None, description="joint range [[min, max], ...] (with velocity:, "
+                                                                "acceleration: and T: the bounds are derived)")
+    velocity: Optional[ExprT] = Field(None, description="|q̇_i| ≤ V_i (n values)")
+    acceleration: Optional[ExprT] = Field(None, description="|q̈_i| ≤ A_i (n values, acceleration level)")
+    T: Optional[Scalar] = Field(None, description="the control sampling time of the derived bounds")
 
 
 def wants_methods(o: Any) -> bool:
@@ -141,9 +146,11 @@ class _MSpec:
             self.step = ctx.expr("step") if "step" in o.model_fields_set else sp.Integer(1)
         self.lo = self.hi = None
         if o.bounds is not None:
-            if isinstance(o.bounds, Bounds):
+            if isinstance(o.bounds, Bounds) and o.bounds.lower is not None and o.bounds.upper is not None:
                 self.lo = list(self._vec(("bounds", "lower"), self.n))
                 self.hi = list(self._vec(("bounds", "upper"), self.n))
+            elif isinstance(o.bounds, Bounds):
+                self.lo, self.hi = self._derived_bounds(o.bounds)
             else:
                 b = ctx.expr("bounds")
                 b = [b] * self.n if not isinstance(b, list) else b
@@ -171,6 +178,46 @@ class _MSpec:
                                           + ("accelerations" if self.acc else "velocities"))
         if len(self.tasks) > 1 and ("null_space" in self.methods or "weighted" in self.methods):
             pass
+
+    def _derived_bounds(self, b: Bounds) -> tuple[list, list]:
+        """Bounds on the command from joint range Q, velocity V and acceleration A limits over one sampling time T
+        (the SNS convention): velocity level max{(Q_min − q)/T, −V} ≤ q̇ ≤ min{(Q_max − q)/T, V}; acceleration level
+        max{2(Q_min − q − q̇T)/T², −(V + q̇)/T, −A} ≤ q̈ ≤ min{2(Q_max − q − q̇T)/T², (V − q̇)/T, A}."""
+        if b.T is None or b.velocity is None or (self.acc and b.acceleration is None):
+            raise self.fail(("bounds",), "give lower:/upper:, or T: with velocity: (and acceleration: at "
+                                         "acceleration level), position: optional")
+        T = self.ctx.expr("bounds", "T")
+        V = list(self._vec(("bounds", "velocity"), self.n))
+        A = list(self._vec(("bounds", "acceleration"), self.n)) if self.acc else None
+        Q = None
+        if b.position is not None:
+            if len(b.position) != self.n:
+                raise self.fail(("bounds", "position"), f"position: needs {self.n} ranges [min, max]")
+            Q = [(self.ctx.expr("bounds", "position", i, 0), self.ctx.expr("bounds", "position", i, 1))
+                 for i in range(self.n)]
+        vals = {**self.problem.values, **self.state}
+        q = [x.subs(vals) for x in self.q]
+        qd = list(self.qd.subs(self.problem.values)) if self.qd is not None else [0] * self.n
+        lo, hi = [], []
+        for i in range(self.n):
+            if self.acc:
+                cl = [-(V[i] + qd[i]) / T, -A[i]]
+                ch = [(V[i] - qd[i]) / T, A[i]]
+                if Q:
+                    cl.append(2 * (Q[i][0] - q[i] - qd[i] * T) / T ** 2)
+                    ch.append(2 * (Q[i][1] - q[i] - qd[i] * T) / T ** 2)
+            else:
+                cl, ch = [-V[i]], [V[i]]
+                if Q:
+                    cl.append((Q[i][0] - q[i]) / T)
+                    ch.append((Q[i][1] - q[i]) / T)
+            cl = [sp.nsimplify(sp.sympify(c)) if sp.sympify(c).is_Float else sp.sympify(c) for c in cl]
+            ch = [sp.nsimplify(sp.sympify(c)) if sp.sympify(c).is_Float else sp.sympify(c) for c in ch]
+            lo.append(sp.Max(*cl))
+            hi.append(sp.Min(*ch))
+            if bool(lo[-1] > hi[-1]):
+                raise self.fail(("bounds",), f"the derived bounds of joint {i + 1} are empty ({lo[-1]} > {hi[-1]})")
+        return lo, hi
 
     def _named_H(self, name: str) -> sp.Expr:
         """manipulability √det(JJᵀ) of the stacked tasks; joint_range −1/(2n) Σ ((q_i − q̄_i)/(q_M,i − q_m,i))²."""
