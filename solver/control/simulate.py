@@ -276,13 +276,11 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     _figures(sol, Ts, E, U, A, en, band, settling, rec, true_a, problem, options, n, m)
     sol.step("simulate", ask=idx + 1, kind=ask.kind, law=getattr(ask.options, "law", ""), ref=sp.Matrix(ref),
              tracked=sp.Matrix(tracked), q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), a0=sp.Matrix(a0) if a0 else None,
-             T=T, method=options.method, setv={str(k): v for k, v in setv.items()}, completed=completed,
+             T=T, method=options.method, setv=list(setv.items()), completed=completed,
              t_end=float(Ts[-1]), nfev=budget["nfev"], e_final=float(en[-1]), e_max=float(en.max()),
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
              umax=[float(x) for x in np.abs(U).max(axis=0)],
-             ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a,
-             unset=[str(s) for s in sorted(problem.symbols.values(), key=str) if s not in vals
-                    and any(s in x.free_symbols for x in list(dm.B) + list(dm.g))])
+             ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a)
     return sol
 
 
@@ -318,18 +316,18 @@ def _figures(sol, Ts, E, U, A, en, band, settling, rec, true_a, problem, options
              for i, s in enumerate(rec["tracked"])]
 
     def sample() -> list[Panel]:
-        err = Panel("t\\ [s]", "e", [Curve(f"e_{{{i + 1}}}\\ ({names[i]})", t, [float(x) for x in E[:, i]])
-                                     for i in range(m)] + [Curve("\\|e\\|", t, [float(x) for x in en], dashed=True)])
+        err = Panel("$t$ [s]", "$e$", [Curve(f"$e_{{{i + 1}}}$ (${names[i]}$)", t, [float(x) for x in E[:, i]])
+                                     for i in range(m)] + [Curve("$\\|e\\|$", t, [float(x) for x in en], dashed=True)])
         if settling is not None and settling > 0:
-            err.markers.append((settling, band, f"t_s = {settling:.3g}"))
-        torque = Panel("t\\ [s]", "u", [Curve(f"u_{{{i + 1}}}", t, [float(x) for x in U[:, i]])
+            err.markers.append((settling, band, f"$t_s$ = {settling:.3g} s"))
+        torque = Panel("$t$ [s]", "$u$", [Curve(f"$u_{{{i + 1}}}$", t, [float(x) for x in U[:, i]])
                                         for i in range(U.shape[1])])
         panels = [err, torque]
         if A.shape[1]:
-            est = Panel("t\\ [s]", "\\hat a", [Curve(f"\\hat a_{{{i + 1}}}", t, [float(x) for x in A[:, i]])
+            est = Panel("$t$ [s]", "$\\hat a$", [Curve(f"$\\hat a_{{{i + 1}}}$", t, [float(x) for x in A[:, i]])
                                                for i in range(A.shape[1])])
             if true_a is not None:
-                est.hlines = [(a, f"a_{{{i + 1}}}") for i, a in enumerate(true_a)]
+                est.hlines = [(a, f"$a_{{{i + 1}}}$") for i, a in enumerate(true_a)]
             panels.append(est)
         return panels
 
