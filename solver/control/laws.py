@@ -212,6 +212,8 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
     if sfx:
         sol.results = {k + sfx: Result(k + sfx, r.value, r.kind, r.label) for k, r in sol.results.items()}
     _register_checks(sfx)
+    if len(ctx.path) == 2 and isinstance(ctx.path[1], int):   # simulate reuses it
+        problem.__dict__.setdefault("_control_solutions", {})[ctx.path[1]] = sol
     return sol
 
 
