@@ -399,3 +399,37 @@ def test_latex_reports_compile(tmp_path):
         run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", out.name], cwd=tmp_path,
                              capture_output=True, text=True, timeout=120)
         assert run.returncode == 0, run.stdout[-2000:]
+
+
+# ---------------------------------------------------------------------------------------------- Lyapunov tracking
+@pytest.mark.parametrize("head", [R2, RP, R3], ids=["2R", "RP", "3R"])
+def test_lyapunov_tracking_closed_loop(head):
+    p, sols, res = solved(head + "  - kind: control_law\n    law: lyapunov_tracking\n")
+    r = p.robot
+    dm = derive(r)
+    n = r.n
+    N = lambda s: p.names[s]  # noqa: E731
+    qd = sp.Matrix([N(f"qd{i + 1}") for i in range(n)])
+    dqd = sp.Matrix([N(f"dqd{i + 1}") for i in range(n)])
+    ddqd = sp.Matrix([N(f"ddqd{i + 1}") for i in range(n)])
+    KP = sp.diag(*[N(f"kp{i + 1}") for i in range(n)])
+    KD = sp.diag(*[N(f"kd{i + 1}") for i in range(n)])
+    q, dq, ddq = sp.Matrix(r.q), sp.Matrix(r.dq), sp.Matrix(r.ddq)
+    e, de, dde = qd - q, dqd - dq, ddqd - ddq
+    # S from the Christoffel matrices, independently: S_k = dqᵀ C_k
+    S = sp.Matrix([(dq.T * Ck) for Ck in dm.C])
+    lhs = dm.B * ddq + dm.c + dm.g - res["u"].value            # model residual under the law
+    want = -(dm.B * dde + S * de + KD * de + KP * e)
+    assert vanishes(list(lhs - want))
+    assert res["closed_loop_check"].value
+    md = render(p, sols, "md")
+    assert "Lyapunov-based tracking" in md
+
+
+def test_u_at_a_state():
+    p, _, res = solved(RP + "  - kind: control_law\n    law: computed_torque\n    kp: 4\n    kd: 4\n"
+                       "    at: {q1: 0, q2: 1, dq1: 0, dq2: 0, qd1: 0, qd2: 1, dqd1: 0, dqd2: 0, ddqd1: 0, ddqd2: 0}\n")
+    g = derive(p.robot).g.xreplace({p.robot.q[0]: 0, p.robot.q[1]: 1})
+    assert all(sp.simplify(a - b) == 0 for a, b in zip(res["u_at"].value, g))
+    with pytest.raises(UserError, match="not a name"):
+        solved(RP + "  - kind: control_law\n    at: {zz9: 1}\n")

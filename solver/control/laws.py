@@ -30,12 +30,13 @@ ExprT = Union[str, int, float, list[Any]]
 LAWS = {"computed_torque": "computed torque (feedback linearization in joint space)",
         "pd_gravity": "PD with gravity compensation",
         "pd_constant": "PD with constant gravity compensation g(q_d)",
+        "lyapunov_tracking": "Lyapunov-based tracking (passivity, without cancellation)",
         "adaptive": "adaptive control (Slotine-Li)",
         "cartesian_computed_torque": "computed torque in the Cartesian space",
         "elastic": "feedback linearization of a robot with elastic joints",
         "partial_fbl": "partial feedback linearization of an underactuated robot",
         "linearization": "linear approximation at an equilibrium and its controllability"}
-JOINT_LAWS = ("computed_torque", "pd_gravity", "pd_constant", "adaptive")
+JOINT_LAWS = ("computed_torque", "pd_gravity", "pd_constant", "adaptive", "lyapunov_tracking")
 
 
 class ControlLawAsk(Strict):
@@ -43,11 +44,12 @@ class ControlLawAsk(Strict):
 
     kind: Literal["control_law"]
     title: Optional[str] = Field(None, description="heading of this part in the report")
-    law: Literal["computed_torque", "pd_gravity", "pd_constant", "adaptive", "cartesian_computed_torque", "elastic",
+    law: Literal["computed_torque", "pd_gravity", "pd_constant", "adaptive", "lyapunov_tracking", "cartesian_computed_torque", "elastic",
                  "partial_fbl", "linearization"] = Field(
         "computed_torque", description="computed_torque: u = B(q)(ddq_d + K_D de + K_P e) + c + g (+ F_v dq); "
                                        "pd_gravity: u = K_P e - K_D dq + g(q) (constant q_d); "
                                        "pd_constant: u = K_P e - K_D dq + g(q_d) (constant q_d); "
+                                       "lyapunov_tracking: u = B(q) ddq_d + S(q, dq) dq_d + g + K_D de + K_P e; "
                                        "cartesian_computed_torque: u = B J^-1 (ddr_d + K_D(dr_d - J dq) + "
                                        "K_P(r_d - r) - dJ dq) + c + g, r = task(q); "
                                        "elastic: feedback linearization of the reduced model of elastic joints "
@@ -80,6 +82,8 @@ class ControlLawAsk(Strict):
                                                            "expression or a diagonal list; default symbols)")
     equilibrium: Optional[dict[str, ExprT]] = Field(None, description="linearization: the equilibrium "
                                                                       "configuration {q1: .., q2: ..} (at rest)")
+    at: Optional[dict[str, ExprT]] = Field(None, description="joint-space laws: values of names (q1, dq1, qd1, dqd1, "
+                                                            "ddqd1, parameters) where u is evaluated (u_at)")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
                         description="appended to every result name (several control asks in one problem)")
 
@@ -197,6 +201,9 @@ def reference_law(problem, law: str, dm, K: dict) -> tuple[sp.Matrix, sp.Matrix]
     if law == "computed_torque":
         v = K["ddqd"] + KD * de + KP * e
         return dm.B * v + dm.c + dm.g + fr, v
+    if law == "lyapunov_tracking":
+        frd = dm.Fv * K["dqd"] if dm.Fv is not None else sp.zeros(robot.n, 1)
+        return dm.B * K["ddqd"] + dm.S * K["dqd"] + dm.g + frd + KD * de + KP * e, KD * de + KP * e
     if law == "pd_constant":
         gd = dm.g.xreplace(dict(zip(robot.q, K["qd"])))
         return KP * e - KD * dq + gd, KP * e - KD * dq
@@ -224,8 +231,8 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
                "partial_fbl": {"kp", "kd", "qd", "collocated"}, "elastic": {"gains", "regulation", "qd"},
                "linearization": {"equilibrium"}}
     opt_keys = {"lam": "lambda", "gamma": "gamma", "qd": "qd", "kp": "kp", "kd": "kd", "task": "task", "rd": "rd",
-                "gains": "gains", "equilibrium": "equilibrium"}
-    mine = allowed.get(law, {"kp", "kd", "qd", "regulation", "lam", "gamma"})
+                "gains": "gains", "equilibrium": "equilibrium", "at": "at"}
+    mine = allowed.get(law, {"kp", "kd", "qd", "regulation", "lam", "gamma"} | ({"at"} if law != "adaptive" else set()))
     for key, yk in opt_keys.items():
         if getattr(options, key) is not None and key not in mine:
             users = [k for k, v in allowed.items() if key in v] or ["computed_torque", "adaptive"]
@@ -270,6 +277,9 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
             raise UserError("law: adaptive has no K_P (K_D s = K_D (de + Lambda e) is the PD action, K_P = K_D Lambda)",
                             problem.located.place(ctx.path + ("kp",)), "give lambda: and kd: instead")
         return _solve_adaptive(problem, options, ctx, robot, dm, Ginv, qd, dqd, ddqd, regulation)
+    if law == "lyapunov_tracking" and dm.S is None:
+        raise UserError("law: lyapunov_tracking needs the factorization S(q, dq) (Christoffel symbols), not available "
+                        "with a given c(q, dq)", problem.located.place(ctx.path + ("law",)), "give B (and g) only")
     kp = _gains(problem, options, ctx, "kp", n, True)
     kd = _gains(problem, options, ctx, "kd", n, True)
     K = {"qd": qd, "dqd": dqd, "ddqd": ddqd, "kp": kp, "kd": kd}
@@ -288,6 +298,10 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
     elif law == "pd_constant":
         closed = dm.B * ddq + dm.c + fr + KD * dq - KP * e + dm.g - dm.g.xreplace(dict(zip(robot.q, qd)))
         residual = (dm.B * ddq + nvec - G * u) - closed
+    elif law == "lyapunov_tracking":
+        frs = dm.Fv * de if dm.Fv is not None else sp.zeros(n, 1)
+        closed = dm.B * dde + dm.S * de + frs + KD * de + KP * e
+        residual = (dm.B * ddq + nvec - G * u) + closed
     else:
         closed = dm.B * ddq + dm.c + fr + KD * dq - KP * e
         residual = (dm.B * ddq + nvec - G * u) - closed
@@ -298,8 +312,12 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
     sol.add("u", u, "vector", label="u")
     sol.add("closed_loop", closed.applyfunc(sp.expand), "vector",
             label="\\ddot e + K_D\\dot e + K_P e" if law == "computed_torque"
+            else "B\\ddot e + S\\dot e + K_D\\dot e + K_P e" if law == "lyapunov_tracking"
             else "B(q)\\ddot q + c(q,\\dot q) + K_D\\dot q - K_P e" + (" + g(q) - g(q_d)" if law == "pd_constant" else ""))
     sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")
+    u_at = _at(problem, options, ctx, u)
+    if u_at is not None:
+        sol.add("u_at", u_at, "vector", label="u")
     eq_ok = None
     if law in ("pd_gravity", "pd_constant"):
         at = {**{a: b for a, b in zip(robot.q, qd)}, **{s: 0 for s in robot.dq + robot.ddq}}
@@ -309,8 +327,32 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
     sol.step("law", law=law, KP=KP, KD=KD, qd=qd, dqd=dqd, ddqd=ddqd, v=v, tau=tau, u=u, Ginv=Ginv,
              regulation=regulation, e=e, friction=dm.Fv is not None)
     sol.step("closed_loop", law=law, closed=closed, ok=ok, eq_ok=eq_ok, kp=kp, kd=kd, n=n, friction=dm.Fv is not None,
-             skew=dm.skew)
+             skew=dm.skew, u_at=u_at, at=_at_pairs(problem, options, ctx))
     return sol
+
+
+def _at_pairs(problem, options: ControlLawAsk, ctx) -> list | None:  # type: ignore[no-untyped-def]
+    if options.at is None:
+        return None
+    out = []
+    for key in options.at:
+        s = problem.names.get(key)
+        if not isinstance(s, sp.Symbol):
+            raise UserError(f"at: {key} is not a name of the problem or of the law (q1, dq1, qd1, dqd1, ddqd1, a "
+                            f"parameter)", problem.located.place(ctx.path + ("at", key)))
+        val = ctx.expr("at", key)
+        if isinstance(val, list):
+            raise UserError(f"at: {key} must be one expression", problem.located.place(ctx.path + ("at", key)))
+        out.append((s, sp.sympify(val)))
+    return out
+
+
+def _at(problem, options: ControlLawAsk, ctx, u: sp.Matrix) -> sp.Matrix | None:  # type: ignore[no-untyped-def]
+    """u with the at: values substituted (simplified)."""
+    pairs = _at_pairs(problem, options, ctx)
+    if pairs is None:
+        return None
+    return u.xreplace(dict(pairs)).applyfunc(lambda x: tidy(sp.simplify(x)))
 
 
 # ------------------------------------------------------------------------------------------------ adaptive
