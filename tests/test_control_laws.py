@@ -433,3 +433,16 @@ def test_u_at_a_state():
     assert all(sp.simplify(a - b) == 0 for a, b in zip(res["u_at"].value, g))
     with pytest.raises(UserError, match="not a name"):
         solved(RP + "  - kind: control_law\n    at: {zz9: 1}\n")
+
+
+def test_linearization_solves_the_missing_coordinates():
+    # 2016-09-12#2: theta from the cubic spring equation at q = 0.1, u = -m g0
+    p = load_problem(PROBLEMS / "2016-09-12-ex2.yaml")
+    res = all_results(solve_problem(p))
+    th, q = [float(x) for x in res["q_eq"].value]
+    d = q - th
+    assert abs(10000 * d ** 3 + 1000 * d - 3 * 9.81) < 1e-8 and q == 0.1
+    assert abs(float(res["u_eq"].value[0]) + 29.43) < 1e-9
+    with pytest.raises(UserError, match="values for"):
+        solved(CARTPOLE.replace("values: {mc: 1, mp: 0.3, L: 0.6, g0: 9.81}", "")
+               + "  - kind: control_law\n    law: linearization\n    equilibrium: {q1: 0}\n")
