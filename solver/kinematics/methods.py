@@ -995,7 +995,7 @@ def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs
             curves = [Curve(f"{lab}", [float(j) for j in js], vals) for lab, vals in rows]
             curves += [Curve("bounds", [float(j) for j in js], hi, dashed=True),
                        Curve("", [float(j) for j in js], lo, dashed=True)]
-            return [Panel("joint", "$\\ddot q_i$" if acc else "$\\dot q_i$", curves)]
+            return [Panel("joint $i$", "$\\ddot q_i$" if acc else "$\\dot q_i$", curves, categorical=True)]
 
         sol.figures.append(Figure("bounds" + spec.o.suffix, "Joint " + ("accelerations" if acc else "velocities")
                                   + " of each method against their bounds (dashed).", sample))
