@@ -393,7 +393,11 @@ def test_motion_reaches_the_algorithmic_singularity_of_a_4r():
     methods: [extended]
     motion: {start: {q1: 0.4, q2: 0.5, q3: -1.2, q4: 0.6}, duration: 5}
 """)
-    res = all_results(solve_problem(load_problem_text(text)))
+    from solver.publish.render import render
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    res = all_results(sols)
+    assert "first singularity" in render(p, sols, "md") and "first singularity" in render(p, sols, "tex")
     assert bool(res["singularity_reached"].value)
     qs = np.array(res["q_s"].value.evalf().tolist(), dtype=float).ravel()
     q0 = np.array([0.4, 0.5, -1.2, 0.6])
@@ -458,6 +462,11 @@ def test_acceleration_level_motion():
     motion: {start: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}, duration: 0.5, method: sns, steps: 100}
 """)))
     assert bool(sns_["motion_within_bounds"].value)
+    from solver.publish.render import render
+    p = load_problem_text(base + """    methods: [sns]
+    motion: {start: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}, duration: 0.1, method: sns, steps: 10}
+""")
+    assert "**Motion.**" in render(p, solve_problem(p), "md")
 
 
 def test_variable_damping_only_near_singularity():

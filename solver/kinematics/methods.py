@@ -810,7 +810,7 @@ def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | No
         add("p_end", p_end.evalf(15), "vector", label="p(t_{end})")
     sol.step("m_motion", method=meth, start=sp.Matrix(start), duration=mo.duration, reached=reached,
              t_end=sp.Float(ts[-1], 6), q_end=qe.evalf(6), sig=sp.Float(sigs[-1], 3), sigma_min=mo.sigma_min,
-             p_end=None if p_end is None else p_end.evalf(6), refined=refined)
+             p_end=None if p_end is None else p_end.evalf(6), refined=refined, acc=False)
     lo = [float(sp.N(b.subs(problem.values))) for b in spec.lo] if spec.lo is not None else None
     hi = [float(sp.N(b.subs(problem.values))) for b in spec.hi] if spec.hi is not None else None
     T, V, S = list(ts), np.array(vs), list(sigs)

@@ -755,6 +755,9 @@ def solve_redundancy(problem, options: RedundancyAsk, ctx) -> Solution:  # type:
         sol.step("null", r=r, gradient=spec.H is not None, step=getattr(spec, "step", None),
                  num=_numeric_display(r["qdot"]), q0_num=_numeric_display(r["q0"]))
     add("qdot", r["qdot"], "vector", label="\\dot q")
+    if options.sketch and spec.state is not None and problem.robot is not None and \
+            set(spec.state) == set(problem.robot.q):  # a pose needs every coordinate
+        _old_path_sketch(sol, problem, spec)
     if "qdot_mn" in r:
         add("qdot_mn", r["qdot_mn"], "vector", label="\\dot q_{mn} = J^{+}\\dot r")
         add("cost_mn", r["cost_mn"], None, label="\\tfrac12 \\dot q_{mn}^T W \\dot q_{mn}")
@@ -763,3 +766,28 @@ def solve_redundancy(problem, options: RedundancyAsk, ctx) -> Solution:  # type:
                                       ("qdot_mn", "cost_ps", "cost_mn", "norm2_ps", "norm2_mn")},
                  inertia=getattr(spec, "weight_is_inertia", False))
     return sol
+
+
+def _old_path_sketch(sol: Solution, problem, spec: _Spec) -> None:  # type: ignore[no-untyped-def]
+    """The planar robot at the configuration, with the desired task velocity when the task is a planar position."""
+    from solver.kinematics.sketch import robot_sketch
+    task = spec.task if (spec.task is not None and spec.task.shape[0] == 2) else None
+    arrows = []
+    if task is not None and spec.rdot is not None:
+        try:
+            v = [float(sp.N(c.subs(problem.values))) for c in spec.rdot]
+            pos = task.subs(problem.values).subs(spec.state)
+            reach = max(0.2, float(sp.N(sp.sqrt(pos[0] ** 2 + pos[1] ** 2))))
+            nv = float(np.hypot(*v))
+            if nv > 0:
+                arrows.append(("$\\dot r_d$", spec.state, pos, [x * 0.3 * reach / nv for x in v]))
+        except (TypeError, ValueError):
+            pass
+    try:
+        fig = robot_sketch(problem, [("$q$", spec.state)], task=task, arrows=arrows,
+                           name="sketch" + spec.options.suffix, caption="The robot at the configuration used"
+                           + (", with the desired task velocity" if arrows else ""))
+    except (TypeError, ValueError):
+        fig = None
+    if fig is not None:
+        sol.figures.append(fig)
