@@ -17,7 +17,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from solver.kinematics import resolution as rs  # noqa: E402
+from solver.kinematics import resolution as rs
 
 DH7 = [(0, np.pi / 2, 0.31), (0, -np.pi / 2, 0), (0, -np.pi / 2, 0.4), (0, np.pi / 2, 0),
        (0, np.pi / 2, 0.39), (0, -np.pi / 2, 0), (0, 0, 0.078)]  # (a, alpha, d)

@@ -95,7 +95,7 @@ def test_dls_tends_to_pinv(trial):
 def test_dls_minimizes_damped_cost():
     J, r, mu = jac4(rand_q(4)), np.array([[0.3], [-0.2]]), 0.4
     v = rs.dls(F, J, mu) @ r
-    cost = lambda x: 0.5 * np.sum((J @ x[:, None] - r) ** 2) + 0.5 * mu ** 2 * np.sum(x ** 2)  # noqa: E731
+    cost = lambda x: 0.5 * np.sum((J @ x[:, None] - r) ** 2) + 0.5 * mu ** 2 * np.sum(x ** 2)
     best = minimize(cost, np.zeros(4), tol=1e-12).x
     assert np.allclose(v.ravel(), best, atol=1e-5)
 
@@ -361,9 +361,10 @@ asks:
 
 
 def test_sns_property_check_accepts_feasible_solutions():
+    from conftest import PROBLEMS
+
     from solver.kinematics.methods import check_sns
     from solver.spec import load_problem
-    from conftest import PROBLEMS
     p = load_problem(PROBLEMS / "2018-07-11-ex2.yaml")
     res = all_results(solve_problem(p))
     ok = check_sns(p, res, "qddot_sns", [-9, -5, 3, 2], None, None)
@@ -392,7 +393,11 @@ def test_motion_reaches_the_algorithmic_singularity_of_a_4r():
     methods: [extended]
     motion: {start: {q1: 0.4, q2: 0.5, q3: -1.2, q4: 0.6}, duration: 5}
 """)
-    res = all_results(solve_problem(load_problem_text(text)))
+    from solver.publish.render import render
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    res = all_results(sols)
+    assert "first singularity" in render(p, sols, "md") and "first singularity" in render(p, sols, "tex")
     assert bool(res["singularity_reached"].value)
     qs = np.array(res["q_s"].value.evalf().tolist(), dtype=float).ravel()
     q0 = np.array([0.4, 0.5, -1.2, 0.6])
@@ -429,7 +434,7 @@ def test_named_manipulability_gradient_by_finite_differences():
 """
     res = all_results(solve_problem(load_problem_text(text)))
     g = np.array(sp.Matrix(res["grad_H_at"].value).evalf().tolist(), dtype=float).ravel()
-    H = lambda qq: np.sqrt(np.linalg.det(jac4(qq) @ jac4(qq).T))  # noqa: E731
+    H = lambda qq: np.sqrt(np.linalg.det(jac4(qq) @ jac4(qq).T))
     fd = np.array([(H(q + e) - H(q - e)) / 2e-6 for e in np.eye(4) * 1e-6])
     assert np.allclose(g, fd, atol=1e-6)
     for name in ("qdot", "qdot_rg"):
@@ -457,6 +462,11 @@ def test_acceleration_level_motion():
     motion: {start: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}, duration: 0.5, method: sns, steps: 100}
 """)))
     assert bool(sns_["motion_within_bounds"].value)
+    from solver.publish.render import render
+    p = load_problem_text(base + """    methods: [sns]
+    motion: {start: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}, duration: 0.1, method: sns, steps: 10}
+""")
+    assert "**Motion.**" in render(p, solve_problem(p), "md")
 
 
 def test_variable_damping_only_near_singularity():

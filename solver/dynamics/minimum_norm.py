@@ -14,9 +14,8 @@ torque n that only holds the motion, or every s ≤ 1 violates them).
 """
 from __future__ import annotations
 
-from typing import Any, Literal, Optional, Union
+from typing import Any, Literal, Union
 
-import numpy as np
 import sympy as sp
 from pydantic import Field
 
@@ -39,23 +38,23 @@ class MinimumNormAsk(Strict):
     """Torques and joint accelerations realizing a task acceleration with minimum (weighted) norm."""
 
     kind: Literal["minimum_norm"]
-    title: Optional[str] = Field(None, description="heading of this part in the report")
-    task: Optional[ExprT] = Field(None, description="task function r = f(q) (vector or scalar)")
-    jacobian: Optional[ExprT] = Field(None, description="task Jacobian J(q), instead of task:")
-    at: Optional[dict[str, Scalar]] = Field(
+    title: str | None = Field(None, description="heading of this part in the report")
+    task: ExprT | None = Field(None, description="task function r = f(q) (vector or scalar)")
+    jacobian: ExprT | None = Field(None, description="task Jacobian J(q), instead of task:")
+    at: dict[str, Scalar] | None = Field(
         None, description="configuration {q1: ..., qn: ...}; without it the solutions are symbolic at a generic "
                           "state (q, q̇) (small tasks, within a CPU budget)")
-    joint_velocity: Optional[ExprT] = Field(None, description="q̇ at the state (zeros for a robot at rest); "
+    joint_velocity: ExprT | None = Field(None, description="q̇ at the state (zeros for a robot at rest); "
                                                               "default with at: zeros, without at: the symbols dq")
     acceleration: ExprT = Field(..., description="desired task acceleration r̈_d")
     objectives: list[Objective] = Field(
         ["acceleration", "inertia", "torque"],
         description="acceleration (½‖q̈‖²), inertia (½q̈ᵀBq̈), torque (½‖τ‖²), weighted_torque (½‖τ‖²_W, needs "
                     "weight:)")
-    weight: Optional[ExprT] = Field(
+    weight: ExprT | None = Field(
         None, description="W of weighted_torque (n x n, n diagonal entries, or `inverse_inertia_squared` for B⁻²)")
-    bounds: Optional[ExprT] = Field(None, description="torque bounds |τ_i| ≤ τ_max,i (n values)")
-    null_torque: Optional[ExprT] = Field(
+    bounds: ExprT | None = Field(None, description="torque bounds |τ_i| ≤ τ_max,i (n values)")
+    null_torque: ExprT | None = Field(
         None, description="τ₀ (e.g. -KD*dq1, ...): the torque τ = M^#d + (I − M^#M)τ₀ minimizing ½‖τ − τ₀‖² "
                           "(M = JB⁻¹, d = x + JB⁻¹n), which damps q̇ without affecting the task")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$", description="appended to every result name")

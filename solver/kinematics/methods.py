@@ -9,7 +9,7 @@ their sum.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, Literal, Optional, Union
+from typing import Any, Literal, Union
 
 import numpy as np
 import sympy as sp
@@ -21,9 +21,6 @@ from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
 from solver.spec.expr import shape_of
 from solver.spec.models import Strict
-
-if TYPE_CHECKING:
-    pass
 
 ExprT = Union[str, int, float, list[Any]]
 Scalar = Union[str, int, float]
@@ -40,10 +37,10 @@ class TaskItem(Strict):
     """One task of a multi-task problem (the list order is the priority order)."""
 
     name: str = Field(..., pattern=r"^[A-Za-z][A-Za-z0-9]*$", description="short name, used in result names")
-    task: Optional[ExprT] = Field(None, description="task function r = f(q) (vector or scalar)")
-    jacobian: Optional[ExprT] = Field(None, description="task Jacobian J(q), instead of task:")
-    velocity: Optional[ExprT] = Field(None, description="desired task velocity ṙ (velocity level)")
-    acceleration: Optional[ExprT] = Field(None, description="desired task acceleration r̈ (acceleration level)")
+    task: ExprT | None = Field(None, description="task function r = f(q) (vector or scalar)")
+    jacobian: ExprT | None = Field(None, description="task Jacobian J(q), instead of task:")
+    velocity: ExprT | None = Field(None, description="desired task velocity ṙ (velocity level)")
+    acceleration: ExprT | None = Field(None, description="desired task acceleration r̈ (acceleration level)")
 
 
 class Motion(Strict):
@@ -51,8 +48,7 @@ class Motion(Strict):
 
     start: dict[str, Scalar] = Field(..., description="q at t = 0 {q1: ..., ...}")
     duration: float = Field(..., gt=0, le=1e4, description="seconds to integrate (stops earlier at a singularity)")
-    method: Optional[Literal["pseudoinverse", "weighted", "dls", "extended", "priority", "null_space", "sns",
-                             "scaled"]] = Field(
+    method: Literal["pseudoinverse", "weighted", "dls", "extended", "priority", "null_space", "sns", "scaled"] | None = Field(
         None, description="the method commanding q̇ (q̈ at acceleration level; null_space, sns and scaled only "
                           "there); default: the first of methods: that applies")
     steps: int = Field(400, ge=10, le=20000, description="integration steps (RK4; smaller near a singularity)")
@@ -68,13 +64,13 @@ class VariableDamping(Strict):
 
 
 class Bounds(Strict):
-    lower: Optional[ExprT] = Field(None, description="lower bounds (n values)")
-    upper: Optional[ExprT] = Field(None, description="upper bounds (n values)")
-    position: Optional[list[ExprT]] = Field(None, description="joint range [[min, max], ...] (with velocity:, "
+    lower: ExprT | None = Field(None, description="lower bounds (n values)")
+    upper: ExprT | None = Field(None, description="upper bounds (n values)")
+    position: list[ExprT] | None = Field(None, description="joint range [[min, max], ...] (with velocity:, "
                                                                 "acceleration: and T: the bounds are derived)")
-    velocity: Optional[ExprT] = Field(None, description="|q̇_i| ≤ V_i (n values)")
-    acceleration: Optional[ExprT] = Field(None, description="|q̈_i| ≤ A_i (n values, acceleration level)")
-    T: Optional[Scalar] = Field(None, description="the control sampling time of the derived bounds")
+    velocity: ExprT | None = Field(None, description="|q̇_i| ≤ V_i (n values)")
+    acceleration: ExprT | None = Field(None, description="|q̈_i| ≤ A_i (n values, acceleration level)")
+    T: Scalar | None = Field(None, description="the control sampling time of the derived bounds")
 
 
 def wants_methods(o: Any) -> bool:
@@ -110,7 +106,9 @@ class _MSpec:
                             "add joint_velocity: [qdot1, ..., qdotn] (zeros for a robot at rest)")
         self.W = None
         if o.weight is not None:
-            from solver.kinematics.redundancy import _Spec  # the weight parser of the ask
+            from solver.kinematics.redundancy import (
+                _Spec,  # the weight parser of the ask
+            )
             self.W = _Spec._weight(self)  # type: ignore[arg-type]
         if "weighted" in self.methods and self.W is None:
             raise self.fail(("methods",), "the weighted method needs weight:")
@@ -344,9 +342,6 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         return f"{base}{k}" if multi else base
 
     subs = {**problem.values, **spec.state}
-    qd_subs = {}
-    if acc:
-        qd_subs = {d: spec.qd[i] for i, d in enumerate(problem.robot.dq)} if problem.robot is not None else {}
     tasks_num = []
     for k, t in enumerate(spec.tasks, start=1):
         Ja = t["J"].subs(subs)
@@ -723,7 +718,6 @@ def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | No
     Jf = [sp.lambdify([spec.q], t["J"].subs(problem.values), "numpy") for t in tasks]
     xs = [np.array(sp.Matrix(t["r"]).subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1)
           for t in tasks]
-    W = None
     if meth == "weighted":
         Wf = sp.lambdify([spec.q], spec.W.subs(problem.values), "numpy")
     mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if (meth == "dls" and spec.mu is not None) else None
@@ -816,7 +810,7 @@ def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | No
         add("p_end", p_end.evalf(15), "vector", label="p(t_{end})")
     sol.step("m_motion", method=meth, start=sp.Matrix(start), duration=mo.duration, reached=reached,
              t_end=sp.Float(ts[-1], 6), q_end=qe.evalf(6), sig=sp.Float(sigs[-1], 3), sigma_min=mo.sigma_min,
-             p_end=None if p_end is None else p_end.evalf(6), refined=refined)
+             p_end=None if p_end is None else p_end.evalf(6), refined=refined, acc=False)
     lo = [float(sp.N(b.subs(problem.values))) for b in spec.lo] if spec.lo is not None else None
     hi = [float(sp.N(b.subs(problem.values))) for b in spec.hi] if spec.hi is not None else None
     T, V, S = list(ts), np.array(vs), list(sigs)
@@ -1005,7 +999,7 @@ def _bound_lines(lo: list | None, hi: list | None) -> list[tuple[float, str]]:
     """Horizontal lines at the distinct bounds, one legend entry ("bounds") for all."""
     if hi is None or lo is None:
         return []
-    vals = sorted(set(round(float(v), 12) for v in list(hi) + list(lo)))
+    vals = sorted({round(float(v), 12) for v in list(hi) + list(lo)})
     return [(v, "bounds" if k == 0 else "") for k, v in enumerate(vals)]
 
 
@@ -1062,6 +1056,6 @@ def check_sns(problem, results, name, value, other, options) -> PropertyVerdict 
         return PropertyVerdict(False, 0.0, ["within the bounds, but the task is not realized"
                                             + (" (only scaled)" if k < s - 1e-6 else " (wrong direction)")])
     if np.linalg.norm(v) > np.linalg.norm(ref) * (1 + 1e-6) + 1e-9:
-        return PropertyVerdict(True, 0.5, [f"feasible and realizes the task, but its norm {np.linalg.norm(v):.4g} "
-                                           f"is larger than SNS's {np.linalg.norm(ref):.4g}"])
+        return PropertyVerdict(True, 0.5, [(f"feasible and realizes the task, but its norm {np.linalg.norm(v):.4g} "
+                                            f"is larger than SNS's {np.linalg.norm(ref):.4g}")])
     return PropertyVerdict(True, 1.0, ["feasible (within every bound) and realizes the task"])

@@ -15,15 +15,22 @@ from __future__ import annotations
 
 import random
 from dataclasses import dataclass
-from typing import Any, Literal, Optional, Union
+from typing import Any, Literal, Union
 
 import numpy as np
 import sympy as sp
 from pydantic import Field, model_validator
 
 from solver.kinematics import resolution as rs
-from solver.kinematics.methods import (Bounds, Method, Motion, TaskItem, VariableDamping, solve_methods,
-                                       wants_methods)
+from solver.kinematics.methods import (
+    Bounds,
+    Method,
+    Motion,
+    TaskItem,
+    VariableDamping,
+    solve_methods,
+    wants_methods,
+)
 from solver.math.simplify import tidy
 from solver.registry import ask_kind
 from solver.results import Solution
@@ -39,66 +46,66 @@ class RedundancyAsk(Strict):
     """Joint velocity realizing a task velocity with a redundant robot: (weighted) pseudoinverse, null space."""
 
     kind: Literal["redundancy"]
-    title: Optional[str] = Field(None, description="heading of this part in the report")
-    task: Optional[ExprT] = Field(None, description="task function r = f(q), a vector (or scalar) expression in q")
-    jacobian: Optional[ExprT] = Field(None, description="task Jacobian J(q) (m x n) given directly, instead of task:")
-    at: Optional[dict[str, Scalar]] = Field(
+    title: str | None = Field(None, description="heading of this part in the report")
+    task: ExprT | None = Field(None, description="task function r = f(q), a vector (or scalar) expression in q")
+    jacobian: ExprT | None = Field(None, description="task Jacobian J(q) (m x n) given directly, instead of task:")
+    at: dict[str, Scalar] | None = Field(
         None, description="configuration {q1: ..., q2: ...} where everything is evaluated (parameter values used)")
-    velocity: Optional[ExprT] = Field(None, description="desired task velocity rdot (m components)")
-    weight: Optional[ExprT] = Field(
+    velocity: ExprT | None = Field(None, description="desired task velocity rdot (m components)")
+    weight: ExprT | None = Field(
         None, description="weighting matrix W (n x n, or the n diagonal entries, may depend on q): q̇ minimizes "
                           "½ q̇ᵀ W q̇; `inertia` for the robot's inertia matrix B(q) (minimum kinetic energy)")
-    null: Optional[ExprT] = Field(
+    null: ExprT | None = Field(
         None, description="preferred joint velocity q̇₀, projected in the null space of J (quote the key, \"null\": "
                           "a bare null: is YAML's empty key; or write qdot0:)")
-    qdot0: Optional[ExprT] = Field(None, description="the same as null: (preferred joint velocity q̇₀)")
-    gradient: Optional[Scalar] = Field(
+    qdot0: ExprT | None = Field(None, description="the same as null: (preferred joint velocity q̇₀)")
+    gradient: Scalar | None = Field(
         None, description="scalar H(q): q̇₀ = step · ∇H(q) projected in the null space; or a named H "
                           "(method path): manipulability (√det JJᵀ), joint_range (needs joint_ranges:)")
     step: Scalar = Field(1, description="step along ∇H (negative to decrease H)")
-    symbolic: Optional[bool] = Field(
+    symbolic: bool | None = Field(
         None, description="give J_W^# and q̇_ps also as functions of q (1×n up to n = 4, 2×2, 2×3 Jacobians): "
                           "default: without at:, or when J is short; false: never")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
                         description="appended to every result name (several redundancy asks in one problem)")
     # ---- the method path (any of these selects it; see solver/kinematics/methods.py)
-    tasks: Optional[list[TaskItem]] = Field(
+    tasks: list[TaskItem] | None = Field(
         None, description="two or more tasks in priority order [{name, task|jacobian, velocity|acceleration}], "
                           "instead of task:/jacobian:")
     level: Literal["velocity", "acceleration"] = Field(
         "velocity", description="velocity: q̇ from ṙ; acceleration: q̈ from r̈ − J̇q̇ (needs joint_velocity:)")
-    joint_velocity: Optional[ExprT] = Field(None, description="q̇ at the state (acceleration level)")
-    acceleration: Optional[ExprT] = Field(None, description="desired task acceleration r̈ (acceleration level)")
-    methods: Optional[list[Method]] = Field(
+    joint_velocity: ExprT | None = Field(None, description="q̇ at the state (acceleration level)")
+    acceleration: ExprT | None = Field(None, description="desired task acceleration r̈ (acceleration level)")
+    methods: list[Method] | None = Field(
         None, description="methods compared in one table: pseudoinverse, weighted (weight:), dls (mu:), "
                           "null_space (null:/gradient:/damping:), priority and extended (tasks:), scaled and sns "
                           "(bounds:); default: those the given options call for")
-    mu: Optional[Union[VariableDamping, Scalar]] = Field(
+    mu: VariableDamping | Scalar | None = Field(
         None, description="damping factor μ of damped least squares, or {epsilon, max}: μ chosen from the smallest "
                           "singular value σ, μ² = max²(1 − (σ/epsilon)²) for σ < epsilon, 0 elsewhere")
-    direction: Optional[ExprT] = Field(
+    direction: ExprT | None = Field(
         None, description="task direction d for max_scaling: the task λ d with the largest λ ≥ 0 whose minimum-norm "
                           "command is within bounds:; `stop` for d = −J q̇ (decelerate along the current velocity)")
-    bounds: Optional[Union[Bounds, ExprT]] = Field(
+    bounds: Bounds | ExprT | None = Field(
         None, description="joint bounds on q̇ (velocity level) or q̈ (acceleration level): n values (±) or "
                           "{lower: [...], upper: [...]}")
-    damping: Optional[ExprT] = Field(
+    damping: ExprT | None = Field(
         None, description="K_d (scalar, n diagonal entries or n x n): q̈₀ = −K_d q̇ is projected in the null "
                           "space (acceleration level; added to null:/gradient: if given)")
     rank_tol: float = Field(rs.DEFAULT_TOL, gt=0, lt=1e-2,
                             description="a singular value σ ≤ rank_tol · max(1, σ_max) counts as zero")
     sketch: bool = Field(True, description="draw the planar robot at the state (method path)")
-    joint_ranges: Optional[dict[str, tuple[Scalar, Scalar]]] = Field(
+    joint_ranges: dict[str, tuple[Scalar, Scalar]] | None = Field(
         None, description="{q1: [min, max], ...} for gradient: joint_range")
-    partition: Optional[list[str]] = Field(
+    partition: list[str] | None = Field(
         None, description="reduced_gradient: the m coordinates q_a whose columns J_a are inverted (default: the best "
                           "conditioned choice)")
-    motion: Optional[Motion] = Field(
+    motion: Motion | None = Field(
         None, description="velocity level: integrate q̇ of one method from start: for duration: seconds (constant "
                           "task velocities), stopping at the first singularity; plots q̇(t) with the bounds")
 
     @model_validator(mode="after")
-    def _exclusive(self) -> "RedundancyAsk":
+    def _exclusive(self) -> RedundancyAsk:
         if self.tasks is not None:
             if self.task is not None or self.jacobian is not None:
                 raise ValueError("give either tasks: or task:/jacobian:")
@@ -748,6 +755,9 @@ def solve_redundancy(problem, options: RedundancyAsk, ctx) -> Solution:  # type:
         sol.step("null", r=r, gradient=spec.H is not None, step=getattr(spec, "step", None),
                  num=_numeric_display(r["qdot"]), q0_num=_numeric_display(r["q0"]))
     add("qdot", r["qdot"], "vector", label="\\dot q")
+    if options.sketch and spec.state is not None and problem.robot is not None and \
+            set(spec.state) == set(problem.robot.q):  # a pose needs every coordinate
+        _old_path_sketch(sol, problem, spec)
     if "qdot_mn" in r:
         add("qdot_mn", r["qdot_mn"], "vector", label="\\dot q_{mn} = J^{+}\\dot r")
         add("cost_mn", r["cost_mn"], None, label="\\tfrac12 \\dot q_{mn}^T W \\dot q_{mn}")
@@ -756,3 +766,28 @@ def solve_redundancy(problem, options: RedundancyAsk, ctx) -> Solution:  # type:
                                       ("qdot_mn", "cost_ps", "cost_mn", "norm2_ps", "norm2_mn")},
                  inertia=getattr(spec, "weight_is_inertia", False))
     return sol
+
+
+def _old_path_sketch(sol: Solution, problem, spec: _Spec) -> None:  # type: ignore[no-untyped-def]
+    """The planar robot at the configuration, with the desired task velocity when the task is a planar position."""
+    from solver.kinematics.sketch import robot_sketch
+    task = spec.task if (spec.task is not None and spec.task.shape[0] == 2) else None
+    arrows = []
+    if task is not None and spec.rdot is not None:
+        try:
+            v = [float(sp.N(c.subs(problem.values))) for c in spec.rdot]
+            pos = task.subs(problem.values).subs(spec.state)
+            reach = max(0.2, float(sp.N(sp.sqrt(pos[0] ** 2 + pos[1] ** 2))))
+            nv = float(np.hypot(*v))
+            if nv > 0:
+                arrows.append(("$\\dot r_d$", spec.state, pos, [x * 0.3 * reach / nv for x in v]))
+        except (TypeError, ValueError):
+            pass
+    try:
+        fig = robot_sketch(problem, [("$q$", spec.state)], task=task, arrows=arrows,
+                           name="sketch" + spec.options.suffix, caption="The robot at the configuration used"
+                           + (", with the desired task velocity" if arrows else ""))
+    except (TypeError, ValueError):
+        fig = None
+    if fig is not None:
+        sol.figures.append(fig)

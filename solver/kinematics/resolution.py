@@ -17,8 +17,9 @@ the same formulas apply to q̈ with ṙ replaced by r̈ − J̇q̇ (and q̇₀ b
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Optional, Sequence
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -221,7 +222,7 @@ class SNSResult:
 
 
 def _scaling(la: LA, a: Any, b: Any, lo: Sequence[Any], hi: Sequence[Any], active: Sequence[bool]) \
-        -> tuple[Any, Optional[int]]:
+        -> tuple[Any, int | None]:
     """Largest s ∈ [0, 1] with lo ≤ a s + b ≤ hi on the active joints, and the joint that limits it."""
     eps = 0 if la.exact else 1e-12
     smax: Any = None
@@ -353,7 +354,7 @@ def reduced_gradient(la: LA, J: Any, x: Any, grad: Any, a: Sequence[int], step: 
     """Reduced gradient: q = (q_a, q_b) with J_a (m×m) nonsingular; ∇'H = ∇_b H − (J_a⁻¹J_b)ᵀ∇_a H (the gradient of H
     along the task-preserving motions parametrized by q_b), q̇_b = step·∇'H, q̇_a = J_a⁻¹(x − J_b q̇_b).
     Returns (q̇, ∇'H)."""
-    m, n = la.shape(J)
+    n = la.shape(J)[1]
     b = [j for j in range(n) if j not in a]
     Ja, Jb = J[:, list(a)], J[:, b]
     Jai = la.inv(Ja)
