@@ -159,3 +159,18 @@ def test_report_renders_with_figure(tmp_path):
     assert "solve_ivp" in md and "settling time" in md
     tex = render(p, sols, "tex")
     assert "\\paragraph{Simulation.}" in tex
+
+
+def test_latex_report_with_simulation_compiles(tmp_path):
+    import shutil
+    import subprocess
+    if shutil.which("pdflatex") is None:
+        pytest.skip("pdflatex not installed")
+    text = RPV + "  - kind: control_law\n    law: computed_torque\n    kp: 25\n    kd: 10\n" \
+        "  - kind: simulate\n    qd: [1, 0]\n    T: 1\n"
+    p, sols, _ = run(text)
+    out = tmp_path / "s.tex"
+    out.write_text(render(p, sols, "tex"))
+    r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", out.name], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout[-2000:]
