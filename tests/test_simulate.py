@@ -174,3 +174,38 @@ def test_latex_report_with_simulation_compiles(tmp_path):
     r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", out.name], cwd=tmp_path,
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stdout[-2000:]
+
+
+# ------------------------------------------------------------------------------------------------ library robots
+def _library_head(name, values):
+    from conftest import PROBLEMS
+    text = (PROBLEMS / f"{name}.yaml").read_text()
+    head = text[:text.index("\nasks:") + len("\nasks:\n")]
+    if "\nvalues:" not in head:
+        head = head.replace("\nrobot:", f"\nvalues: {values}\nrobot:", 1)
+    return head
+
+
+LIB = [("2004-03-25-ex1", "{m1: 5, m2: 3, d1: 0.25, l1: 0.5, I1: 0.1, I2: 0.05, g0: 9.81}", 2),
+       ("2016-09-12-ex1", "{m1: 4, m2: 3, m3: 2, I1: 0.1, I2: 0.08, I3: 0.05, d1: 0.2, d2: 0.1, d3: 0.2, "
+                          "l1: 0.5, g0: 9.81}", 3),
+       ("2020-07-15-remote-ex4", "{}", 2)]
+
+
+@pytest.mark.parametrize("name,values,n", LIB, ids=[x[0] for x in LIB])
+@pytest.mark.parametrize("law", ["computed_torque", "lyapunov_tracking", "adaptive", "pd_constant"])
+def test_laws_on_library_robots(name, values, n, law):
+    ref = ["0.3*sin(t)", "0.1 + 0.05*t^2/(1 + t^2)", "0.2*cos(t)"][:n]
+    gains = {"computed_torque": "    kp: 25\n    kd: 10\n", "lyapunov_tracking": "    kp: 100\n    kd: 30\n",
+             "adaptive": "    lambda: 5\n    kd: 30\n    gamma: 200\n",
+             "pd_constant": f"    kp: 400\n    kd: 60\n    qd: {[0.3] * n}\n"}[law]
+    T = 10 if law == "adaptive" else 6   # adaptive: asymptotic, slower while the estimates settle
+    sim = f"  - kind: simulate\n    T: {T}\n    q0: {[0.1] * n}\n" + ("" if law == "pd_constant" else f"    qd: {ref}\n")
+    text = _library_head(name, values) + f"  - kind: control_law\n    law: {law}\n" + gains + sim
+    _, _, res = run(text)
+    assert res["closed_loop_check"].value is True
+    assert res["completed"].value is True
+    tol = 0.1 if law == "adaptive" else 0.05
+    assert fnum(res["e_final_norm"].value) < tol * fnum(res["e_max_norm"].value) + 1e-6
+    if law == "adaptive":
+        assert all(abs(fnum(x)) < 1e3 for x in res["ahat_final"].value)
