@@ -128,6 +128,8 @@ def test_elastic_cartpole_and_cartesian():
 """
     p, _, res = run(ca)
     assert fnum(res["e_final_norm"].value) < 1e-3
+    # K_P = diag(100, 50), K_D = diag(20, 10): e_x has the double root -10 (no sign change), e_y the roots -5 ± 5i
+    assert list(res["oscillatory"].value) == [0, 1] and res["e_sign_changes"].value[1] >= 1
 
 
 def test_budget_and_errors():

@@ -260,6 +260,10 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     add("e_final_norm", sp.Float(en[-1], 6), "number", "\\|e(T)\\|")
     add("e_max_norm", sp.Float(en.max(), 6), "number", "\\max_t\\|e(t)\\|")
     add("settling_time", sp.Float(settling, 6) if settling is not None else sp.oo, "number", "t_s")
+    crossings = [sign_changes(E[:, i]) for i in range(m)]
+    add("e_sign_changes", sp.Matrix([sp.Integer(c) for c in crossings]), "vector", "\\#\\{e_i = 0\\}")
+    add("oscillatory", sp.Matrix([sp.Integer(int(c > 0)) for c in crossings]), "vector",
+        "e_i \\text{ changes sign}")
     add("u_max", sp.Matrix([sp.Float(x, 6) for x in np.abs(U).max(axis=0)]), "vector", "\\max_t|u_i(t)|")
     add("t_end", sp.Float(Ts[-1], 6), "number", "t_{end}")
     add("completed", bool(completed and abs(Ts[-1] - T) < 1e-9), "bool", "\\text{completed}")
@@ -280,8 +284,15 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              t_end=float(Ts[-1]), nfev=budget["nfev"], e_final=float(en[-1]), e_max=float(en.max()),
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
              umax=[float(x) for x in np.abs(U).max(axis=0)],
-             ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a)
+             ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a, crossings=crossings)
     return sol
+
+
+def sign_changes(e: np.ndarray, rel: float = 1e-3) -> int:
+    """Zero crossings of a sampled error, ignoring values below rel·max|e| (integration noise near 0)."""
+    big = np.abs(e) > rel * max(float(np.abs(e).max()), 1e-300)
+    s = np.sign(e[big])
+    return int(np.count_nonzero(s[1:] != s[:-1]))
 
 
 def _final(rhs, a, b, y, r, options):  # type: ignore[no-untyped-def]
