@@ -301,7 +301,7 @@ def test_elastic_spong_form():
     p, _, res = solved(ELASTIC1 + "  - kind: control_law\n    law: elastic\n")
     n = p.names
     q1, dq1 = p.robot.q[0], p.robot.dq[0]
-    ddq, d3, d4 = p.robot.ddq[0], n["dddq1"], n["ddddq1"]
+    ddq, d4 = p.robot.ddq[0], n["ddddq1"]
     Bl = n["I"] + n["m"] * n["d"] ** 2
     gq = n["m"] * n["g0"] * n["d"] * sp.cos(q1)
     # u = Im/K (B q'''' + g'') + (B + Im) q'' + g

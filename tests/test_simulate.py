@@ -4,7 +4,7 @@ a cart-pole, an elastic joint): errors decay, estimates stay bounded, budgets st
 reports render, spec errors point at their lines."""
 import numpy as np
 import pytest
-
+import sympy as sp
 from conftest import R2_ROBOT, RP_ROBOT
 from test_control_laws import CARTPOLE, ELASTIC1, R3
 
@@ -211,3 +211,24 @@ def test_laws_on_library_robots(name, values, n, law):
     assert fnum(res["e_final_norm"].value) < tol * fnum(res["e_max_norm"].value) + 1e-6
     if law == "adaptive":
         assert all(abs(fnum(x)) < 1e3 for x in res["ahat_final"].value)
+
+
+def test_iterative_gravity_compensation_iterations():
+    text = R2 + """  - kind: regulation
+    law: iterative
+    qd: [1, 0.5]
+    kp: 60
+    kd: 15
+    q0: [0, 0]
+    epsilon: 0.001
+  - kind: simulate
+    T: 3
+    q0: [0, 0]
+"""
+    _, _, res = run(text)
+    errs = [fnum(x) for x in res["iteration_errors"].value]
+    assert errs[-1] < 1e-3 <= errs[-2]
+    # the same count as the static iteration of the regulation ask (equilibria solved exactly), and a contraction
+    assert int(res["iterations_sim"].value) == int(res["iterations_actual"].value) == len(errs)
+    rho = float(sp.N(res["rho"].value))
+    assert all(b < rho * a for a, b in zip(errs, errs[1:]))
