@@ -301,7 +301,7 @@ def test_elastic_spong_form():
     p, _, res = solved(ELASTIC1 + "  - kind: control_law\n    law: elastic\n")
     n = p.names
     q1, dq1 = p.robot.q[0], p.robot.dq[0]
-    ddq, d3, d4 = p.robot.ddq[0], n["dddq1"], n["ddddq1"]
+    ddq, d4 = p.robot.ddq[0], n["ddddq1"]
     Bl = n["I"] + n["m"] * n["d"] ** 2
     gq = n["m"] * n["g0"] * n["d"] * sp.cos(q1)
     # u = Im/K (B q'''' + g'') + (B + Im) q'' + g
@@ -446,3 +446,19 @@ def test_linearization_solves_the_missing_coordinates():
     with pytest.raises(UserError, match="values for"):
         solved(CARTPOLE.replace("values: {mc: 1, mp: 0.3, L: 0.6, g0: 9.81}", "")
                + "  - kind: control_law\n    law: linearization\n    equilibrium: {q1: 0}\n")
+
+
+def test_adaptive_u_through_the_grader_with_a_suffix():
+    from solver.grading.grader import grade, prepare
+    from solver.grading.submission import Submission
+    text = RPK + "  - kind: control_law\n    law: adaptive\n    suffix: _ad\ngrading:\n  items:\n    u_ad: {points: 2}\n"
+    p = load_problem_text(text)
+    ref = prepare(p)
+    u = ref.results["u_ad"].value
+    good = Submission("ann", "ann.yaml", {"u_ad": [sp.sstr(sp.expand(x)) for x in u]})
+    ah3 = p.names["ahat3"]
+    bad = Submission("bob", "bob.yaml", {"u_ad": [sp.sstr(sp.expand(x.subs(ah3, 0))) for x in u]})
+    item = lambda rep: next(i for i in rep.items if i.name == "u_ad")  # noqa: E731
+    ok, ko = item(grade(ref, good)), item(grade(ref, bad))
+    assert ok.score == ok.max_score > 0, ok.feedback
+    assert ko.score < ko.max_score and any("estimates" in f for f in ko.feedback), ko.feedback

@@ -4,7 +4,7 @@ a cart-pole, an elastic joint): errors decay, estimates stay bounded, budgets st
 reports render, spec errors point at their lines."""
 import numpy as np
 import pytest
-
+import sympy as sp
 from conftest import R2_ROBOT, RP_ROBOT
 from test_control_laws import CARTPOLE, ELASTIC1, R3
 
@@ -128,6 +128,8 @@ def test_elastic_cartpole_and_cartesian():
 """
     p, _, res = run(ca)
     assert fnum(res["e_final_norm"].value) < 1e-3
+    # K_P = diag(100, 50), K_D = diag(20, 10): e_x has the double root -10 (no sign change), e_y the roots -5 ± 5i
+    assert list(res["oscillatory"].value) == [0, 1] and res["e_sign_changes"].value[1] >= 1
 
 
 def test_budget_and_errors():
@@ -159,3 +161,74 @@ def test_report_renders_with_figure(tmp_path):
     assert "solve_ivp" in md and "settling time" in md
     tex = render(p, sols, "tex")
     assert "\\paragraph{Simulation.}" in tex
+
+
+def test_latex_report_with_simulation_compiles(tmp_path):
+    import shutil
+    import subprocess
+    if shutil.which("pdflatex") is None:
+        pytest.skip("pdflatex not installed")
+    text = RPV + "  - kind: control_law\n    law: computed_torque\n    kp: 25\n    kd: 10\n" \
+        "  - kind: simulate\n    qd: [1, 0]\n    T: 1\n"
+    p, sols, _ = run(text)
+    out = tmp_path / "s.tex"
+    out.write_text(render(p, sols, "tex"))
+    r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", out.name], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout[-2000:]
+
+
+# ------------------------------------------------------------------------------------------------ library robots
+def _library_head(name, values):
+    from conftest import PROBLEMS
+    text = (PROBLEMS / f"{name}.yaml").read_text()
+    head = text[:text.index("\nasks:") + len("\nasks:\n")]
+    if "\nvalues:" not in head:
+        head = head.replace("\nrobot:", f"\nvalues: {values}\nrobot:", 1)
+    return head
+
+
+LIB = [("2004-03-25-ex1", "{m1: 5, m2: 3, d1: 0.25, l1: 0.5, I1: 0.1, I2: 0.05, g0: 9.81}", 2),
+       ("2016-09-12-ex1", "{m1: 4, m2: 3, m3: 2, I1: 0.1, I2: 0.08, I3: 0.05, d1: 0.2, d2: 0.1, d3: 0.2, "
+                          "l1: 0.5, g0: 9.81}", 3),
+       ("2020-07-15-remote-ex4", "{}", 2)]
+
+
+@pytest.mark.parametrize("name,values,n", LIB, ids=[x[0] for x in LIB])
+@pytest.mark.parametrize("law", ["computed_torque", "lyapunov_tracking", "adaptive", "pd_constant"])
+def test_laws_on_library_robots(name, values, n, law):
+    ref = ["0.3*sin(t)", "0.1 + 0.05*t^2/(1 + t^2)", "0.2*cos(t)"][:n]
+    gains = {"computed_torque": "    kp: 25\n    kd: 10\n", "lyapunov_tracking": "    kp: 100\n    kd: 30\n",
+             "adaptive": "    lambda: 5\n    kd: 30\n    gamma: 200\n",
+             "pd_constant": f"    kp: 400\n    kd: 60\n    qd: {[0.3] * n}\n"}[law]
+    T = 10 if law == "adaptive" else 6   # adaptive: asymptotic, slower while the estimates settle
+    sim = f"  - kind: simulate\n    T: {T}\n    q0: {[0.1] * n}\n" + ("" if law == "pd_constant" else f"    qd: {ref}\n")
+    text = _library_head(name, values) + f"  - kind: control_law\n    law: {law}\n" + gains + sim
+    _, _, res = run(text)
+    assert res["closed_loop_check"].value is True
+    assert res["completed"].value is True
+    tol = 0.1 if law == "adaptive" else 0.05
+    assert fnum(res["e_final_norm"].value) < tol * fnum(res["e_max_norm"].value) + 1e-6
+    if law == "adaptive":
+        assert all(abs(fnum(x)) < 1e3 for x in res["ahat_final"].value)
+
+
+def test_iterative_gravity_compensation_iterations():
+    text = R2 + """  - kind: regulation
+    law: iterative
+    qd: [1, 0.5]
+    kp: 60
+    kd: 15
+    q0: [0, 0]
+    epsilon: 0.001
+  - kind: simulate
+    T: 3
+    q0: [0, 0]
+"""
+    _, _, res = run(text)
+    errs = [fnum(x) for x in res["iteration_errors"].value]
+    assert errs[-1] < 1e-3 <= errs[-2]
+    # the same count as the static iteration of the regulation ask (equilibria solved exactly), and a contraction
+    assert int(res["iterations_sim"].value) == int(res["iterations_actual"].value) == len(errs)
+    rho = float(sp.N(res["rho"].value))
+    assert all(b < rho * a for a, b in zip(errs, errs[1:]))

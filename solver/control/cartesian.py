@@ -9,7 +9,14 @@ from __future__ import annotations
 
 import sympy as sp
 
-from solver.control.laws import ControlLawAsk, _gains, _input_inverse, _symbol, _zero, record_law
+from solver.control.laws import (
+    ControlLawAsk,
+    _gains,
+    _input_inverse,
+    _symbol,
+    _zero,
+    record_law,
+)
 from solver.dynamics.model import derive, require_model
 from solver.math.simplify import tidy
 from solver.results import Solution

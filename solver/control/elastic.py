@@ -17,7 +17,14 @@ import random
 
 import sympy as sp
 
-from solver.control.laws import ControlLawAsk, _qname, _sub_tex, _symbol, _zero, record_law
+from solver.control.laws import (
+    ControlLawAsk,
+    _qname,
+    _sub_tex,
+    _symbol,
+    _zero,
+    record_law,
+)
 from solver.dynamics.model import derive, require_model
 from solver.math.simplify import tidy
 from solver.results import Solution
@@ -44,7 +51,7 @@ def solve_elastic(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ig
     q = [X[i] for i in lnk]
     th = [X[i] for i in mot]
     dq, dth = [dX[i] for i in lnk], [dX[i] for i in mot]
-    ddq_s, ddth_s = [ddX[i] for i in lnk], [ddX[i] for i in mot]
+    ddq_s = [ddX[i] for i in lnk]
     M = dm.B
     Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
     nv = (dm.c + dm.g + Fv * sp.Matrix(dX)).applyfunc(sp.expand)

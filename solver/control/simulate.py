@@ -53,6 +53,9 @@ class SimulateAsk(Strict):
     wall: float = Field(30.0, gt=0, le=600, description="budget of wall seconds")
     method: Literal["RK45", "LSODA", "Radau", "DOP853"] = Field("LSODA", description="solve_ivp method")
     rtol: float = Field(1e-7, gt=0, le=1e-2, description="relative tolerance of the integrator")
+    iterations: int = Field(20, ge=1, le=200, description="regulation law: iterative: the largest number of "
+                                                         "iterations, each a motion of T seconds with a constant "
+                                                         "feedforward, then û ← g(q)")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$", description="appended to every result name")
 
 
@@ -169,7 +172,10 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     vals = dict(problem.values)
     ahat = list(rec["ahat"])
     state = q + dq + ahat
-    allowed = set(state) | {t}
+    # the iterative gravity compensation: constant feedforward symbols û, updated between iterations
+    ff = sorted([x for x in set().union(*(e.free_symbols for e in u)) if x.name.startswith("uhat")
+                 and ask.kind == "regulation" and getattr(ask.options, "law", "") == "iterative"], key=str)
+    allowed = set(state) | {t} | set(ff)
 
     def close(x: sp.Expr) -> sp.Expr:
         for _ in range(3):
@@ -189,7 +195,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         raise UserError("simulate needs numbers for " + ", ".join(sorted(map(str, free))),
                         _place(problem, ctx, "set"), "give them in the problem's values: or in set: {name: value}")
     err_expr = [ref[i] - tracked[i].xreplace(vals) for i in range(m)]
-    args = [t] + state
+    args = [t] + state + ff
     f_u = sp.lambdify(args, list(u_num), "numpy")
     f_B = sp.lambdify(args, plant_B, "numpy")
     f_n = sp.lambdify(args, list(plant_n), "numpy")
@@ -201,12 +207,17 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     a0 = _floats(problem, options, ctx, "ahat0", len(ahat)) if ahat else []
     y0 = np.array(q0 + dq0 + a0, dtype=float)
     budget = {"nfev": 0, "deadline": time.monotonic() + options.wall}
+    ffv = np.array([float(x) for x in (dm.g.xreplace(vals).xreplace(dict(zip(q, q0))) if ff else [])])
+    if ff and getattr(ask.options, "u0", None) is not None:
+        u0v = ask.ctx.expr("u0")
+        ffv = np.array([float(sp.sympify(x).xreplace(vals)) for x in (u0v if isinstance(u0v, list) else [u0v])])
+    f_g = sp.lambdify([q], list(dm.g.xreplace(vals)), "numpy") if ff else None
 
     def rhs(tt: float, y: np.ndarray) -> np.ndarray:
         budget["nfev"] += 1
         if budget["nfev"] > options.max_steps or time.monotonic() > budget["deadline"]:
             raise _Budget()
-        a = [tt, *y]
+        a = [tt, *y, *ffv]
         uu = np.array(f_u(*a), dtype=float).ravel()
         B = np.array(f_B(*a), dtype=float)
         nn = np.array(f_n(*a), dtype=float).ravel()
@@ -221,32 +232,52 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     T = float(sp.sympify(options.T))
     if not (0 < T <= 1e4):
         raise UserError("T must be a positive time (at most 10^4 s)", _place(problem, ctx, "T"))
-    grid = np.linspace(0.0, T, options.points)
-    ts, ys = [0.0], [y0]
-    completed, t0, y = True, 0.0, y0
-    chunks = np.linspace(0.0, T, 21)
-    for a, b in zip(chunks[:-1], chunks[1:]):
-        sel = grid[(grid > a) & (grid <= b)]
-        try:
-            r = solve_ivp(rhs, (a, b), y, method=options.method, t_eval=sel if len(sel) else None,
-                          rtol=options.rtol, atol=options.rtol * 1e-2)
-        except _Budget:
-            completed = False
+    phases = options.iterations if ff else 1
+    eps = None
+    if ff:
+        eps = float(ask.ctx.expr("epsilon")) if getattr(ask.options, "epsilon", None) is not None else (
+            float(sp.sympify(options.settle)) if options.settle is not None else 1e-3)
+    Ttot = T * phases
+    grid = np.linspace(0.0, Ttot, options.points * (min(phases, 10) if ff else 1))
+    ts, ys, FF = [0.0], [y0], [ffv.copy()]
+    completed, y = True, y0
+    iter_errors: list[float] = []
+    for k in range(phases):
+        chunks = np.linspace(k * T, (k + 1) * T, 21)
+        for a, b in zip(chunks[:-1], chunks[1:]):
+            sel = grid[(grid > a) & (grid <= b)]
+            try:
+                r = solve_ivp(rhs, (a, b), y, method=options.method, t_eval=sel if len(sel) else None,
+                              rtol=options.rtol, atol=options.rtol * 1e-2)
+            except _Budget:
+                completed = False
+                break
+            if not r.success:
+                completed = False
+                break
+            y = r.y[:, -1] if len(sel) == 0 else _final(rhs, a, b, y, r, options)
+            ts += list(r.t)
+            ys += list(r.y.T)
+            FF += [ffv.copy()] * len(r.t)
+            if ts[-1] < b - 1e-12:    # the end of the chunk is not on the grid: keep it
+                ts.append(float(b))
+                ys.append(y)
+                FF.append(ffv.copy())
+            if not np.all(np.isfinite(y)):
+                completed = False
+                break
+        if not completed or not ff:
             break
-        if not r.success:
-            completed = False
+        err = float(np.linalg.norm(np.array(f_e((k + 1) * T, *y, *ffv), dtype=float)))
+        iter_errors.append(err)
+        if err < eps:
             break
-        y = r.y[:, -1] if len(sel) == 0 else _final(rhs, a, b, y, r, options)
-        ts += list(r.t)
-        ys += list(r.y.T)
-        t0 = b
-        if not np.all(np.isfinite(y)):
-            completed = False
-            break
+        ffv = np.array(f_g(list(y[:n])), dtype=float).ravel()    # û_{k+1} = g(q at the end of iteration k)
+    T = Ttot if not ff else T * max(len(iter_errors), 1)
     Ts = np.array(ts)
     Y = np.array(ys)
-    E = np.array([np.array(f_e(tt, *yy), dtype=float).ravel() for tt, yy in zip(Ts, Y)])
-    U = np.array([np.array(f_u(tt, *yy), dtype=float).ravel() for tt, yy in zip(Ts, Y)])
+    E = np.array([np.array(f_e(tt, *yy, *fv), dtype=float).ravel() for tt, yy, fv in zip(Ts, Y, FF)])
+    U = np.array([np.array(f_u(tt, *yy, *fv), dtype=float).ravel() for tt, yy, fv in zip(Ts, Y, FF)])
     en = np.linalg.norm(E, axis=1)
     band = float(sp.sympify(options.settle)) if options.settle is not None else 0.02 * max(float(en.max()), 1e-12)
     above = np.nonzero(en > band)[0]
@@ -260,11 +291,19 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     add("e_final_norm", sp.Float(en[-1], 6), "number", "\\|e(T)\\|")
     add("e_max_norm", sp.Float(en.max(), 6), "number", "\\max_t\\|e(t)\\|")
     add("settling_time", sp.Float(settling, 6) if settling is not None else sp.oo, "number", "t_s")
+    crossings = [sign_changes(E[:, i]) for i in range(m)]
+    add("e_sign_changes", sp.Matrix([sp.Integer(c) for c in crossings]), "vector", "\\#\\{e_i = 0\\}")
+    add("oscillatory", sp.Matrix([sp.Integer(int(c > 0)) for c in crossings]), "vector",
+        "e_i \\text{ changes sign}")
     add("u_max", sp.Matrix([sp.Float(x, 6) for x in np.abs(U).max(axis=0)]), "vector", "\\max_t|u_i(t)|")
     add("t_end", sp.Float(Ts[-1], 6), "number", "t_{end}")
-    add("completed", bool(completed and abs(Ts[-1] - T) < 1e-9), "bool", "\\text{completed}")
+    add("completed", bool(completed), "bool", "\\text{completed}")
     add("nfev", sp.Integer(budget["nfev"]), "number", "\\text{evaluations}")
     A = Y[:, 2 * n:]
+    if ff:
+        done = bool(iter_errors) and iter_errors[-1] < eps
+        add("iterations_sim", sp.Integer(len(iter_errors)) if done else sp.oo, "number", "i")
+        add("iteration_errors", [sp.Float(x, 6) for x in iter_errors], "list", "\\|e_i\\|")
     if ahat:
         add("ahat_final", sp.Matrix([sp.Float(x, 6) for x in A[-1]]), "vector", "\\hat a(T)")
     true_a = None
@@ -280,8 +319,16 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              t_end=float(Ts[-1]), nfev=budget["nfev"], e_final=float(en[-1]), e_max=float(en.max()),
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
              umax=[float(x) for x in np.abs(U).max(axis=0)],
-             ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a)
+             ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a, crossings=crossings,
+             iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=float(sp.sympify(options.T)))
     return sol
+
+
+def sign_changes(e: np.ndarray, rel: float = 1e-3) -> int:
+    """Zero crossings of a sampled error, ignoring values below rel·max|e| (integration noise near 0)."""
+    big = np.abs(e) > rel * max(float(np.abs(e).max()), 1e-300)
+    s = np.sign(e[big])
+    return int(np.count_nonzero(s[1:] != s[:-1]))
 
 
 def _final(rhs, a, b, y, r, options):  # type: ignore[no-untyped-def]

@@ -14,7 +14,15 @@ from __future__ import annotations
 
 import sympy as sp
 
-from solver.control.laws import ControlLawAsk, _gains, _qname, _sub_tex, _symbol, _zero, record_law
+from solver.control.laws import (
+    ControlLawAsk,
+    _gains,
+    _qname,
+    _sub_tex,
+    _symbol,
+    _zero,
+    record_law,
+)
 from solver.dynamics.model import derive, require_model
 from solver.math.simplify import tidy
 from solver.results import Solution
