@@ -112,7 +112,9 @@ def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam file
           ) -> None:
     """Validate specs or exam files: 'ok', or every error found (file:line, what, how to fix; exit code 2).
     A spec with expected: values is solved, to find entries that name no result or cannot be read."""
+    from solver.registry import preload
     from solver.sandbox import Limits, run_many
+    preload(len(specs))
     outcomes = run_many(_check_file, specs, 0, Limits(time_limit, 4096))
     bad = 0
     for s, out in zip(specs, outcomes):
@@ -300,6 +302,8 @@ def list_(paths: list[Path] = typer.Argument(..., help="spec files or directorie
     def line(f: Path) -> str:
         pr = load_problem(f)
         return f"{pr.id:<32} {pr.title[:50]:<50} [{','.join(pr.topics)}] asks: {','.join(a.kind for a in pr.asks)}"
+    from solver.registry import preload
+    preload(len(files))
     bad = 0
     for f, out in zip(files, run_many(line, files, 0, Limits(60.0, 2048))):
         if out.ok:

@@ -80,3 +80,11 @@ def load_all() -> dict[str, AskKind]:
                 importlib.import_module(f"solver.{chapter}.{info.name}")
         _LOADED = True
     return ASKS
+
+
+def preload(count: int = 2) -> None:
+    """Before forking one worker per file: import the spec reader and every chapter once in the parent, so that
+    the ``count`` workers inherit them instead of each importing sympy, numpy and the chapters again."""
+    if count > 1:
+        importlib.import_module("solver.spec.loader")
+        load_all()

@@ -21,6 +21,7 @@ from typing import Any, Callable
 import sympy as sp
 
 from solver.math.equivalence import CORRECT, INCORRECT, Verdict, equivalent
+from solver.registry import preload
 from solver.sandbox import Limits, Outcome, run_many
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem
@@ -257,6 +258,7 @@ def verify_paths(paths: list[Path], jobs: int = 0, limits: Limits | None = None,
     def report(i: int, out: Outcome) -> Report:
         return out.value if out.ok else Report(files[i].stem, str(files[i]), error=out.message)
 
+    preload(len(files))
     outcomes = run_many(_verify_file, files, jobs, limits,
                         (lambda i, out: on_done(report(i, out))) if on_done else None)
     return [report(i, out) for i, out in enumerate(outcomes)]

@@ -32,6 +32,7 @@ import jinja2
 from solver.grading.grader import INVALID, ItemResult, Reference, Report, grade
 from solver.grading.submission import MAX_FILE_BYTES, clean_name, load_submission
 from solver.publish.render import template_env
+from solver.registry import preload
 from solver.sandbox import Limits, Outcome, run_many
 from solver.spec.errors import UserError
 from solver.spec.problem import Problem
@@ -130,6 +131,7 @@ def grade_files(ref: Reference, files: list[Path] | list[Entry], jobs: int = 0,
         if progress:
             progress(rep)
 
+    preload(len(readable))
     run_many(_grade_entry, [entries[i] for i in readable], jobs, limits, done)
     return [r for r in reports if r is not None]
 
