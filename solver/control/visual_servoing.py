@@ -334,7 +334,8 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
         if n > 1:
             add(f"J_p{i}", Jp, "matrix", label=f"J_{{p{i}}}")
     data: dict[str, Any] = {"n": n, "polar": polar, "feature": options.feature, "lam": lam, "points": pts,
-                            "mats": mats}
+                            "mats": mats, "dls": None, "N": None, "Jm": None, "e": None, "norm": False,
+                            "Jn": None, "law_at": None}
     if polar:
         rho, th, Z = pts[0]
         Jt = polar_jacobian(rho, th)
