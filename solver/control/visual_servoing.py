@@ -335,7 +335,7 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
             add(f"J_p{i}", Jp, "matrix", label=f"J_{{p{i}}}")
     data: dict[str, Any] = {"n": n, "polar": polar, "feature": options.feature, "lam": lam, "points": pts,
                             "mats": mats, "dls": None, "N": None, "Jm": None, "e": None, "norm": False,
-                            "Jn": None, "law_at": None}
+                            "Jn": None, "law_at": None, "decoupled": None}
     if polar:
         rho, th, Z = pts[0]
         Jt = polar_jacobian(rho, th)
@@ -367,6 +367,10 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
     Jv, Jw = J[:, :3], J[:, 3:]
     add("J_v", Jv, "matrix", label="J_v")
     add("J_omega", Jw, "matrix", label="J_\\omega")
+    if J.rows == 2:
+        dec = sp.Matrix([[_single_row(J[:, j]) for j in range(6)]])
+        add("decoupled", dec, "matrix", label="\\text{decoupled}")
+        data["decoupled"] = dec
     r, rv, rw = generic_rank(J, rng), generic_rank(Jv, rng), generic_rank(Jw, rng)
     add("rank", sp.Integer(r), "number", label="\\operatorname{rank} J")
     add("rank_v", sp.Integer(rv), "number", label="\\operatorname{rank} J_v")
@@ -445,6 +449,12 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
     if options.simulate is not None:
         _simulation_figure(sol, problem, ctx, options, cart, lam, vals, data)
     return sol
+
+
+def _single_row(col: sp.Matrix) -> int:
+    """The (1-based) row of the only entry of ``col`` not identically zero, 0 if none or several."""
+    nz = [i for i, x in enumerate(col) if sp.simplify(x) != 0]
+    return nz[0] + 1 if len(nz) == 1 else 0
 
 
 def _special_motions(J: sp.Matrix, Jv: sp.Matrix, Jw: sp.Matrix, cart: list, lam: sp.Expr, feature: str,
