@@ -111,7 +111,7 @@ def polar_matrix(rho: sp.Expr, theta: sp.Expr, Z: sp.Expr, lam: sp.Expr) -> sp.M
 def dls_inverse(J: sp.Matrix, sigma: sp.Expr) -> sp.Matrix:
     """J^DLS = Jᵀ (σ² I + J Jᵀ)⁻¹."""
     M = sigma ** 2 * sp.eye(J.shape[0]) + J * J.T
-    return (J.T * M.inv()).applyfunc(tidy)
+    return (J.T * M.inv()).applyfunc(lambda x: sp.factor(sp.simplify(x)))
 
 
 def average(mats: list[sp.Matrix]) -> sp.Matrix:
@@ -349,7 +349,7 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
         if options.damping is not None:
             sig = sp.sympify(ctx.expr("damping"))
             D = dls_inverse(Jt, sig)
-            dD = tidy(sp.factor(D.det()))
+            dD = sp.factor(sp.simplify(D.det()))
             add("J_t_dls", D, "matrix", label="J_t^{DLS}")
             add("det_J_t_dls", dD, "scalar", label="\\det J_t^{DLS}")
             data.update(dls=D, det_dls=dD, sigma=sig)
