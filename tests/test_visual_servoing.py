@@ -205,7 +205,38 @@ def test_user_errors():
         solve_problem(load_problem_text(spec("[1, 2, 3]", "    desired: [1, 2, 3]\n")))
 
 
-@pytest.mark.parametrize("name", ["2012-06-11-ex1", "2020-09-11-remote-ex2", "2018-07-11-ex3"])
+@pytest.mark.parametrize("name", ["2012-06-11-ex1", "2020-09-11-remote-ex2", "2018-07-11-ex3", "2017-05-29-final-ex2",
+                                  "2018-02-05-ex1"])
 def test_problems_verify(name):
     rep = check_problem(load_problem(PROBLEMS / f"{name}.yaml"))
     assert rep.ok, [c for c in rep.checks if not c.ok]
+
+
+def _eta_run(sign: float, k: float = 1.0, T: float = 0.5, steps: int = 500) -> tuple[float, float]:
+    """Free-flying camera, two points, q̇ = sign · J_η^# k η with J_η = −eᵀJ/η, J_η^# = −η Jᵀe/(eᵀJJᵀe)."""
+    P = np.array([[0.2, 0.1, 2.0], [-0.2, 0.15, 2.5]])
+    sd = np.array([0.15, 0.05, -0.1, 0.1])
+
+    def eta_and_twist(P):
+        uv = P[:, :2] / P[:, 2:3]
+        J = np.vstack([[[-1 / z, 0, u / z, u * v, -(1 + u * u), v], [0, -1 / z, v / z, 1 + v * v, -u * v, -u]]
+                       for (u, v), z in zip(uv, P[:, 2])])
+        e = sd - uv.reshape(-1)
+        eta = np.linalg.norm(e)
+        pinv = -eta * J.T @ e / (e @ J @ J.T @ e)
+        return eta, sign * k * eta * pinv
+
+    eta0, _ = eta_and_twist(P)
+    h = T / steps
+    for _ in range(steps):
+        _, tw = eta_and_twist(P)
+        P = P + h * (-tw[:3][None, :] - np.cross(tw[3:][None, :], P))
+    return eta0, eta_and_twist(P)[0]
+
+
+def test_norm_task_sign_by_simulation():
+    """The printed law q̇ = J_η^# k η (2018-02-05, eq. 9) makes ‖e‖ grow like e^{kt}; −J_η^# k η makes it decay."""
+    e0, e_printed = _eta_run(+1.0)
+    _, e_ours = _eta_run(-1.0)
+    assert e_printed > 1.5 * e0 and e_ours < 0.7 * e0
+    assert abs(e_ours / e0 - np.exp(-0.5)) < 0.02

@@ -185,6 +185,19 @@ def generic_rank(J: sp.Matrix, rng: random.Random, exclude: Optional[dict] = Non
     return best
 
 
+def _float_rank(M: sp.Matrix, rng: random.Random, tol: float = 1e-9) -> int:
+    """Rank at a random point of the symbols (floating point, singular values above tol·max(1, σ₁))."""
+    syms = sorted(M.free_symbols, key=str)
+    f = sp.lambdify(syms, M, "numpy")
+    best = 0
+    for _ in range(2):
+        args = [rng.uniform(0.3, 2.0) * (1 if s.is_positive else rng.choice((1, -1))) for s in syms]
+        A = np.array(f(*args), dtype=float)
+        if np.all(np.isfinite(A)):
+            best = max(best, numeric_rank(A, tol)[0])
+    return best
+
+
 def numeric_rank(A: np.ndarray, tol: float) -> tuple[int, np.ndarray]:
     """Rank from the singular values σ_i > tol·max(1, σ₁), and the singular values."""
     s = np.linalg.svd(A, compute_uv=False)
@@ -381,7 +394,7 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
     data.update(J=J, Jv=Jv, Jw=Jw, s=s, rank=r, rank_v=rv, rank_w=rw)
 
     # ---- null space
-    if J.rows <= 4 and len(J.free_symbols) <= 16:
+    if J.rows <= 2 or (J.rows <= 4 and len(J.free_symbols) <= 6):
         N = null_basis(J)
         if N:
             Nm = sp.Matrix.hstack(*N)
@@ -414,12 +427,22 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
         if options.norm:
             Jfull = J if Jm is None else J * Jm
             eta = sp.sqrt(sum((x ** 2 for x in e), sp.Integer(0)))
-            Jeta = -(e.T * Jfull) / eta
-            Jeta_pinv = -eta * Jfull.T * e / (e.T * Jfull * Jfull.T * e)[0, 0]
+            w = Jfull.T * e                      # Jᵀe
+            s2 = (w.T * w)[0, 0]                 # eᵀ J Jᵀ e
+            Jeta = -w.T / eta
+            Jeta_pinv = -eta * w / s2
             add("eta", eta, "scalar", label="\\eta")
             add("J_eta", Jeta, "matrix", label="J_\\eta")
             add("J_eta_pinv", Jeta_pinv, "vector", label="J_\\eta^\\#")
-            data.update(eta=eta, norm=True)
+            law_eta = k * Jeta_pinv * (0 - eta)  # the error on η is η_d − η = −η
+            add("law_eta", law_eta, "vector", label="\\dot q" if Jm is not None else "(V; \\Omega)")
+            # J_η J_η^# = (wᵀw)/s2 = 1 (the same expression), so η̇ = J_η q̇ = −kη exactly
+            add("eta_dot", -k * eta * ((w.T * w)[0, 0] / s2), "scalar", label="\\dot\\eta")
+            P = sp.eye(Jfull.cols) - w * w.T / s2
+            rP = _float_rank(P, rng)
+            add("P_eta", P, "matrix", label="P = I - J_\\eta^\\# J_\\eta")
+            add("rank_P", sp.Integer(rP), "number", label="\\operatorname{rank} P")
+            data.update(eta=eta, norm=True, rank_P=rP, n_q=Jfull.cols)
     # ---- numbers
     Jn = _num(J if Jm is None else J * Jm, vals) if (vals or not J.free_symbols) else None
     if Jn is not None:
