@@ -240,3 +240,17 @@ def test_norm_task_sign_by_simulation():
     _, e_ours = _eta_run(-1.0)
     assert e_printed > 1.5 * e0 and e_ours < 0.7 * e0
     assert abs(e_ours / e0 - np.exp(-0.5)) < 0.02
+
+
+def test_property_check_accepts_any_null_motion():
+    from solver.control.visual_servoing import _null_check
+    p = load_problem(PROBLEMS / "2012-06-11-ex1.yaml")
+    res = all_results(solve_problem(p))
+    u, v, Z, lam = (p.names[n] for n in ("u", "v", "Z", "lambda"))
+    ok = _null_check(p, res, "null_translation", sp.Matrix([2 * u, 2 * v, 2 * lam, 0, 0, 0]), lambda n: None, {})
+    assert ok is not None and ok.correct
+    bad = _null_check(p, res, "null_translation", sp.Matrix([u, -v, lam, 0, 0, 0]), lambda n: None, {})
+    assert bad is not None and not bad.correct
+    basis = res["null_motions_cleared"].value * sp.Matrix([[1, 1, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+    assert _null_check(p, res, "null_motions", basis, lambda n: None, {}).correct
+    assert not _null_check(p, res, "null_motions", basis[:, :3], lambda n: None, {}).correct

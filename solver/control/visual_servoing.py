@@ -25,7 +25,7 @@ import sympy as sp
 from pydantic import BaseModel, Field, model_validator
 
 from solver.math.simplify import tidy
-from solver.registry import ask_kind
+from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
 from solver.spec.expr import shape_of
@@ -550,3 +550,53 @@ def _simulation_figure(sol: Solution, problem, ctx, options: VisualServoingAsk, 
 
     sol.figures.append(Figure("image", "IBVS run: feature paths in the image plane (from the numbered initial "
                                        "points) and the error norm.", panels))
+
+
+# ------------------------------------------------------------------------------------------------ grading
+def _suffix_of(name: str, base: str) -> str:
+    return name[len(base):]
+
+
+def _null_check(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """Any camera motion (or basis of motions) with J x = 0 at random values of the symbols; a basis needs
+    dim N(J) independent columns; a pure translation/rotation needs the other block zero."""
+    base = next((b for b in ("null_motions_cleared", "null_motions", "null_translation", "null_rotation",
+                             "null_axis_motion") if name.startswith(b)), None)
+    if base is None:
+        return None
+    J = results.get("J_s" + _suffix_of(name, base))
+    if J is None:
+        return None
+    try:
+        X = sp.Matrix(value)
+        if X.shape[0] != 6 and X.shape[1] == 6:
+            X = X.T
+        if X.shape[0] != 6:
+            return PropertyVerdict(False, 0.0, ["a camera motion has 6 components (V; Ω)"])
+        syms = sorted((J.value.free_symbols | X.free_symbols), key=str)
+        rng = random.Random(11)
+        sub = {s: sp.Rational(rng.randint(2, 60), rng.randint(2, 9)) for s in syms}
+        R = (J.value * X).subs(sub).evalf(30)
+        Xn = X.subs(sub).evalf(30)
+        scale = max(1.0, max(abs(float(x)) for x in Xn))
+        if max(abs(float(x)) for x in R) > 1e-12 * scale:
+            return PropertyVerdict(False, 0.0, ["J (V; Ω) ≠ 0: the features move"])
+        rank = np.linalg.matrix_rank(np.array(Xn.tolist(), dtype=float), tol=1e-9 * scale)
+    except (TypeError, ValueError, AttributeError, sp.ShapeError):
+        return None
+    if base.startswith("null_motions"):
+        need = int(results["dim_null" + _suffix_of(name, base)].value)
+        if rank < need:
+            return PropertyVerdict(False, 0.5, [f"null motions, but only {rank} independent of {need}"])
+        return PropertyVerdict(True, 1.0, ["a basis of the null space of J"])
+    if rank == 0:
+        return PropertyVerdict(False, 0.0, ["the zero motion"])
+    if base == "null_translation" and any(x != 0 for x in Xn[3:]):
+        return PropertyVerdict(False, 0.5, ["leaves the features still but is not a pure translation"])
+    if base == "null_rotation" and any(x != 0 for x in Xn[:3]):
+        return PropertyVerdict(False, 0.5, ["leaves the features still but is not a pure rotation"])
+    return PropertyVerdict(True, 1.0, ["J (V; Ω) = 0: the features stay still"])
+
+
+for _b in ("null_motions", "null_motions_cleared", "null_translation", "null_rotation", "null_axis_motion"):
+    property_check(*[_b + s for s in ("", "_origin", "_cart", "_1", "_2")])(_null_check)
