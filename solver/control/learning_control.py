@@ -151,12 +151,12 @@ def solve_learning_control(problem, options: LearningControlAsk, ctx) -> Solutio
 
     def panels() -> list[Panel]:
         ks = list(range(len(errs)))
-        ys = [max(v, 1e-300) for v in errs]
-        curves = [Curve("$\\|e_k\\|$", ks, ys)]
+        lg = lambda v: math.log10(max(v, 1e-300))  # noqa: E731
+        curves = [Curve("$\\log_{10}\\|e_k\\|$", ks, [lg(v) for v in errs])]
         if nrm < 1:
-            curves.append(Curve("$\\|I-GL\\|^k\\|e_0\\|$", ks, [e0 * nrm ** k for k in ks], dashed=True))
-        hl = [(data["eps"], "$\\varepsilon$")] if data["eps"] else []
-        return [Panel("iteration $k$", "$\\|e_k\\|$", curves, hlines=hl)]
+            curves.append(Curve("bound $\\|I-GL\\|^k\\|e_0\\|$", ks, [lg(e0 * nrm ** k) for k in ks], dashed=True))
+        hl = [(lg(data["eps"]), "$\\varepsilon$")] if data["eps"] else []
+        return [Panel("iteration $k$", "$\\log_{10}\\|e_k\\|$", curves, hlines=hl)]
 
-    sol.figures.append(Figure("ilc", "Tracking error norm at each trial (and its geometric bound).", panels))
+    sol.figures.append(Figure("ilc", "Tracking error norm at each trial, log scale (and its geometric bound when monotone).", panels))
     return sol
