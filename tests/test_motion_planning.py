@@ -1,0 +1,147 @@
+"""The `motion_planning` ask: A* against Dijkstra on random grids and graphs, the expansions, potential-field
+equilibria as zeros of the field, the law's Lyapunov derivative, and the encoded problem."""
+import math
+import random
+
+import numpy as np
+import pytest
+import sympy as sp
+from conftest import PROBLEMS
+
+from solver.planning.motion_planning import astar, dijkstra, field_zeros, grid_graph
+from solver.publish.render import render
+from solver.solve import all_results, solve_problem
+from solver.spec import load_problem, load_problem_text
+from solver.spec.errors import UserError
+from solver.verify import check_problem
+
+
+def random_grid(rng: random.Random, rows: int, cols: int, p: float) -> list[str]:
+    g = [["#" if rng.random() < p else "." for _ in range(cols)] for _ in range(rows)]
+    g[0][0], g[rows - 1][cols - 1] = "S", "G"
+    return ["".join(r) for r in g]
+
+
+@pytest.mark.parametrize("seed", range(12))
+@pytest.mark.parametrize("conn", [4, 8])
+def test_astar_is_optimal_on_random_grids(seed, conn):
+    rng = random.Random(seed)
+    rows = random_grid(rng, 9, 11, 0.28)
+    nb, pos, s, g = grid_graph(rows, conn)
+    gx, gy = pos[g]
+    h = {k: math.hypot(pos[k][0] - gx, pos[k][1] - gy) for k in nb}
+    path, cost, steps = astar(nb, s, g, h)
+    dist = dijkstra(nb, s)
+    if g not in dist:
+        assert path is None
+        return
+    assert cost == pytest.approx(dist[g], abs=1e-9)
+    # the path is a chain of edges whose weights add up to the cost
+    w = sum(dict(nb[a])[b] for a, b in zip(path, path[1:]))
+    assert w == pytest.approx(cost) and path[0] == s and path[-1] == g
+    # with the zero heuristic (Dijkstra order) at least as many expansions
+    _, c0, steps0 = astar(nb, s, g, {k: 0.0 for k in nb})
+    assert c0 == pytest.approx(cost) and len(steps0) >= len(steps)
+
+
+def test_astar_on_random_graphs_with_consistent_heuristic():
+    rng = random.Random(4)
+    for _ in range(20):
+        n = 15
+        pos = {str(i): (rng.uniform(0, 10), rng.uniform(0, 10)) for i in range(n)}
+        nb = {k: [] for k in pos}
+        for i in range(n):
+            for j in range(i + 1, n):
+                if rng.random() < 0.25:
+                    w = math.dist(pos[str(i)], pos[str(j)]) * rng.uniform(1, 1.5)
+                    nb[str(i)].append((str(j), w))
+                    nb[str(j)].append((str(i), w))
+        h = {k: math.dist(pos[k], pos["14"]) for k in pos}
+        path, cost, _ = astar(nb, "0", "14", h)
+        d = dijkstra(nb, "0")
+        assert (path is None) == ("14" not in d)
+        if path:
+            assert cost == pytest.approx(d["14"])
+
+
+GRAPH = """
+id: t
+title: A*
+asks:
+  - kind: motion_planning
+    method: astar
+    graph:
+      nodes: {A: [0, 0], B: [1, 0], C: [1, 1], D: [2, 1]}
+      edges: [[A, B, 1], [B, D, 5], [A, C, 2], [C, D, 1], [B, C]]
+    start: A
+    target: D
+"""
+
+
+def test_astar_spec_expansions_and_report():
+    p = load_problem_text(GRAPH)
+    sols = solve_problem(p)
+    res = all_results(sols)
+    assert res["cost"].value == 3 and res["path_found"].value is True
+    steps = sols[0].steps[0].data["steps"]
+    assert [s["node"] for s in steps][0] == "A" and steps[-1]["node"] == "D"
+    fs = [s["f"] for s in steps]
+    assert all(b >= a - 1e-12 for a, b in zip(fs, fs[1:]))  # consistent heuristic: f never decreases
+    md, tex = render(p, sols, "md"), render(p, sols, "tex")
+    assert "A → C → D" in md and "\\begin{tabular}" in tex
+
+
+def test_astar_errors():
+    with pytest.raises(UserError):
+        solve_problem(load_problem_text(GRAPH.replace("target: D", "target: Z")))
+
+
+POT = """
+id: t
+title: potential
+symbols: {a: obstacle x, b: obstacle y, r0: range, kr: repulsive gain, ka: attractive gain, kd: damping}
+values: {a: 1, b: 0.6, r0: 1.5, kr: 0.5, ka: 1, kd: 2}
+robot:
+  joints: [P, P]
+  coordinates: [x, y]
+  model: {B: [[2, 0], [0, 2]]}
+asks:
+  - kind: motion_planning
+    method: potential
+    goal: [2, 1]
+    gain: ka
+    damping: kd
+    obstacles:
+      - {clearance: sqrt((x - a)^2 + (y - b)^2), range: r0, gain: kr}
+    range: {x: [-1, 3], y: [-1, 3]}
+"""
+
+
+def test_potential_equilibria_are_zeros_of_the_field():
+    p = load_problem_text(POT)
+    res = all_results(solve_problem(p))
+    x, y = p.robot.q
+    vals = p.values
+    G = res["grad_rep1"].value.xreplace(vals)
+    eta = sp.sqrt((x - 1) ** 2 + (y - sp.Rational(3, 5)) ** 2)
+    eqs = res["equilibria_at"].value
+    assert eqs, "the goal at least"
+    for e in eqs:
+        sub = {x: e[0], y: e[1]}
+        F = sp.Matrix([2 - x, 1 - y]) - (G if float(eta.subs(sub)) < 1.5 else sp.zeros(2, 1))
+        assert max(abs(float(v)) for v in F.subs(sub)) < 1e-7
+    # the goal lies in the obstacle's range: the equilibrium is displaced away from the obstacle
+    assert not any(abs(float(e[0]) - 2) < 1e-6 and abs(float(e[1]) - 1) < 1e-6 for e in eqs)
+    # V̇ = −K_D ‖q̇‖² exactly
+    dx, dy = p.robot.dq
+    assert sp.simplify(res["V_dot"].value + p.names["kd"] * (dx ** 2 + dy ** 2)) == 0
+
+
+def test_field_zeros_1d():
+    zs = field_zeros(lambda z: np.array([(z[0] - 0.3) * (z[0] + 1.2)]), np.array([-2.0]), np.array([2.0]))
+    assert sorted(round(float(z[0]), 9) for z in zs) == [-1.2, 0.3]
+
+
+def test_problem_verifies():
+    rep = check_problem(load_problem(PROBLEMS / "2005-04-05-ex2.yaml"))
+    assert rep.ok, [c for c in rep.checks if not c.ok]

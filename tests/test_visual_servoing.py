@@ -1,0 +1,256 @@
+"""The `visual_servoing` ask: interaction matrices against finite differences of the projection (Cartesian and
+polar, several points and depths, averages), null-space motions that leave the features still, numeric rank with
+a tolerance, the IBVS law and its simulation, and the encoded exam problems."""
+import random
+
+import numpy as np
+import pytest
+import sympy as sp
+from conftest import PROBLEMS
+
+from solver.control.visual_servoing import (cleared, content_free, point_matrix, polar_matrix, simulate_ibvs)
+from solver.publish.render import render
+from solver.solve import all_results, solve_problem
+from solver.spec import load_problem, load_problem_text
+from solver.spec.errors import UserError
+from solver.verify import check_problem
+
+LAM = 0.8
+
+
+def project(P: np.ndarray, lam: float = LAM) -> np.ndarray:
+    return lam * P[:2] / P[2]
+
+
+def moved(P: np.ndarray, tw: np.ndarray, h: float) -> np.ndarray:
+    """P after the camera moved with twist tw for time h (to first order: Ṗ = −V − Ω × P, exact up to O(h²))."""
+    return P + h * (-tw[:3] - np.cross(tw[3:], P))
+
+
+def fd_feature_rate(P: np.ndarray, tw: np.ndarray, feat, h: float = 1e-6) -> np.ndarray:
+    return (feat(moved(P, tw, h)) - feat(moved(P, tw, -h))) / (2 * h)
+
+
+def num(M) -> np.ndarray:
+    return np.array(sp.Matrix(M).evalf(20).tolist(), dtype=float)
+
+
+U, V, Z, L, R, T = sp.symbols("u v Z lambda rho theta", real=True)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_point_matrix_matches_finite_differences(seed):
+    rng = np.random.default_rng(seed)
+    P = np.array([rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(0.5, 4)])
+    u, v = project(P)
+    J = num(point_matrix(sp.Float(u), sp.Float(v), sp.Float(P[2]), sp.Float(LAM)))
+    for _ in range(3):
+        tw = rng.normal(size=6)
+        assert np.allclose(J @ tw, fd_feature_rate(P, tw, project), atol=1e-6)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_polar_matrix_matches_finite_differences(seed):
+    rng = np.random.default_rng(10 + seed)
+    P = np.array([rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(0.5, 4)])
+
+    def polar(Q):
+        u, v = project(Q)
+        return np.array([np.hypot(u, v), np.arctan2(v, u)])
+
+    rho, th = polar(P)
+    J = num(polar_matrix(sp.Float(rho), sp.Float(th), sp.Float(P[2]), sp.Float(LAM)))
+    tw = rng.normal(size=6)
+    assert np.allclose(J @ tw, fd_feature_rate(P, tw, polar), atol=1e-6)
+
+
+def test_polar_matrix_symbolic_form():
+    """J_polar = J_t⁻¹ J_p: the decoupled entries (V_z only on ρ̇, Ω_z only on θ̇)."""
+    J = polar_matrix(R, T, Z, L)
+    assert sp.simplify(J[0, 5]) == 0 and sp.simplify(J[1, 2]) == 0 and sp.simplify(J[1, 5] + 1) == 0
+    assert sp.simplify(J[0, 2] - R / Z) == 0
+
+
+def spec(points: str, extra: str = "", symbols: str = "") -> str:
+    return f"""
+id: t
+title: vs
+symbols:
+  lambda: focal length
+{symbols}
+asks:
+  - kind: visual_servoing
+    points: {points}
+{extra}"""
+
+
+SYM3 = "".join(f"  u{i}: {{meaning: u, sign: real}}\n  v{i}: {{meaning: v, sign: real}}\n  Z{i}: depth\n"
+               for i in range(1, 4))
+
+
+@pytest.mark.parametrize("feature", ["points", "average"])
+def test_stacked_and_average_match_finite_differences(feature):
+    rng = np.random.default_rng(3)
+    Ps = [np.array([rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(0.5, 4)]) for _ in range(3)]
+    pts = [[*project(P), P[2]] for P in Ps]
+    text = spec(str([[float(x) for x in p] for p in pts]), f"    feature: {feature}\n") + f"values: {{lambda: {LAM}}}\n"
+    res = all_results(solve_problem(load_problem_text(text)))
+    J = num(res["J_s"].value.subs(sp.Symbol("lambda", positive=True), LAM))
+
+    def feat(Qs):
+        f = np.array([project(Q) for Q in Qs])
+        return f.mean(0) if feature == "average" else f.reshape(-1)
+
+    tw = rng.normal(size=6)
+    h = 1e-6
+    fd = (feat([moved(P, tw, h) for P in Ps]) - feat([moved(P, tw, -h) for P in Ps])) / (2 * h)
+    assert np.allclose(J @ tw, fd, atol=1e-6)
+
+
+def test_null_motions_leave_features_still():
+    """Every null-space motion (basis and special ones) gives J x = 0 exactly, symbolic, for 1 point and for the
+    average of 3 points; moving the 3D point along them keeps the projection still (finite differences)."""
+    for points, feature, syms in (("[u1, v1, Z1]", "points", SYM3), ("[[u1, v1, Z1], [u2, v2, Z2], [u3, v3, Z3]]",
+                                                                      "average", SYM3)):
+        res = all_results(solve_problem(load_problem_text(spec(points, f"    feature: {feature}\n", syms))))
+        J = res["J_s"].value
+        names = ["null_translation", "null_rotation", "null_axis_motion"]
+        for name in names:
+            if name in res:
+                assert (J * res[name].value).applyfunc(sp.simplify) == sp.zeros(2, 1), name
+        for M in ("null_motions", "null_motions_cleared"):
+            if M in res:
+                assert (J * res[M].value).applyfunc(sp.simplify) == sp.zeros(2, res[M].value.shape[1])
+        assert res["dim_null"].value == 4
+    # numeric: the single point moved along each basis motion
+    rng = np.random.default_rng(5)
+    P = np.array([0.3, -0.4, 2.0])
+    u, v = project(P)
+    sub = {sp.Symbol("u1", real=True): u, sp.Symbol("v1", real=True): v, sp.Symbol("Z1", positive=True): P[2],
+           sp.Symbol("lambda", positive=True): LAM}
+    res = all_results(solve_problem(load_problem_text(spec("[u1, v1, Z1]", "", SYM3))))
+    N = num(res["null_motions"].value.subs(sub))
+    for j in range(N.shape[1]):
+        assert np.allclose(fd_feature_rate(P, N[:, j], project), 0, atol=1e-6)
+    bad = rng.normal(size=6)
+    assert not np.allclose(fd_feature_rate(P, bad, project), 0, atol=1e-3)  # the test can fail
+
+
+def test_cleared_and_content_free():
+    x = sp.Matrix([U / L, V / L, 1])
+    assert cleared(x) == sp.Matrix([U, V, L])
+    assert cleared(-x) == sp.Matrix([U, V, L])
+    assert content_free(sp.Matrix([U / Z, V / Z, L / Z])) == sp.Matrix([U, V, L])
+
+
+def test_numeric_rank_with_tolerance_and_singular_configuration():
+    """Three collinear points, one of them at the center: fine; two coincident points: rank 4 < 6 (singular)."""
+    good = "[[0.1, 0.2, 1], [-0.2, 0.1, 2], [0.15, -0.3, 1.5]]"
+    res = all_results(solve_problem(load_problem_text(spec(good, "", "") + "values: {lambda: 1}\n")))
+    assert res["rank_at"].value == 6 and res["singular_at"].value is False
+    same = "[[0.1, 0.2, 1], [0.1, 0.2, 1], [0.3, -0.1, 2]]"
+    res = all_results(solve_problem(load_problem_text(spec(same, "", "") + "values: {lambda: 1}\n")))
+    assert res["rank_at"].value == 4 and res["singular_at"].value is True and res["cond_at"].value == sp.oo
+    # a nearly coincident point: rank 6 with a tight tolerance, 4 with a loose one (two small σ)
+    near = "[[0.1, 0.2, 1], [0.1000001, 0.2, 1], [0.3, -0.1, 2]]"
+    r_t = all_results(solve_problem(load_problem_text(spec(near, "    tol: 1e-12\n", "") + "values: {lambda: 1}\n")))
+    r_l = all_results(solve_problem(load_problem_text(spec(near, "    tol: 1e-4\n", "") + "values: {lambda: 1}\n")))
+    assert r_t["rank_at"].value == 6 and r_l["rank_at"].value == 4
+
+
+def test_ibvs_simulation_converges():
+    rng = np.random.default_rng(1)
+    P0 = np.array([[0.3, 0.2, 2.0], [-0.3, 0.25, 2.2], [0.0, -0.3, 1.8], [0.25, -0.2, 2.1]])
+    # desired: the image of the same points seen from a slightly displaced camera
+    shift = np.array([0.1, -0.05, -0.3])
+    sd = np.array([project(P - shift, 1.0) for P in P0]).reshape(-1)
+    res = simulate_ibvs(P0, sd, 1.0, 1.0, 8.0, 800, False, "true")
+    assert res["err"][-1] < 1e-3 * res["err"][0]
+    assert np.all(np.diff(res["err"]) <= 1e-9)  # ė = −k e: the error norm decreases monotonically
+    del rng
+
+
+def test_law_with_robot_and_norm_task():
+    text = spec("[[u1, v1, Z1], [u2, v2, Z2]]", """    desired: [u1d, v1d, u2d, v2d]
+    norm: true
+    robot_jacobian: [[1, 0], [0, 1], [0, 0], [0, 0], [0, 0], [1, 1]]
+""", SYM3 + "".join(f"  {n}: {{meaning: desired, sign: real}}\n" for n in ("u1d", "v1d", "u2d", "v2d")))
+    res = all_results(solve_problem(load_problem_text(text)))
+    Jeta, Jp = res["J_eta"].value, res["J_eta_pinv"].value
+    assert Jeta.shape == (1, 2) and Jp.shape == (2, 1)
+    rng = random.Random(2)
+    sub = {s: sp.Rational(rng.randint(1, 9), rng.randint(1, 5)) for s in (Jeta.free_symbols | Jp.free_symbols)}
+    assert sp.simplify((Jeta * Jp).subs(sub)[0, 0] - 1) == 0
+
+
+def test_report_and_simulation_figure(tmp_path):
+    text = spec("[[0.2, 0.1, 2], [-0.2, 0.15, 2], [0.0, -0.2, 2]]", """    desired: [0.25, 0.15, -0.25, 0.2, 0.0, -0.25]
+    gain: 2
+    simulate: {time: 3, steps: 300}
+""") + "values: {lambda: 1}\n"
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    md, tex = render(p, sols, "md"), render(p, sols, "tex")
+    assert "IBVS law" in md and "\\textbf{IBVS law.}" in tex
+    res = all_results(sols)
+    assert res["law_at"].value.shape == (6, 1)
+    panels = sols[0].figures[0].panels
+    assert len(panels) == 2 and panels[1].curves[0].y[-1] < 0.05 * panels[1].curves[0].y[0]
+
+
+def test_user_errors():
+    with pytest.raises(UserError):
+        solve_problem(load_problem_text(spec("[[1, 2], [3, 4]]")))
+    with pytest.raises(UserError):
+        solve_problem(load_problem_text(spec("[1, 2, 3]", "    desired: [1, 2, 3]\n")))
+
+
+@pytest.mark.parametrize("name", ["2012-06-11-ex1", "2020-09-11-remote-ex2", "2018-07-11-ex3", "2017-05-29-final-ex2",
+                                  "2018-02-05-ex1"])
+def test_problems_verify(name):
+    rep = check_problem(load_problem(PROBLEMS / f"{name}.yaml"))
+    assert rep.ok, [c for c in rep.checks if not c.ok]
+
+
+def _eta_run(sign: float, k: float = 1.0, T: float = 0.5, steps: int = 500) -> tuple[float, float]:
+    """Free-flying camera, two points, q̇ = sign · J_η^# k η with J_η = −eᵀJ/η, J_η^# = −η Jᵀe/(eᵀJJᵀe)."""
+    P = np.array([[0.2, 0.1, 2.0], [-0.2, 0.15, 2.5]])
+    sd = np.array([0.15, 0.05, -0.1, 0.1])
+
+    def eta_and_twist(P):
+        uv = P[:, :2] / P[:, 2:3]
+        J = np.vstack([[[-1 / z, 0, u / z, u * v, -(1 + u * u), v], [0, -1 / z, v / z, 1 + v * v, -u * v, -u]]
+                       for (u, v), z in zip(uv, P[:, 2])])
+        e = sd - uv.reshape(-1)
+        eta = np.linalg.norm(e)
+        pinv = -eta * J.T @ e / (e @ J @ J.T @ e)
+        return eta, sign * k * eta * pinv
+
+    eta0, _ = eta_and_twist(P)
+    h = T / steps
+    for _ in range(steps):
+        _, tw = eta_and_twist(P)
+        P = P + h * (-tw[:3][None, :] - np.cross(tw[3:][None, :], P))
+    return eta0, eta_and_twist(P)[0]
+
+
+def test_norm_task_sign_by_simulation():
+    """The printed law q̇ = J_η^# k η (2018-02-05, eq. 9) makes ‖e‖ grow like e^{kt}; −J_η^# k η makes it decay."""
+    e0, e_printed = _eta_run(+1.0)
+    _, e_ours = _eta_run(-1.0)
+    assert e_printed > 1.5 * e0 and e_ours < 0.7 * e0
+    assert abs(e_ours / e0 - np.exp(-0.5)) < 0.02
+
+
+def test_property_check_accepts_any_null_motion():
+    from solver.control.visual_servoing import _null_check
+    p = load_problem(PROBLEMS / "2012-06-11-ex1.yaml")
+    res = all_results(solve_problem(p))
+    u, v, Z, lam = (p.names[n] for n in ("u", "v", "Z", "lambda"))
+    ok = _null_check(p, res, "null_translation", sp.Matrix([2 * u, 2 * v, 2 * lam, 0, 0, 0]), lambda n: None, {})
+    assert ok is not None and ok.correct
+    bad = _null_check(p, res, "null_translation", sp.Matrix([u, -v, lam, 0, 0, 0]), lambda n: None, {})
+    assert bad is not None and not bad.correct
+    basis = res["null_motions_cleared"].value * sp.Matrix([[1, 1, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+    assert _null_check(p, res, "null_motions", basis, lambda n: None, {}).correct
+    assert not _null_check(p, res, "null_motions", basis[:, :3], lambda n: None, {}).correct
