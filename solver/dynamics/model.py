@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal, Optional, Union
 
 import sympy as sp
@@ -183,6 +184,30 @@ def model_row(dm: DynamicModel, robot: Robot, i: int) -> list[sp.Expr]:
     return terms
 
 
+class ModelView:
+    """The model's terms in the order a report prints them, computed when a template first asks: per body the
+    velocity components, ‖v_c‖² and 2T_i as velocity terms (``vc``, ``v2``, ``T2``), the rows of the model."""
+
+    def __init__(self, dm: DynamicModel, robot: Robot) -> None:
+        self.dm, self.robot = dm, robot
+
+    @cached_property
+    def vc(self) -> list[list[list[sp.Expr]]]:
+        return [[velocity_terms(x, self.robot.dq) for x in e.vc] for e in self.dm.bodies]
+
+    @cached_property
+    def v2(self) -> list[list[sp.Expr]]:
+        return [velocity_terms(e.v2, self.robot.dq) for e in self.dm.bodies]
+
+    @cached_property
+    def T2(self) -> list[list[sp.Expr]]:
+        return [velocity_terms(2 * e.T, self.robot.dq) for e in self.dm.bodies]
+
+    @cached_property
+    def rows(self) -> list[list[sp.Expr]]:
+        return [model_row(self.dm, self.robot, i) for i in range(self.robot.n)]
+
+
 # ------------------------------------------------------------------------------------------------
 class DynamicModelAsk(Strict):
     """Derive the Euler-Lagrange dynamic model."""
@@ -206,14 +231,15 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
     dm = derive(robot)
     sol = Solution("dynamic_model", title=options.title or "Dynamic model")
     for i, e in enumerate(dm.bodies, 1):
-        sol.add(f"pc{i}", e.pc, label=f"p_{{c{i}}}")
-        sol.add(f"vc{i}", e.vc, label=f"v_{{c{i}}}")
-        sol.add(f"w{i}", e.omega, label=f"\\omega_{{{i}}}")  # in the frame of the body's inertia
+        sol.add(f"pc{i}", e.pc, label=f"p_{{c{i}}}", detail=True)
+        sol.add(f"vc{i}", e.vc, label=f"v_{{c{i}}}", detail=True)
+        sol.add(f"w{i}", e.omega, label=f"\\omega_{{{i}}}", detail=True)  # in the frame of the body's inertia
         if e.body.omega_frame == "link" and e.body.rotation is not None:  # also in the base frame: ⁰ω = ⁰R ω
-            sol.add(f"w{i}_0", (e.body.rotation * e.omega).applyfunc(tidy), label=f"{{}}^0\\omega_{{{i}}}")
-        sol.add(f"T{i}", e.T, "scalar", label=f"T_{{{i}}}")
+            sol.add(f"w{i}_0", (e.body.rotation * e.omega).applyfunc(tidy), label=f"{{}}^0\\omega_{{{i}}}",
+                    detail=True)
+        sol.add(f"T{i}", e.T, "scalar", label=f"T_{{{i}}}", detail=True)
         if e.U is not None:
-            sol.add(f"U{i}", e.U, "scalar", label=f"U_{{{i}}}")
+            sol.add(f"U{i}", e.U, "scalar", label=f"U_{{{i}}}", detail=True)
     sol.add("T", dm.T, "scalar", label="T")
     sol.add("B", dm.B, "matrix", label="B(q)")
     if dm.C is not None:
@@ -226,14 +252,7 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
         sol.add("U", dm.U, "scalar", label="U")
     sol.add("g", dm.g, "vector", label="g(q)")
     sol.add("model", dm.lhs, "vector", label="B(q)\\ddot q + c(q,\\dot q) + g(q)")
-    v = robot.dq
-    view = {
-        "vc": [[velocity_terms(x, v) for x in e.vc] for e in dm.bodies],
-        "v2": [velocity_terms(e.v2, v) for e in dm.bodies],
-        "T2": [velocity_terms(2 * e.T, v) for e in dm.bodies],
-        "rows": [model_row(dm, robot, i) for i in range(robot.n)],
-    }
-    sol.step("model", dm=dm, show=options.show, robot=robot, view=view)
+    sol.step("model", dm=dm, show=options.show, robot=robot, view=ModelView(dm, robot))
     if options.at:
         state = {}
         for name in options.at:

@@ -351,10 +351,11 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
 
 
 def render(problem: Problem, solutions: list[Solution], fmt: str, fragment: bool = False,
-           template_dir: Path | None = None, assets: dict[str, str] | None = None) -> str:
-    """The report of ``problem`` in ``fmt`` (md | tex | json)."""
+           template_dir: Path | None = None, assets: dict[str, str] | None = None, details: bool = False) -> str:
+    """The report of ``problem`` in ``fmt`` (md | tex | json); ``details``: JSON with the intermediate results
+    (per-body quantities) and the steps' expressions."""
     if fmt == "json":
-        return json.dumps(to_json(problem, solutions), indent=2, ensure_ascii=False) + "\n"
+        return json.dumps(to_json(problem, solutions, details), indent=2, ensure_ascii=False) + "\n"
     env = _env(fmt, template_dir, problem.latex_names, ranks(problem))
     page = env.get_template(f"page.{fmt}.j2")
     return page.render(problem=problem, solutions=solutions, fragment=fragment, assets=assets or {},
@@ -413,29 +414,69 @@ def result_json(r: Result, latex: Latex) -> dict[str, Any]:
     return out
 
 
-def _plain(obj: Any, latex: Latex) -> Any:
-    if isinstance(obj, sp.Basic) or isinstance(obj, sp.MatrixBase):
-        return {"expr": str(obj), "latex": latex(obj)}
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: _plain(getattr(obj, f.name), latex) for f in dataclasses.fields(obj)}
-    if isinstance(obj, dict):
-        return {str(k): _plain(v, latex) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v, latex) for v in obj]
-    if isinstance(obj, (str, int, float, bool)) or obj is None:
-        return obj
-    return str(obj)
+class _Steps:
+    """Step data to JSON, each expression written once: a value that is a result of the report is written as
+    {"result": NAME}, other sympy values (with ``details`` only) as {"expr", "latex"}, once per object."""
+
+    def __init__(self, latex: Latex, refs: dict[int, str], details: bool) -> None:
+        self.latex, self.refs, self.details = latex, refs, details
+        self.seen: dict[int, Any] = {}
+
+    def __call__(self, obj: Any) -> Any:
+        if id(obj) in self.refs and _referable(obj):
+            return {"result": self.refs[id(obj)]}
+        if isinstance(obj, (str, int, float, bool)) or obj is None:
+            return obj
+        if not self.details:  # only references to results and plain data
+            if isinstance(obj, (list, tuple)) and all(isinstance(v, (str, int, float, bool)) for v in obj):
+                return list(obj)
+            return _SKIP
+        if isinstance(obj, (sp.Basic, sp.MatrixBase)):
+            if id(obj) not in self.seen:
+                self.seen[id(obj)] = {"expr": str(obj), "latex": self.latex(obj)}
+            return self.seen[id(obj)]
+        if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+            return self._dict({f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)})
+        if isinstance(obj, dict):
+            return self._dict(obj)
+        if isinstance(obj, (list, tuple)):
+            return [x for x in (self(v) for v in obj) if x is not _SKIP]
+        if type(obj).__str__ is object.__str__ and type(obj).__repr__ is object.__repr__:
+            return _SKIP  # a helper object (a template's lazy view): nothing readable to write
+        return str(obj)
+
+    def _dict(self, d: dict) -> dict:
+        out = {str(k): self(v) for k, v in d.items()}
+        return {k: v for k, v in out.items() if v is not _SKIP}
 
 
-def to_json(problem: Problem, solutions: list[Solution]) -> dict[str, Any]:
-    """{"id", "title", "results": {NAME: {kind, expr, latex, value?}}, "steps": [...]}."""
+_SKIP = object()
+
+
+def _referable(value: Any) -> bool:
+    """A value written by reference when it is a result: a matrix, a list or a compound expression (atoms such
+    as 0 are shared objects in sympy)."""
+    return isinstance(value, (sp.MatrixBase, list, tuple)) or (isinstance(value, sp.Basic) and not value.is_Atom)
+
+
+def to_json(problem: Problem, solutions: list[Solution], details: bool = False) -> dict[str, Any]:
+    """{"id", "title", "results": {NAME: {kind, expr, latex, value?}}, "steps": [{ask, step, data}]}: the results
+    of the asks, each printed once as text and LaTeX; intermediate results (``Result.detail``: per-body energies,
+    ...) and the steps' own expressions only with ``details``. Step data refer to results by name."""
     latex = Latex(problem.latex_names, ranks(problem))
     results: dict[str, Any] = {}
-    steps: list[Any] = []
+    refs: dict[int, str] = {}
     for sol in solutions:
         for name, r in sol.results.items():
+            if r.detail and not details:
+                continue
             results[name] = result_json(r, latex)
+            if _referable(r.value):
+                refs[id(r.value)] = name
+    plain = _Steps(latex, refs, details)
+    steps: list[Any] = []
+    for sol in solutions:
         for st in sol.steps:
-            data = {k: v for k, v in st.data.items() if k not in ("robot",)}
-            steps.append({"ask": sol.kind, "step": st.name, "data": _plain(data, latex)})
+            data = plain._dict({k: v for k, v in st.data.items() if k not in ("robot",)})
+            steps.append({"ask": sol.kind, "step": st.name, "data": data})
     return {"id": problem.id, "title": problem.title, "results": results, "steps": steps}
