@@ -140,7 +140,12 @@ def require_model(problem) -> Robot:  # type: ignore[no-untyped-def]
 
 
 def derive(robot: Robot) -> DynamicModel:
-    """The full Lagrangian model of ``robot``."""
+    """The full Lagrangian model of ``robot``: in the canonical trigonometric-polynomial form throughout when the
+    robot's data allow (solver.dynamics.canonical), else entry by entry with :func:`tidy`."""
+    from solver.dynamics.canonical import derive_canonical
+    fast = derive_canonical(robot)
+    if fast is not None:
+        return fast
     n, q, dq = robot.n, robot.q, robot.dq
     energies = [body_energy(b, robot) for b in robot.bodies]
     T_extra = tidy(sum(robot.kinetic_extra, sp.Integer(0)))
@@ -182,6 +187,51 @@ def model_row(dm: DynamicModel, robot: Robot, i: int) -> list[sp.Expr]:
     if dm.Fv is not None:
         terms += [dm.Fv[i, j] * robot.dq[j] for j in range(robot.n) if dm.Fv[i, j] != 0]
     return terms
+
+
+LARGE_MODEL = 6000  # nodes of B past which the report writes the model with abbreviations (SYMORO-style)
+
+
+def _nodes(m: sp.Matrix, limit: int) -> int:
+    count = 0
+    for x in m:
+        for _ in sp.preorder_traversal(x):
+            count += 1
+            if count > limit:
+                return count
+    return count
+
+
+def abbreviate(values: dict[str, sp.Matrix], coordinates: set[sp.Symbol]) -> dict:
+    """The customized model of a large robot (as SYMORO writes it): each sum of parameters only (no q, q̇, q̈)
+    inside ``values`` becomes K_j, defined once; {"defs": [(K_j, sum)], name: value with the K_j}."""
+    defs: dict[sp.Expr, sp.Symbol] = {}
+    memo: dict[sp.Expr, sp.Expr] = {}
+
+    def rep(e: sp.Expr) -> sp.Expr:
+        if e.is_Atom:
+            return e
+        hit = memo.get(e)
+        if hit is not None:
+            return hit
+        if e.is_Add and not (e.free_symbols & coordinates):
+            if -e in defs:
+                out = -defs[-e]
+            else:
+                out = defs.setdefault(e, sp.Symbol(f"K_{{{len(defs) + 1}}}"))
+        elif e.is_Add:  # the terms free of coordinates as one K_j, the others term by term
+            free = [a for a in e.args if not (a.free_symbols & coordinates)]
+            rest = [rep(a) for a in e.args if a.free_symbols & coordinates]
+            out = sp.Add(rep(sp.Add(*free)) if len(free) > 1 else sp.Add(*free), *rest)
+        else:
+            out = e.func(*[rep(a) for a in e.args])
+        memo[e] = out
+        return out
+
+    out: dict = {name: (v.applyfunc(rep) if isinstance(v, sp.MatrixBase) else [m.applyfunc(rep) for m in v])
+                 for name, v in values.items() if v is not None}
+    out["defs"] = [(k, e) for e, k in defs.items()]
+    return out
 
 
 class ModelView:
@@ -252,7 +302,10 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
         sol.add("U", dm.U, "scalar", label="U")
     sol.add("g", dm.g, "vector", label="g(q)")
     sol.add("model", dm.lhs, "vector", label="B(q)\\ddot q + c(q,\\dot q) + g(q)")
-    sol.step("model", dm=dm, show=options.show, robot=robot, view=ModelView(dm, robot))
+    abbr = None
+    if _nodes(dm.B, LARGE_MODEL) > LARGE_MODEL:
+        abbr = abbreviate({"B": dm.B, "C": dm.C, "g": dm.g}, set(robot.q + robot.dq + robot.ddq))
+    sol.step("model", dm=dm, show=options.show, robot=robot, view=ModelView(dm, robot), abbr=abbr)
     if options.at:
         state = {}
         for name in options.at:

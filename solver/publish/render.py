@@ -34,8 +34,15 @@ class _Printer(LatexPrinter):
     def __init__(self, names: dict[sp.Symbol, str], rank: dict[sp.Symbol, int]) -> None:
         super().__init__({"symbol_names": names, "fold_short_frac": False, "fold_func_brackets": True})
         self.rank = rank
+        self._keys: dict[sp.Expr, tuple] = {}
 
     def _factor_key(self, f: sp.Expr) -> tuple:
+        key = self._keys.get(f)
+        if key is None:
+            key = self._keys[f] = self._factor_key_of(f)
+        return key
+
+    def _factor_key_of(self, f: sp.Expr) -> tuple:
         base = f.as_base_exp()[0]
         if f.is_number:
             return (0, "")
@@ -90,8 +97,30 @@ class Latex:
                 return number(value)
             if value.atoms(sp.Float):
                 value = value.xreplace({f: sp.Float(f, 4) for f in value.atoms(sp.Float)})
+            if is_large(value):  # terms as stored: sorting the terms of a long sum costs more than its printing
+                old = self.printer._settings["order"]
+                self.printer._settings["order"] = "none"
+                try:
+                    return self.printer.doprint(value)
+                finally:
+                    self.printer._settings["order"] = old
             return self.printer.doprint(value)
         return str(value)
+
+
+LARGE_PRINT = 4000  # nodes: larger expressions are printed with their terms in stored order (text and LaTeX)
+
+
+def is_large(value: Any) -> bool:
+    """Whether a sympy expression has more than LARGE_PRINT nodes."""
+    if not isinstance(value, sp.Basic):
+        return False
+    count = 0
+    for _ in sp.preorder_traversal(value):
+        count += 1
+        if count > LARGE_PRINT:
+            return True
+    return False
 
 
 _TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "#": r"\#", "_": r"\_", "{": r"\{",
@@ -380,6 +409,11 @@ def _expr_str(value: Any) -> str:
         return "[" + ", ".join(_expr_str(v) for v in value) + "]"
     if isinstance(value, dict):
         return "{" + ", ".join(f"{_expr_str(k)}: {_expr_str(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, sp.MatrixBase) and any(is_large(x) for x in value):
+        rows = ", ".join("[" + ", ".join(_expr_str(x) for x in value.row(i)) + "]" for i in range(value.rows))
+        return f"Matrix([{rows}])"
+    if is_large(value):
+        return sp.sstr(value, order="none")
     return str(value)
 
 
