@@ -58,3 +58,26 @@ def test_reports_still_explain_the_bodies():
     """The per-body energies stay in the md/tex reports (their `show:` decides), computed when rendered."""
     p, sols = _solved()
     assert "T_{2}" in render(p, sols, "tex") and "v_{c2}" in render(p, sols, "md")
+
+
+def test_long_expressions_printed_directly_read_back():
+    """Past LARGE_PRINT nodes the text and LaTeX are printed directly (terms in stored order): the text reads back
+    to the same expression, and short expressions keep sympy's printing."""
+    import random
+
+    import sympy as sp
+    from sympy.parsing.sympy_parser import parse_expr
+
+    from solver.publish.render import LARGE_PRINT, Latex, _expr_str, is_large
+    q1, q2, a, b, m = sp.symbols("q1 q2 a b m")
+    rng = random.Random(5)
+    atoms = [sp.cos(q1), sp.sin(q1 + 2 * q2), a, b**2, m, sp.Rational(-3, 4), a + b, sp.cos(q2) ** 2, sp.Integer(3)]
+    big = sum(sp.Mul(*rng.choices(atoms, k=4)) * sp.Symbol(f"k{i}") for i in range(LARGE_PRINT // 8))
+    assert is_large(big) and not is_large(a * sp.cos(q1))
+    names = {s.name: s for s in big.free_symbols}
+    assert sp.expand(parse_expr(_expr_str(big), local_dict=names) - big) == 0
+    M = sp.Matrix([[big, a]])
+    assert sp.expand(parse_expr(_expr_str(M), local_dict={**names, "Matrix": sp.Matrix})[0] - big) == 0
+    tex = Latex({a: "\\alpha"})(big)
+    assert "\\alpha" in tex and "\\cos{\\left(q_{1}\\right)}" in tex and tex.count("\\left(") == tex.count("\\right)")
+    assert _expr_str(a * sp.cos(q1)) == str(a * sp.cos(q1))

@@ -43,17 +43,19 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
             Jw = [[A.diff(w, v) for v in dq] for w in W]
             I = mat(body.inertia)
             vc = [A.dot(row, V) for row in Jv]
-            v2 = A.dot(vc, vc)
-            IW = [A.dot(row, W) for row in I]
-            T = A.add(A.scale(A.mul(m, v2), half), A.scale(A.dot(W, IW), half))
-            U = A.scale(A.mul(m, A.dot(grav, P)), -1) if grav is not None else None
-            bodies.append((body, P, vc, v2, T, U))
             IJw = A.matmul(I, Jw)
+            # J_vᵢᵀJ_vⱼ and J_ωᵢᵀ I J_ωⱼ once: they give both B and ‖v_c‖² = Σ q̇ᵢq̇ⱼ J_vᵢᵀJ_vⱼ, ωᵀIω likewise
+            v2, wIw = {}, {}
             for i in range(n):
                 for j in range(i, n):
-                    t = A.add(A.mul(m, A.dot([r[i] for r in Jv], [r[j] for r in Jv])),
-                              A.dot([r[i] for r in Jw], [r[j] for r in IJw]))
-                    B[i][j] = A.add(B[i][j], t)
+                    pv = A.dot([r[i] for r in Jv], [r[j] for r in Jv])
+                    pw = A.dot([r[i] for r in Jw], [r[j] for r in IJw])
+                    B[i][j] = A.add(B[i][j], A.mul(m, pv), pw)
+                    vv = A.mul(V[i], V[j]) if i == j else A.scale(A.mul(V[i], V[j]), 2)
+                    v2, wIw = A.add(v2, A.mul(pv, vv)), A.add(wIw, A.mul(pw, vv))
+            T = A.add(A.scale(A.mul(m, v2), half), A.scale(wIw, half))
+            U = A.scale(A.mul(m, A.dot(grav, P)), -1) if grav is not None else None
+            bodies.append((body, P, vc, v2, T, U))
         T_extra = A.add(*[conv(t) for t in robot.kinetic_extra])
         for i in range(n):
             for j in range(i, n):
@@ -71,8 +73,12 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
             c = [conv(x) for x in robot.given_c]
             skew = None
         else:
-            C = [[[A.scale(A.add(dB[i][k][j], dB[j][k][i], A.scale(dB[i][j][k], -1)), half) for j in range(n)]
-                  for i in range(n)] for k in range(n)]
+            C = [[[{} for _ in range(n)] for _ in range(n)] for _ in range(n)]
+            for k in range(n):
+                for i in range(n):
+                    for j in range(i, n):  # C_k is symmetric: one object for (i, j) and (j, i)
+                        C[k][i][j] = C[k][j][i] = A.scale(A.add(dB[i][k][j], dB[j][k][i], A.scale(dB[i][j][k], -1)),
+                                                          half)
             S = [[A.dot(V, [C[k][i][j] for i in range(n)]) for j in range(n)] for k in range(n)]
             c = [A.dot(S[k], V) for k in range(n)]
             Bdot = [[A.dot([dB[i][j][k] for k in range(n)], V) for j in range(n)] for i in range(n)]

@@ -80,6 +80,49 @@ class Latex:
         names = {s: safe_math(tex) for s, tex in names.items()}
         self.names = names
         self.printer = _Printer(names, rank or {})
+        self._symbols: dict[sp.Symbol, str] = {}
+
+    def fast(self, e: sp.Expr) -> str:
+        """LaTeX of a long polynomial-like expression (sums, products, powers, sin/cos, numbers, symbols) printed
+        directly, terms in stored order."""
+        if e.is_Symbol:
+            if e not in self._symbols:
+                self._symbols[e] = self.printer.doprint(e)
+            return self._symbols[e]
+        if e.is_Rational:
+            if e.q == 1:
+                return str(e.p)
+            return f"{'-' if e.p < 0 else ''}\\frac{{{abs(e.p)}}}{{{e.q}}}"
+        if e.is_Add:
+            out = ""
+            for k, a in enumerate(e.args):
+                neg = a.could_extract_minus_sign()
+                body = self.fast(-a if neg else a)
+                out += ("- " if neg else "") + body if k == 0 else (" - " if neg else " + ") + body
+            return out
+        if e.is_Mul:
+            coeff, rest = e.as_coeff_Mul()
+            factors = sp.Mul.make_args(rest)
+            parts = []
+            for f in factors:
+                s = self.fast(f)
+                parts.append(f"\\left({s}\\right)" if f.is_Add else s)
+            body = " ".join(parts)
+            if coeff == 1:
+                return body
+            if coeff == -1:
+                return "- " + body
+            if coeff.is_Rational and coeff.q != 1:
+                return f"{'-' if coeff < 0 else ''}\\frac{{{abs(coeff.p)}}}{{{coeff.q}}} {body}"
+            return f"{self.fast(coeff)} {body}"
+        if e.is_Pow and e.exp.is_Integer and e.exp > 0:
+            base = self.fast(e.base)
+            if not (e.base.is_Symbol or e.base.is_Integer and e.base > 0):
+                base = f"\\left({base}\\right)"
+            return f"{base}^{{{e.exp}}}"
+        if isinstance(e, (sp.sin, sp.cos)):
+            return f"\\{type(e).__name__}{{\\left({self.fast(e.args[0])}\\right)}}"
+        return self.printer.doprint(e)
 
     def __call__(self, value: Any) -> str:
         if isinstance(value, bool):
@@ -97,13 +140,8 @@ class Latex:
                 return number(value)
             if value.atoms(sp.Float):
                 value = value.xreplace({f: sp.Float(f, 4) for f in value.atoms(sp.Float)})
-            if is_large(value):  # terms as stored: sorting the terms of a long sum costs more than its printing
-                old = self.printer._settings["order"]
-                self.printer._settings["order"] = "none"
-                try:
-                    return self.printer.doprint(value)
-                finally:
-                    self.printer._settings["order"] = old
+            if is_large(value):  # terms as stored, by a direct printer: sympy's costs minutes on such sums
+                return self.fast(value)
             return self.printer.doprint(value)
         return str(value)
 
@@ -413,8 +451,43 @@ def _expr_str(value: Any) -> str:
         rows = ", ".join("[" + ", ".join(_expr_str(x) for x in value.row(i)) + "]" for i in range(value.rows))
         return f"Matrix([{rows}])"
     if is_large(value):
-        return sp.sstr(value, order="none")
+        return _fast_str(value)
     return str(value)
+
+
+def _fast_str(e: Any) -> str:
+    """sympy-readable text of a long expression printed directly (terms in stored order): parse_expr reads it
+    back to the same expression."""
+    if e.is_Symbol or e.is_Integer:
+        return str(e)
+    if e.is_Rational:
+        return f"({e.p}/{e.q})"
+    if e.is_Add:
+        out = ""
+        for k, a in enumerate(e.args):
+            neg = a.could_extract_minus_sign()
+            body = _fast_str(-a if neg else a)
+            out += ("-" if neg else "") + body if k == 0 else (" - " if neg else " + ") + body
+        return out
+    if e.is_Mul:
+        coeff, rest = e.as_coeff_Mul()
+        parts = [f"({_fast_str(f)})" if f.is_Add else _fast_str(f) for f in sp.Mul.make_args(rest)]
+        body = "*".join(parts)
+        if coeff == 1:
+            return body
+        if coeff == -1:
+            return "-" + body
+        return f"{_fast_str(coeff)}*{body}"
+    if e.is_Pow:
+        base, ex = _fast_str(e.base), _fast_str(e.exp)
+        if not (e.base.is_Symbol or (e.base.is_Integer and e.base > 0)):
+            base = f"({base})"
+        if not (e.exp.is_Integer and e.exp > 0):
+            ex = f"({ex})"
+        return f"{base}**{ex}"
+    if isinstance(e, sp.Function):
+        return f"{type(e).__name__}({', '.join(_fast_str(a) for a in e.args)})"
+    return str(e)
 
 
 def _numeric(value: Any) -> Any:
