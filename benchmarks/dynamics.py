@@ -94,13 +94,36 @@ def spec_text(name: str, desc: dict) -> str:
 
 
 # ------------------------------------------------------------------------------------------------ workers
-def _values(exprs, subs_names: dict, points: list[dict]) -> list[list[float]]:  # type: ignore[no-untyped-def]
-    """Each expression evaluated at each point ({name: value}); ``subs_names`` maps names to the symbols used."""
+def _values(exprs, points: list[dict], alias: dict[str, str] | None = None) -> list[list[float]]:  # type: ignore[no-untyped-def]
+    """Each expression at each point ({name: value}), by exact substitution of numbers (no compilation: fast on
+    huge unsimplified expressions). Symbols, functions q(t) and their derivatives are matched by name (q1, dq1,
+    ddq1); ``alias`` maps other names to those (u1 -> dq1)."""
     import sympy as sp
-    names = sorted(points[0])
-    args = [subs_names.get(k, sp.Symbol(k)) for k in names]
-    f = sp.lambdify(args, list(exprs), "math")
-    return [[float(v) for v in f(*[p[k] for k in names])] for p in points]
+    from sympy.core.function import AppliedUndef
+    exprs = list(exprs)
+    atoms: set = set()
+    for e in exprs:
+        atoms |= e.free_symbols | e.atoms(sp.Derivative) | e.atoms(AppliedUndef)
+
+    def name(a) -> str:  # type: ignore[no-untyped-def]
+        if isinstance(a, sp.Derivative):
+            order = sum(int(c) for _, c in a.variable_count)
+            n = "d" * order + a.expr.func.__name__
+        elif isinstance(a, AppliedUndef):
+            n = a.func.__name__
+        else:
+            n = a.name
+        return (alias or {}).get(n, n)
+    out = []
+    for p in points:
+        subs = {a: sp.Float(p[name(a)], 30) for a in atoms if name(a) in p}
+        out.append([float(sp.N(e.xreplace(subs))) for e in exprs])
+    return out
+
+
+def _emit(times: dict) -> None:
+    """The timings first (a run stopped by its cap while evaluating still reports them)."""
+    print(json.dumps(dict(times=times)), flush=True)
 
 
 def work_robosolve(name: str, points: list[dict]) -> dict:
@@ -117,9 +140,8 @@ def work_robosolve(name: str, points: list[dict]) -> dict:
     t2 = clock()
     text = render(problem, sols, "json")
     t3 = clock()
-    model = sols[0].results["model"].value
-    return dict(times=dict(load=t1 - t0, solve=t2 - t1, output=t3 - t2), chars=len(text),
-                values=_values(model, {}, points))
+    _emit(dict(load=t1 - t0, solve=t2 - t1, output=t3 - t2))
+    return dict(values=_values(sols[0].results["model"].value, points), chars=len(text))
 
 
 def _frames(desc: dict, q):  # type: ignore[no-untyped-def]
@@ -181,20 +203,15 @@ def work_mechanics(name: str, points: list[dict], method: str, simplify: bool) -
             C.set_vel(N, C.vel(N).subs(dict(zip(qd, u))))
         km.kanes_equations(bodies, loads)
         M, f = km.mass_matrix, km.forcing
-        back = {**{a.diff(time_): b for a, b in zip(u, qdd)}, **dict(zip(u, qd))}
-        M, f = M.subs(back), f.subs(back)
-        acc = sp.Matrix(qdd)
+        acc = sp.Matrix([x.diff(time_) for x in u])
     t1 = clock()
     times = dict(raw=t1 - t0)
     if simplify:
         M, f = _simplify(M, f)
         times["simplified"] = clock() - t0
-    tau = M * acc - f
-    names = {f"ddq{k + 1}": sp.Symbol(f"ddq{k + 1}") for k in range(n)}
-    plain = {**{qdd[k]: names[f"ddq{k + 1}"] for k in range(n)},
-             **{qd[k]: sp.Symbol(f"dq{k + 1}") for k in range(n)}, **{q[k]: sp.Symbol(f"q{k + 1}") for k in range(n)}}
-    tau = tau.subs(plain)
-    return dict(times=times, values=_values(tau, {}, points))
+    _emit(times)
+    alias = {**{f"u{k}": f"dq{k}" for k in range(1, n + 1)}, **{f"du{k}": f"ddq{k}" for k in range(1, n + 1)}}
+    return dict(values=_values(M * acc - f, points, alias))
 
 
 def work_rne(name: str, points: list[dict], simplify: bool) -> dict:
@@ -219,7 +236,8 @@ def work_rne(name: str, points: list[dict], simplify: bool) -> dict:
     if simplify:
         tau = tau.applyfunc(lambda e: sp.trigsimp(sp.expand(e)))
         times["simplified"] = clock() - t0
-    return dict(times=times, values=_values(tau, {}, points))
+    _emit(times)
+    return dict(values=_values(tau, points))
 
 
 def worker(kind: str, name: str, points: list[dict], simplify: bool) -> dict:
@@ -236,18 +254,23 @@ def worker(kind: str, name: str, points: list[dict], simplify: bool) -> dict:
 def run(cmd: list[str], cap: float, stdin: str = "") -> tuple[dict | None, float, str]:
     """A capped process: (its JSON on stdout or None, wall seconds, why it failed)."""
     t = time.perf_counter()
+    why = ""
     try:
         r = subprocess.run(cmd, input=stdin, capture_output=True, text=True, timeout=cap, cwd=ROOT,
                            env={**os.environ, "PYTHONPATH": str(ROOT)})
-    except subprocess.TimeoutExpired:
-        return None, time.perf_counter() - t, f"> {cap:.0f} s"
-    wall = time.perf_counter() - t
-    if r.returncode != 0:
-        return None, wall, (r.stderr.strip().splitlines() or ["failed"])[-1][:120]
-    try:
-        return json.loads(r.stdout.strip().splitlines()[-1]), wall, ""
-    except (json.JSONDecodeError, IndexError):
-        return None, wall, "no output"
+        out = r.stdout
+        if r.returncode != 0:
+            why = (r.stderr.strip().splitlines() or ["failed"])[-1][:120]
+    except subprocess.TimeoutExpired as exc:
+        out = exc.stdout.decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+        why = f"> {cap:.0f} s"
+    merged: dict = {}
+    for line in out.strip().splitlines():
+        try:
+            merged.update(json.loads(line))
+        except json.JSONDecodeError:
+            pass
+    return (merged or None), time.perf_counter() - t, why
 
 
 def agreement(ref: list[list[float]], other: list[list[float]]) -> float:
@@ -283,7 +306,7 @@ def main() -> None:
     args = ap.parse_args()
     if args.worker:
         points = json.loads(sys.stdin.read())
-        print(json.dumps(worker(args.worker[0], args.worker[1], points, args.simplify)))
+        print(json.dumps(worker(args.worker[0], args.worker[1], points, args.simplify)), flush=True)
         return
     robots = (ALL_ROBOTS if args.robots == "all" else args.robots).split(",")
     peers = [p for p in args.peers.split(",") if p]
@@ -293,8 +316,8 @@ def main() -> None:
         print(f"rne: roboticstoolbox not importable with {args.rtb_python} (skipped)")
         peers.remove("rne")
     me = [sys.executable, str(Path(__file__).resolve()), "--worker"]
-    print(f"CPU seconds; caps {args.cap:.0f} s (wall) per run; {args.points} random points; "
-          "ratio = peer / robosolve (load + solve + json)")
+    print(f"CPU seconds; each peer run capped at {args.cap:.0f} s wall ('capped'); {args.points} random points; "
+          "ratio = peer / robosolve (load + solve + json); agree = largest relative difference from robosolve")
     header = f"{'robot':<6}{'load':>6}{'solve':>7}{'json':>6}{'total':>7}{'cli':>7}"
     for p in peers:
         header += f" | {p + ' raw':>12}{'ratio':>7}{'+simp':>9}{'ratio':>7}{'agree':>9}"
@@ -303,7 +326,7 @@ def main() -> None:
         points = random_points(name, args.points, args.seed)
         stdin = json.dumps(points)
         ours, _, why = run(me + ["robosolve", name], args.cap * 4, stdin)
-        if ours is None:
+        if ours is None or "values" not in ours:
             print(f"{name:<6} robosolve failed: {why}", flush=True)
             continue
         t = ours["times"]
@@ -321,11 +344,15 @@ def main() -> None:
         for p in peers:
             py = [args.rtb_python, str(Path(__file__).resolve()), "--worker"] if p == "rne" else me
             raw, _, why_raw = run(py + [p, name], args.cap, stdin)
-            simp, _, why_simp = run(py + [p, name, "--simplify"], args.cap, stdin)
-            cell = f"{raw['times']['raw']:>12.2f}{raw['times']['raw'] / total:>6.1f}x" if raw else f"{why_raw:>12}{'':>7}"
-            cell += (f"{simp['times']['simplified']:>9.2f}{simp['times']['simplified'] / total:>6.1f}x" if simp
-                     else f"{'> cap' if why_simp.startswith('>') else why_simp[:9]:>9}"
-                          f"{'>' + format(args.cap / total, '.1f') + 'x' if why_simp.startswith('>') else '':>7}")
+            raw_t = (raw or {}).get("times", {}).get("raw")
+            simp, why_simp = None, "skipped"  # no simplification run when the raw model alone took > cap/4
+            if raw_t is not None and raw_t < args.cap / 4:
+                simp, _, why_simp = run(py + [p, name, "--simplify"], args.cap, stdin)
+            simp_t = (simp or {}).get("times", {}).get("simplified")
+            cell = (f"{raw_t:>12.2f}{raw_t / total:>6.1f}x" if raw_t is not None
+                    else f"{'capped' if why_raw.startswith('>') else why_raw[:12]:>12}{'-':>7}")
+            cell += (f"{simp_t:>9.2f}{simp_t / total:>6.1f}x" if simp_t is not None
+                     else f"{'capped' if why_simp.startswith('>') else why_simp[:9]:>9}{'-':>7}")
             vals = (raw or simp or {}).get("values")
             cell += f"{agreement(ours['values'], vals):>9.1e}" if vals else f"{'-':>9}"
             line += " | " + cell
