@@ -114,3 +114,29 @@ def test_data_outside_the_algebra_take_the_general_path():
     assert canonical.derive_canonical(robot) is None
     dm = derive(robot)
     assert dm.skew is True and dm.B.shape == (4, 4)
+
+
+def test_large_model_report_defines_parameter_groupings_once(monkeypatch):
+    """Past LARGE_MODEL the report writes B, C_k and g with K_j (each sum of parameters defined once), says so, and
+    B with the K_j substituted back is the model's B; the JSON keeps the full expressions."""
+    import json
+
+    import solver.dynamics.model as model
+    from solver.publish.render import render
+    from solver.solve import solve_problem
+    monkeypatch.setattr(model, "LARGE_MODEL", 50)
+    problem = load_problem(SPECS / "spatial3r.yaml")
+    sols = solve_problem(problem)
+    step = sols[0].steps[0].data
+    abbr, dm = step["abbr"], step["dm"]
+    assert abbr is not None and abbr["defs"]
+    defs = dict(abbr["defs"])
+    assert len(set(defs.values())) == len(defs)  # each sum once
+    assert all(not (e.free_symbols & set(problem.robot.q)) for e in defs.values())
+    assert (abbr["B"].xreplace(defs) - dm.B).applyfunc(sp.expand) == sp.zeros(3, 3)
+    assert all((a.xreplace(defs) - b).applyfunc(sp.expand) == sp.zeros(3, 3) for a, b in zip(abbr["C"], dm.C))
+    md = render(problem, sols, "md")
+    assert "This model is large" in md and "Parameter groupings" in md and "K_{1}" in md
+    assert "Kinetic energy" not in md  # per-body quantities: JSON with --details
+    data = json.loads(render(problem, sols, "json"))
+    assert "K_" not in data["results"]["B"]["expr"]
