@@ -147,16 +147,17 @@ class Latex:
 
 
 LARGE_PRINT = 4000  # nodes: larger expressions are printed with their terms in stored order (text and LaTeX)
+LARGE_TEXT = 1000  # the same for the JSON text (sympy syntax, for programs) past this many nodes
 
 
-def is_large(value: Any) -> bool:
-    """Whether a sympy expression has more than LARGE_PRINT nodes."""
+def is_large(value: Any, limit: int = LARGE_PRINT) -> bool:
+    """Whether a sympy expression has more than ``limit`` nodes."""
     if not isinstance(value, sp.Basic):
         return False
     count = 0
     for _ in sp.preorder_traversal(value):
         count += 1
-        if count > LARGE_PRINT:
+        if count > limit:
             return True
     return False
 
@@ -447,10 +448,10 @@ def _expr_str(value: Any) -> str:
         return "[" + ", ".join(_expr_str(v) for v in value) + "]"
     if isinstance(value, dict):
         return "{" + ", ".join(f"{_expr_str(k)}: {_expr_str(v)}" for k, v in value.items()) + "}"
-    if isinstance(value, sp.MatrixBase) and any(is_large(x) for x in value):
+    if isinstance(value, sp.MatrixBase) and any(is_large(x, LARGE_TEXT) for x in value):
         rows = ", ".join("[" + ", ".join(_expr_str(x) for x in value.row(i)) + "]" for i in range(value.rows))
         return f"Matrix([{rows}])"
-    if is_large(value):
+    if is_large(value, LARGE_TEXT):
         return _fast_str(value)
     return str(value)
 
