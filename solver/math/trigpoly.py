@@ -83,7 +83,8 @@ class TrigAlgebra:
         """``a`` times a number or a ring element."""
         if not c:
             return {}
-        return {k: v * c for k, v in a.items() if v * c}
+        out = {k: v * c for k, v in a.items()}
+        return {k: v for k, v in out.items() if v}
 
     def mul(self, a: TrigPoly, b: TrigPoly) -> TrigPoly:
         if not a or not b:
