@@ -79,7 +79,9 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
           format: Fmt = typer.Option(Fmt.md, "--format", "-f", help="md, tex or json"),
           output: Optional[Path] = typer.Option(None, "--output", "-o", help="write here (plots beside it)"),
           fragment: bool = typer.Option(False, help="LaTeX body only, no preamble"),
-          templates: Optional[Path] = typer.Option(None, help="directory with your own md/ and tex/ templates")) -> None:
+          templates: Optional[Path] = typer.Option(None, help="directory with your own md/ and tex/ templates"),
+          details: bool = typer.Option(False, "--details", help="JSON: also the intermediate results (per-body "
+                                       "quantities) and the expressions of the steps")) -> None:
     """Solve a problem and print the step-by-step solution."""
     from solver.publish.figures import write_figures
     from solver.publish.render import render
@@ -90,7 +92,8 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
         problem = load_problem(spec)
         solutions = solve_problem(problem)
         figures = write_figures(solutions, output, format.value) if output and format is not Fmt.json else []
-        return render(problem, solutions, format.value, fragment=fragment, template_dir=templates), len(figures)
+        return render(problem, solutions, format.value, fragment=fragment, template_dir=templates,
+                      details=details), len(figures)
     try:
         if output:
             _output_file(output)

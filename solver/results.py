@@ -16,6 +16,7 @@ class Result:
     value: Any
     kind: str
     label: str = ""  # LaTeX left-hand side, e.g. B(q)
+    detail: bool = False  # an intermediate quantity (per-body energies, ...): in JSON only on request
 
 
 @dataclass
@@ -75,8 +76,8 @@ class Solution:
     title: str = ""
     figures: list[Figure] = field(default_factory=list)
 
-    def add(self, name: str, value: Any, kind: str | None = None, label: str = "") -> Any:
-        self.results[name] = Result(name, value, kind or kind_of(value), label)
+    def add(self, name: str, value: Any, kind: str | None = None, label: str = "", detail: bool = False) -> Any:
+        self.results[name] = Result(name, value, kind or kind_of(value), label, detail)
         return value
 
     def step(self, name: str, **data: Any) -> None:

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal, Optional, Union
 
 import sympy as sp
@@ -139,7 +140,12 @@ def require_model(problem) -> Robot:  # type: ignore[no-untyped-def]
 
 
 def derive(robot: Robot) -> DynamicModel:
-    """The full Lagrangian model of ``robot``."""
+    """The full Lagrangian model of ``robot``: in the canonical trigonometric-polynomial form throughout when the
+    robot's data allow (solver.dynamics.canonical), else entry by entry with :func:`tidy`."""
+    from solver.dynamics.canonical import derive_canonical
+    fast = derive_canonical(robot)
+    if fast is not None:
+        return fast
     n, q, dq = robot.n, robot.q, robot.dq
     energies = [body_energy(b, robot) for b in robot.bodies]
     T_extra = tidy(sum(robot.kinetic_extra, sp.Integer(0)))
@@ -183,6 +189,75 @@ def model_row(dm: DynamicModel, robot: Robot, i: int) -> list[sp.Expr]:
     return terms
 
 
+LARGE_MODEL = 6000  # nodes of B past which the report writes the model with abbreviations (SYMORO-style)
+
+
+def _nodes(m: sp.Matrix, limit: int) -> int:
+    count = 0
+    for x in m:
+        for _ in sp.preorder_traversal(x):
+            count += 1
+            if count > limit:
+                return count
+    return count
+
+
+def abbreviate(values: dict[str, sp.Matrix], coordinates: set[sp.Symbol]) -> dict:
+    """The customized model of a large robot (as SYMORO writes it): each sum of parameters only (no q, q̇, q̈)
+    inside ``values`` becomes K_j, defined once; {"defs": [(K_j, sum)], name: value with the K_j}."""
+    defs: dict[sp.Expr, sp.Symbol] = {}
+    memo: dict[sp.Expr, sp.Expr] = {}
+
+    def rep(e: sp.Expr) -> sp.Expr:
+        if e.is_Atom:
+            return e
+        hit = memo.get(e)
+        if hit is not None:
+            return hit
+        if e.is_Add and not (e.free_symbols & coordinates):
+            if -e in defs:
+                out = -defs[-e]
+            else:
+                out = defs.setdefault(e, sp.Symbol(f"K_{{{len(defs) + 1}}}"))
+        elif e.is_Add:  # the terms free of coordinates as one K_j, the others term by term
+            free = [a for a in e.args if not (a.free_symbols & coordinates)]
+            rest = [rep(a) for a in e.args if a.free_symbols & coordinates]
+            out = sp.Add(rep(sp.Add(*free)) if len(free) > 1 else sp.Add(*free), *rest)
+        else:
+            out = e.func(*[rep(a) for a in e.args])
+        memo[e] = out
+        return out
+
+    out: dict = {name: (v.applyfunc(rep) if isinstance(v, sp.MatrixBase) else [m.applyfunc(rep) for m in v])
+                 for name, v in values.items() if v is not None}
+    out["defs"] = [(k, e) for e, k in defs.items()]
+    return out
+
+
+class ModelView:
+    """The model's terms in the order a report prints them, computed when a template first asks: per body the
+    velocity components, ‖v_c‖² and 2T_i as velocity terms (``vc``, ``v2``, ``T2``), the rows of the model."""
+
+    def __init__(self, dm: DynamicModel, robot: Robot) -> None:
+        self.dm, self.robot = dm, robot
+
+    @cached_property
+    def vc(self) -> list[list[list[sp.Expr]]]:
+        return [[velocity_terms(x, self.robot.dq) for x in e.vc] for e in self.dm.bodies]
+
+    @cached_property
+    def v2(self) -> list[list[sp.Expr]]:
+        return [velocity_terms(e.v2, self.robot.dq) for e in self.dm.bodies]
+
+    @cached_property
+    def T2(self) -> list[list[sp.Expr]]:
+        return [velocity_terms(2 * e.T, self.robot.dq) for e in self.dm.bodies]
+
+    @cached_property
+    def rows(self) -> list[list[sp.Expr]]:
+        return [model_row(self.dm, self.robot, i) for i in range(self.robot.n)]
+
+
 # ------------------------------------------------------------------------------------------------
 class DynamicModelAsk(Strict):
     """Derive the Euler-Lagrange dynamic model."""
@@ -206,14 +281,15 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
     dm = derive(robot)
     sol = Solution("dynamic_model", title=options.title or "Dynamic model")
     for i, e in enumerate(dm.bodies, 1):
-        sol.add(f"pc{i}", e.pc, label=f"p_{{c{i}}}")
-        sol.add(f"vc{i}", e.vc, label=f"v_{{c{i}}}")
-        sol.add(f"w{i}", e.omega, label=f"\\omega_{{{i}}}")  # in the frame of the body's inertia
+        sol.add(f"pc{i}", e.pc, label=f"p_{{c{i}}}", detail=True)
+        sol.add(f"vc{i}", e.vc, label=f"v_{{c{i}}}", detail=True)
+        sol.add(f"w{i}", e.omega, label=f"\\omega_{{{i}}}", detail=True)  # in the frame of the body's inertia
         if e.body.omega_frame == "link" and e.body.rotation is not None:  # also in the base frame: ⁰ω = ⁰R ω
-            sol.add(f"w{i}_0", (e.body.rotation * e.omega).applyfunc(tidy), label=f"{{}}^0\\omega_{{{i}}}")
-        sol.add(f"T{i}", e.T, "scalar", label=f"T_{{{i}}}")
+            sol.add(f"w{i}_0", (e.body.rotation * e.omega).applyfunc(tidy), label=f"{{}}^0\\omega_{{{i}}}",
+                    detail=True)
+        sol.add(f"T{i}", e.T, "scalar", label=f"T_{{{i}}}", detail=True)
         if e.U is not None:
-            sol.add(f"U{i}", e.U, "scalar", label=f"U_{{{i}}}")
+            sol.add(f"U{i}", e.U, "scalar", label=f"U_{{{i}}}", detail=True)
     sol.add("T", dm.T, "scalar", label="T")
     sol.add("B", dm.B, "matrix", label="B(q)")
     if dm.C is not None:
@@ -226,14 +302,10 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
         sol.add("U", dm.U, "scalar", label="U")
     sol.add("g", dm.g, "vector", label="g(q)")
     sol.add("model", dm.lhs, "vector", label="B(q)\\ddot q + c(q,\\dot q) + g(q)")
-    v = robot.dq
-    view = {
-        "vc": [[velocity_terms(x, v) for x in e.vc] for e in dm.bodies],
-        "v2": [velocity_terms(e.v2, v) for e in dm.bodies],
-        "T2": [velocity_terms(2 * e.T, v) for e in dm.bodies],
-        "rows": [model_row(dm, robot, i) for i in range(robot.n)],
-    }
-    sol.step("model", dm=dm, show=options.show, robot=robot, view=view)
+    abbr = None
+    if _nodes(dm.B, LARGE_MODEL) > LARGE_MODEL:
+        abbr = abbreviate({"B": dm.B, "C": dm.C, "g": dm.g}, set(robot.q + robot.dq + robot.ddq))
+    sol.step("model", dm=dm, show=options.show, robot=robot, view=ModelView(dm, robot), abbr=abbr)
     if options.at:
         state = {}
         for name in options.at:

@@ -202,13 +202,21 @@ def _product_cost(factors: list[tuple[PolyElement, int]]) -> int:
     return max(len(parts) - 1, 0) + sum(_cost(f) + (e > 1) for f, e in parts) + negate
 
 
+_FACTORS: dict = {}  # factorizations already computed (the same coefficients recur in B, C_k, c, S, the model)
+
+
 def _factor_small(p: PolyElement) -> tuple[PolyElement, list[tuple[PolyElement, int]]]:
-    """Factorization of ``p`` computed in the ring of only the generators it uses (much faster)."""
+    """Factorization of ``p`` computed in the ring of only the generators it uses (much faster); memoized."""
     used = [i for i in range(p.ring.ngens) if any(m[i] for m in p.itermonoms())]
     small = _ring(tuple(p.ring.symbols[i] for i in used))
     q = small.from_dict({tuple(m[i] for i in used): c for m, c in p.iterterms()})
-    content, factors = q.factor_list()
-    return content, factors
+    hit = _FACTORS.get(q)
+    if hit is None:
+        if len(_FACTORS) > 20000:
+            _FACTORS.clear()
+        hit = _FACTORS[q] = q.factor_list()
+    content, factors = hit
+    return content, list(factors)  # a new list: the caller changes signs in place
 
 
 def _flip(f: PolyElement) -> bool:
@@ -231,7 +239,7 @@ def nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
     if len(p) <= 1:
         return p.as_expr()
     R = p.ring
-    mono = tuple(min(m[i] for m in p.itermonoms()) for i in range(R.ngens))
+    mono = tuple(map(min, zip(*p.itermonoms())))
     content, prim = p.primitive()
     if content < 0:
         content, prim = -content, -prim
@@ -274,16 +282,16 @@ def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]],
     R = next(iter(coeffs.values()))[0].ring
     m = len(angles)
     cs = [sp.Dummy(f"c{i}") for i in range(m)] + [sp.Dummy(f"s{i}") for i in range(m)]
-    R2 = _ring(tuple(R.symbols) + tuple(cs))
-    C, S = R2.gens[R.ngens:R.ngens + m], R2.gens[R.ngens + m:]
+    Rt = _ring(tuple(cs))  # the trigonometric monomials alone; coefficients stay in R
+    C, S = Rt.gens[:m], Rt.gens[m:]
     memo: dict[tuple[int, ...], tuple[PolyElement, PolyElement]] = {}
 
     def single(i: int, n: int) -> tuple[PolyElement, PolyElement]:
-        t0, t1, u0, u1 = R2.one, C[i], R2.zero, R2.one  # T_0, T_1, U_{-1}, U_0
+        t0, t1, u0, u1 = Rt.one, C[i], Rt.zero, Rt.one  # T_0, T_1, U_{-1}, U_0
         for _ in range(abs(n) - 1):
             t0, t1 = t1, 2 * C[i] * t1 - t0
             u0, u1 = u1, 2 * C[i] * u1 - u0
-        cos_n, sin_n = (t1, S[i] * u1) if n else (R2.one, R2.zero)
+        cos_n, sin_n = (t1, S[i] * u1) if n else (Rt.one, Rt.zero)
         return cos_n, (sin_n if n >= 0 else -sin_n)
 
     def cos_sin(k: tuple[int, ...]) -> tuple[PolyElement, PolyElement]:
@@ -291,7 +299,7 @@ def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]],
             return memo[k]
         i = next((j for j, v in enumerate(k) if v), None)
         if i is None:
-            out = (R2.one, R2.zero)
+            out = (Rt.one, Rt.zero)
         else:
             ca, sa = single(i, k[i])
             cb, sb = cos_sin(tuple(0 if j == i else v for j, v in enumerate(k)))
@@ -299,16 +307,16 @@ def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]],
         memo[k] = out
         return out
 
-    def lift(p: PolyElement) -> PolyElement:
-        return R2.from_dict({mono + (0,) * (2 * m): c for mono, c in p.iterterms()})
-
-    total = R2.zero
+    groups: dict[tuple[int, ...], PolyElement] = {}
     for k, (a, b) in coeffs.items():
         ck, sk = cos_sin(k)
-        total += lift(a) * ck + lift(b) * sk
-    groups: dict[tuple[int, ...], dict] = {}
-    for mono, c in total.iterterms():
-        groups.setdefault(mono[R.ngens:], {})[mono[:R.ngens] + (0,) * (2 * m)] = c
+        for coeff, trig_poly in ((a, ck), (b, sk)):
+            if not coeff:
+                continue
+            for mono, c in trig_poly.iterterms():
+                acc = groups.get(mono)
+                term = coeff * R.domain.convert(c, Rt.domain)
+                groups[mono] = term if acc is None else acc + term
     trig = [sp.cos(x) for x in angles] + [sp.sin(x) for x in angles]
-    return sp.Add(*[nice_poly(R2.from_dict(g)) * sp.Mul(*[f ** e for f, e in zip(trig, key)])
-                    for key, g in groups.items()])
+    return sp.Add(*[nice_poly(g) * sp.Mul(*[f ** e for f, e in zip(trig, key)])
+                    for key, g in groups.items() if g])

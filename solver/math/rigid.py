@@ -55,7 +55,23 @@ def vee(S: sp.Matrix) -> sp.Matrix:
 
 
 def omega_from_rotation(R: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol], frame: str = "link") -> sp.Matrix:
-    """Angular velocity of a frame with orientation R(q): S(ω_link) = Rᵀ Ṙ, S(ω_base) = Ṙ Rᵀ."""
+    """Angular velocity of a frame with orientation R(q): S(ω_link) = Rᵀ Ṙ, S(ω_base) = Ṙ Rᵀ (computed in the
+    canonical trigonometric-polynomial form when R is a trigonometric polynomial)."""
+    from solver.math.trigpoly import NotTrigPolynomial, TrigAlgebra
+    try:
+        A = TrigAlgebra.of([R], extra=list(q) + list(dq))
+        Rt = A.matrix(R)
+        acc: list = [{}, {}, {}]
+        for qk, dqk in zip(q, dq):
+            dR = [[A.diff(x, qk) for x in row] for row in Rt]
+            if not any(x for row in dR for x in row):
+                continue
+            Sk = A.matmul(A.T(Rt), dR) if frame == "link" else A.matmul(dR, A.T(Rt))
+            v = A.symbol(dqk)
+            acc = [A.add(acc[i], A.mul(x, v)) for i, x in enumerate((Sk[2][1], Sk[0][2], Sk[1][0]))]
+        return sp.Matrix([A.expr(x) for x in acc])
+    except NotTrigPolynomial:
+        pass
     w = sp.zeros(3, 1)
     for qk, dqk in zip(q, dq):
         dR = R.diff(qk)
@@ -64,3 +80,20 @@ def omega_from_rotation(R: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol], f
         S = (R.T * dR) if frame == "link" else (dR * R.T)
         w += vee(S.applyfunc(tidy)) * dqk
     return w.applyfunc(tidy)
+
+
+def dh_omegas(rows: list[tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]], convention: str, q: list[sp.Symbol],
+              dq: list[sp.Symbol]) -> list[sp.Matrix]:
+    """Angular velocity of each DH link in its own frame, recursively (no derivative of the chain's rotations):
+    standard ⁱωᵢ = ⁱ⁻¹Rᵢᵀ(ⁱ⁻¹ωᵢ₋₁ + z θ̇ᵢ), modified ⁱωᵢ = ⁱ⁻¹Rᵢᵀ ⁱ⁻¹ωᵢ₋₁ + z θ̇ᵢ, θ̇ᵢ = Σ_j ∂θᵢ/∂q_j q̇_j
+    (the same vectors as Rᵀ Ṙ of the chain, the base's constant rotation aside)."""
+    w = sp.zeros(3, 1)
+    z = sp.Matrix([0, 0, 1])
+    out = []
+    for a, alpha, d, theta in rows:
+        R = dh_transform(a, alpha, d, theta, convention)[:3, :3]
+        rate = sum((sp.diff(theta, qk) * dqk for qk, dqk in zip(q, dq)), sp.Integer(0))
+        w = R.T * (w + z * rate) if convention == "standard" else R.T * w + z * rate
+        w = w.applyfunc(tidy)
+        out.append(w)
+    return out

@@ -105,14 +105,32 @@ def _laurent_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict[tuple[
     return out
 
 
+# Size limits of the printed form: a trigonometric polynomial with more monomials than LARGE (over all its
+# Fourier coefficients; LARGE_MANY_ANGLES with more than three angles) keeps the Fourier form (no product form c₂ s₂ ...) and its coefficients are not fully
+# factored (content and monomial factors only), since factoring and comparing forms cost more than they give.
+LARGE = 400
+LARGE_MANY_ANGLES = 60  # the same past this size when more than three angles occur (six-joint arms)
+
+
 def _fourier(expr: sp.Expr) -> sp.Expr:
     """Canonical Fourier form of a trigonometric polynomial (see module doc)."""
     angles = angle_symbols(expr)
     try:
         coeffs: dict = fourier_coefficients(expr, angles)
-        nice = nice_poly
     except NotTrigPolynomial:
-        coeffs, nice = _laurent_coefficients(expr, angles), _nice
+        return fourier_expr(_laurent_coefficients(expr, angles), angles, _nice)
+    return fourier_expr(coeffs, angles)
+
+
+def fourier_expr(coeffs: dict, angles: list[sp.Symbol], nice=nice_poly) -> sp.Expr:  # type: ignore[no-untyped-def]
+    """The printed form of f = Σ a_k cos(k·x) + b_k sin(k·x) given by its coefficients {k: (a_k, b_k)}
+    (polynomials, or sympy expressions with ``nice=_nice``): each coefficient through ``nice``, and the product
+    form over single angles when shorter (only below the size LARGE)."""
+    size = sum(len(a) + len(b) for a, b in coeffs.values()) if nice is nice_poly else 0
+    used = sum(1 for j in range(len(angles)) if any(k[j] for k in coeffs))
+    large = size > LARGE or (used > 3 and size > LARGE_MANY_ANGLES)
+    if large:
+        nice = _nice_large
     out = []
     for k in sorted(coeffs, key=lambda t: (sum(abs(v) for v in t), [-abs(v) for v in t], t)):
         a, b = coeffs[k]
@@ -127,11 +145,16 @@ def _fourier(expr: sp.Expr) -> sp.Expr:
             out.append(nice(b) * sp.sin(theta))
     fourier = sp.Add(*out)
     mixed = any(v < 0 or v > 1 for k in coeffs for v in k if any(k))
-    if mixed:
+    if mixed and not large:
         product = product_form(coeffs, angles) if nice is nice_poly else _product_form(fourier, angles)
         if sp.count_ops(product) < sp.count_ops(fourier):
             return product
     return fourier
+
+
+def _nice_large(p):  # type: ignore[no-untyped-def]
+    """A coefficient of a large polynomial: content and monomial factor only."""
+    return nice_poly(p, max_terms=0)
 
 
 def _with_phase(a: sp.Expr, b: sp.Expr, theta: sp.Expr) -> sp.Expr | None:

@@ -34,8 +34,15 @@ class _Printer(LatexPrinter):
     def __init__(self, names: dict[sp.Symbol, str], rank: dict[sp.Symbol, int]) -> None:
         super().__init__({"symbol_names": names, "fold_short_frac": False, "fold_func_brackets": True})
         self.rank = rank
+        self._keys: dict[sp.Expr, tuple] = {}
 
     def _factor_key(self, f: sp.Expr) -> tuple:
+        key = self._keys.get(f)
+        if key is None:
+            key = self._keys[f] = self._factor_key_of(f)
+        return key
+
+    def _factor_key_of(self, f: sp.Expr) -> tuple:
         base = f.as_base_exp()[0]
         if f.is_number:
             return (0, "")
@@ -73,6 +80,49 @@ class Latex:
         names = {s: safe_math(tex) for s, tex in names.items()}
         self.names = names
         self.printer = _Printer(names, rank or {})
+        self._symbols: dict[sp.Symbol, str] = {}
+
+    def fast(self, e: sp.Expr) -> str:
+        """LaTeX of a long polynomial-like expression (sums, products, powers, sin/cos, numbers, symbols) printed
+        directly, terms in stored order."""
+        if e.is_Symbol:
+            if e not in self._symbols:
+                self._symbols[e] = self.printer.doprint(e)
+            return self._symbols[e]
+        if e.is_Rational:
+            if e.q == 1:
+                return str(e.p)
+            return f"{'-' if e.p < 0 else ''}\\frac{{{abs(e.p)}}}{{{e.q}}}"
+        if e.is_Add:
+            out = ""
+            for k, a in enumerate(e.args):
+                neg = a.could_extract_minus_sign()
+                body = self.fast(-a if neg else a)
+                out += ("- " if neg else "") + body if k == 0 else (" - " if neg else " + ") + body
+            return out
+        if e.is_Mul:
+            coeff, rest = e.as_coeff_Mul()
+            factors = sp.Mul.make_args(rest)
+            parts = []
+            for f in factors:
+                s = self.fast(f)
+                parts.append(f"\\left({s}\\right)" if f.is_Add else s)
+            body = " ".join(parts)
+            if coeff == 1:
+                return body
+            if coeff == -1:
+                return "- " + body
+            if coeff.is_Rational and coeff.q != 1:
+                return f"{'-' if coeff < 0 else ''}\\frac{{{abs(coeff.p)}}}{{{coeff.q}}} {body}"
+            return f"{self.fast(coeff)} {body}"
+        if e.is_Pow and e.exp.is_Integer and e.exp > 0:
+            base = self.fast(e.base)
+            if not (e.base.is_Symbol or e.base.is_Integer and e.base > 0):
+                base = f"\\left({base}\\right)"
+            return f"{base}^{{{e.exp}}}"
+        if isinstance(e, (sp.sin, sp.cos)):
+            return f"\\{type(e).__name__}{{\\left({self.fast(e.args[0])}\\right)}}"
+        return self.printer.doprint(e)
 
     def __call__(self, value: Any) -> str:
         if isinstance(value, bool):
@@ -90,8 +140,26 @@ class Latex:
                 return number(value)
             if value.atoms(sp.Float):
                 value = value.xreplace({f: sp.Float(f, 4) for f in value.atoms(sp.Float)})
+            if is_large(value):  # terms as stored, by a direct printer: sympy's costs minutes on such sums
+                return self.fast(value)
             return self.printer.doprint(value)
         return str(value)
+
+
+LARGE_PRINT = 4000  # nodes: larger expressions are printed with their terms in stored order (text and LaTeX)
+LARGE_TEXT = 1000  # the same for the JSON text (sympy syntax, for programs) past this many nodes
+
+
+def is_large(value: Any, limit: int = LARGE_PRINT) -> bool:
+    """Whether a sympy expression has more than ``limit`` nodes."""
+    if not isinstance(value, sp.Basic):
+        return False
+    count = 0
+    for _ in sp.preorder_traversal(value):
+        count += 1
+        if count > limit:
+            return True
+    return False
 
 
 _TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "#": r"\#", "_": r"\_", "{": r"\{",
@@ -351,10 +419,11 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
 
 
 def render(problem: Problem, solutions: list[Solution], fmt: str, fragment: bool = False,
-           template_dir: Path | None = None, assets: dict[str, str] | None = None) -> str:
-    """The report of ``problem`` in ``fmt`` (md | tex | json)."""
+           template_dir: Path | None = None, assets: dict[str, str] | None = None, details: bool = False) -> str:
+    """The report of ``problem`` in ``fmt`` (md | tex | json); ``details``: JSON with the intermediate results
+    (per-body quantities) and the steps' expressions."""
     if fmt == "json":
-        return json.dumps(to_json(problem, solutions), indent=2, ensure_ascii=False) + "\n"
+        return json.dumps(to_json(problem, solutions, details), indent=2, ensure_ascii=False) + "\n"
     env = _env(fmt, template_dir, problem.latex_names, ranks(problem))
     page = env.get_template(f"page.{fmt}.j2")
     return page.render(problem=problem, solutions=solutions, fragment=fragment, assets=assets or {},
@@ -379,7 +448,47 @@ def _expr_str(value: Any) -> str:
         return "[" + ", ".join(_expr_str(v) for v in value) + "]"
     if isinstance(value, dict):
         return "{" + ", ".join(f"{_expr_str(k)}: {_expr_str(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, sp.MatrixBase) and any(is_large(x, LARGE_TEXT) for x in value):
+        rows = ", ".join("[" + ", ".join(_expr_str(x) for x in value.row(i)) + "]" for i in range(value.rows))
+        return f"Matrix([{rows}])"
+    if is_large(value, LARGE_TEXT):
+        return _fast_str(value)
     return str(value)
+
+
+def _fast_str(e: Any) -> str:
+    """sympy-readable text of a long expression printed directly (terms in stored order): parse_expr reads it
+    back to the same expression."""
+    if e.is_Symbol or e.is_Integer:
+        return str(e)
+    if e.is_Rational:
+        return f"({e.p}/{e.q})"
+    if e.is_Add:
+        out = ""
+        for k, a in enumerate(e.args):
+            neg = a.could_extract_minus_sign()
+            body = _fast_str(-a if neg else a)
+            out += ("-" if neg else "") + body if k == 0 else (" - " if neg else " + ") + body
+        return out
+    if e.is_Mul:
+        coeff, rest = e.as_coeff_Mul()
+        parts = [f"({_fast_str(f)})" if f.is_Add else _fast_str(f) for f in sp.Mul.make_args(rest)]
+        body = "*".join(parts)
+        if coeff == 1:
+            return body
+        if coeff == -1:
+            return "-" + body
+        return f"{_fast_str(coeff)}*{body}"
+    if e.is_Pow:
+        base, ex = _fast_str(e.base), _fast_str(e.exp)
+        if not (e.base.is_Symbol or (e.base.is_Integer and e.base > 0)):
+            base = f"({base})"
+        if not (e.exp.is_Integer and e.exp > 0):
+            ex = f"({ex})"
+        return f"{base}**{ex}"
+    if isinstance(e, sp.Function):
+        return f"{type(e).__name__}({', '.join(_fast_str(a) for a in e.args)})"
+    return str(e)
 
 
 def _numeric(value: Any) -> Any:
@@ -413,29 +522,69 @@ def result_json(r: Result, latex: Latex) -> dict[str, Any]:
     return out
 
 
-def _plain(obj: Any, latex: Latex) -> Any:
-    if isinstance(obj, sp.Basic) or isinstance(obj, sp.MatrixBase):
-        return {"expr": str(obj), "latex": latex(obj)}
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: _plain(getattr(obj, f.name), latex) for f in dataclasses.fields(obj)}
-    if isinstance(obj, dict):
-        return {str(k): _plain(v, latex) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v, latex) for v in obj]
-    if isinstance(obj, (str, int, float, bool)) or obj is None:
-        return obj
-    return str(obj)
+class _Steps:
+    """Step data to JSON, each expression written once: a value that is a result of the report is written as
+    {"result": NAME}, other sympy values (with ``details`` only) as {"expr", "latex"}, once per object."""
+
+    def __init__(self, latex: Latex, refs: dict[int, str], details: bool) -> None:
+        self.latex, self.refs, self.details = latex, refs, details
+        self.seen: dict[int, Any] = {}
+
+    def __call__(self, obj: Any) -> Any:
+        if id(obj) in self.refs and _referable(obj):
+            return {"result": self.refs[id(obj)]}
+        if isinstance(obj, (str, int, float, bool)) or obj is None:
+            return obj
+        if not self.details:  # only references to results and plain data
+            if isinstance(obj, (list, tuple)) and all(isinstance(v, (str, int, float, bool)) for v in obj):
+                return list(obj)
+            return _SKIP
+        if isinstance(obj, (sp.Basic, sp.MatrixBase)):
+            if id(obj) not in self.seen:
+                self.seen[id(obj)] = {"expr": str(obj), "latex": self.latex(obj)}
+            return self.seen[id(obj)]
+        if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+            return self._dict({f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)})
+        if isinstance(obj, dict):
+            return self._dict(obj)
+        if isinstance(obj, (list, tuple)):
+            return [x for x in (self(v) for v in obj) if x is not _SKIP]
+        if type(obj).__str__ is object.__str__ and type(obj).__repr__ is object.__repr__:
+            return _SKIP  # a helper object (a template's lazy view): nothing readable to write
+        return str(obj)
+
+    def _dict(self, d: dict) -> dict:
+        out = {str(k): self(v) for k, v in d.items()}
+        return {k: v for k, v in out.items() if v is not _SKIP}
 
 
-def to_json(problem: Problem, solutions: list[Solution]) -> dict[str, Any]:
-    """{"id", "title", "results": {NAME: {kind, expr, latex, value?}}, "steps": [...]}."""
+_SKIP = object()
+
+
+def _referable(value: Any) -> bool:
+    """A value written by reference when it is a result: a matrix, a list or a compound expression (atoms such
+    as 0 are shared objects in sympy)."""
+    return isinstance(value, (sp.MatrixBase, list, tuple)) or (isinstance(value, sp.Basic) and not value.is_Atom)
+
+
+def to_json(problem: Problem, solutions: list[Solution], details: bool = False) -> dict[str, Any]:
+    """{"id", "title", "results": {NAME: {kind, expr, latex, value?}}, "steps": [{ask, step, data}]}: the results
+    of the asks, each printed once as text and LaTeX; intermediate results (``Result.detail``: per-body energies,
+    ...) and the steps' own expressions only with ``details``. Step data refer to results by name."""
     latex = Latex(problem.latex_names, ranks(problem))
     results: dict[str, Any] = {}
-    steps: list[Any] = []
+    refs: dict[int, str] = {}
     for sol in solutions:
         for name, r in sol.results.items():
+            if r.detail and not details:
+                continue
             results[name] = result_json(r, latex)
+            if _referable(r.value):
+                refs[id(r.value)] = name
+    plain = _Steps(latex, refs, details)
+    steps: list[Any] = []
+    for sol in solutions:
         for st in sol.steps:
-            data = {k: v for k, v in st.data.items() if k not in ("robot",)}
-            steps.append({"ask": sol.kind, "step": st.name, "data": _plain(data, latex)})
+            data = plain._dict({k: v for k, v in st.data.items() if k not in ("robot",)})
+            steps.append({"ask": sol.kind, "step": st.name, "data": data})
     return {"id": problem.id, "title": problem.title, "results": results, "steps": steps}

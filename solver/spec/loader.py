@@ -13,7 +13,7 @@ from typing import Any
 import sympy as sp
 from pydantic import ValidationError
 
-from solver.math.rigid import dh_chain, omega_from_rotation
+from solver.math.rigid import dh_chain, dh_omegas, omega_from_rotation
 from solver.math.simplify import tidy
 from solver.registry import load_all
 from solver.spec import expr as exprmod
@@ -384,6 +384,7 @@ class SpecLoader:
         rows = [tuple(self.scalar_at(path + ("table", i, k), k) for k in ("a", "alpha", "d", "theta"))
                 for i in range(nj)]
         frames = dh_chain(rows, dh.convention)  # type: ignore[arg-type]
+        omegas = dh_omegas(rows, dh.convention, q, dq)  # type: ignore[arg-type]
         base = sp.eye(4)
         if dh.base is not None:
             base = self.matrix_at(path + ("base",), (4, 4), "base")
@@ -395,7 +396,7 @@ class SpecLoader:
             R, p = A[:3, :3], A[:3, 3]
             r = self.vector_at(lp + ("com",), (3,), "com")
             com = (p + R * r).applyfunc(tidy)
-            omega = omega_from_rotation(R, q, dq, "link")
+            omega = omegas[i]
             bodies.append(Body(lk.name or f"link {i + 1}", self.scalar_at(lp + ("mass",), "mass"), com, omega,
                                self._inertia(lp + ("inertia",), "inertia"), R, "link"))
         return bodies, [base] + frames

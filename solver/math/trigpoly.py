@@ -1,0 +1,127 @@
+"""Whole computations in the canonical trigonometric-polynomial form (no sympy expressions in between).
+
+A :class:`TrigAlgebra` holds one ring of coefficients (every symbol of a problem, sorted by name) and the
+angles; its elements are :data:`solver.math.fourier.TrigPoly` dicts {(k, cos|sin): coefficient}, so sums,
+products and derivatives stay canonical and exact:
+
+    ∂/∂x_j [a_k cos(k·x)] = -k_j a_k sin(k·x) + (∂a_k/∂x_j) cos(k·x),   ∂/∂x_j [b_k sin(k·x)] = k_j b_k cos(k·x) + ...
+
+and each result is written once at the end by :meth:`TrigAlgebra.expr`, which gives exactly what
+:func:`solver.math.simplify.tidy` gives for the same function (the form is canonical), with the size limits of
+:func:`solver.math.simplify.fourier_expr`.
+"""
+from __future__ import annotations
+
+from typing import Iterable
+
+import sympy as sp
+
+from solver.math.fourier import NotTrigPolynomial, TrigPoly, _Algebra
+from solver.math.simplify import fourier_expr
+
+__all__ = ["TrigAlgebra", "NotTrigPolynomial"]
+
+
+class TrigAlgebra:
+    """Trigonometric polynomials in ``angles`` with polynomial coefficients in every symbol of ``exprs``."""
+
+    def __init__(self, angles: Iterable[sp.Symbol], symbols: Iterable[sp.Symbol]) -> None:
+        self.angles = sorted(set(angles), key=lambda s: s.name)
+        gens = sorted(set(symbols) | set(self.angles), key=lambda s: s.name)
+        self.alg = _Algebra(self.angles, gens)
+        self.R = self.alg.R
+        self.gens = gens
+        self.zero: TrigPoly = {}
+
+    @classmethod
+    def of(cls, exprs: Iterable[sp.Basic], extra: Iterable[sp.Symbol] = ()) -> "TrigAlgebra":
+        """The algebra of the sympy expressions/matrices ``exprs``: angles are the symbols inside sin/cos."""
+        angles: set[sp.Symbol] = set()
+        symbols: set[sp.Symbol] = set(extra)
+        for e in exprs:
+            e = sp.sympify(e)
+            symbols |= e.free_symbols
+            for f in e.atoms(sp.sin, sp.cos):
+                angles |= f.args[0].free_symbols
+        return cls(angles, symbols)
+
+    # ------------------------------------------------------------------------------------------ conversion
+    def conv(self, e: sp.Expr) -> TrigPoly:
+        """A sympy expression (NotTrigPolynomial when it is not a trigonometric polynomial)."""
+        e = sp.sympify(e)
+        if e.atoms(sp.Float):
+            raise NotTrigPolynomial(e)
+        return self.alg.conv(e)
+
+    def matrix(self, m: sp.MatrixBase) -> list[list[TrigPoly]]:
+        return [[self.conv(m[i, j]) for j in range(m.cols)] for i in range(m.rows)]
+
+    def expr(self, a: TrigPoly) -> sp.Expr:
+        """The printed (tidy) form of ``a``."""
+        zero = self.R.zero
+        coeffs: dict = {}
+        for (k, kind), c in a.items():
+            x, y = coeffs.get(k, (zero, zero))
+            coeffs[k] = (c, y) if kind == 0 else (x, c)
+        return fourier_expr(coeffs, self.angles)
+
+    def to_matrix(self, m: list[list[TrigPoly]]) -> sp.Matrix:
+        return sp.Matrix([[self.expr(x) for x in row] for row in m])
+
+    # ------------------------------------------------------------------------------------------ arithmetic
+    def add(self, *terms: TrigPoly) -> TrigPoly:
+        out: TrigPoly = {}
+        for t in terms:
+            for key, c in t.items():
+                self.alg.add_into(out, key, c)
+        return out
+
+    def sub(self, a: TrigPoly, b: TrigPoly) -> TrigPoly:
+        return self.add(a, self.scale(b, -1))
+
+    def scale(self, a: TrigPoly, c) -> TrigPoly:  # type: ignore[no-untyped-def]
+        """``a`` times a number or a ring element."""
+        if not c:
+            return {}
+        out = {k: v * c for k, v in a.items()}
+        return {k: v for k, v in out.items() if v}
+
+    def mul(self, a: TrigPoly, b: TrigPoly) -> TrigPoly:
+        if not a or not b:
+            return {}
+        return self.alg.mul(a, b)
+
+    def symbol(self, s: sp.Symbol) -> TrigPoly:
+        return self.alg.const(self.alg.gen[s])
+
+    def diff(self, a: TrigPoly, x: sp.Symbol) -> TrigPoly:
+        """∂a/∂x (x an angle, a coefficient symbol, or both)."""
+        out: TrigPoly = {}
+        j = self.alg.index.get(x)
+        g = self.gens.index(x) if x in self.alg.gen else None
+        for (k, kind), c in a.items():
+            if g is not None:
+                dc = c.diff(self.R.gens[g])
+                if dc:
+                    self.alg.add_into(out, (k, kind), dc)
+            if j is not None and k[j]:
+                if kind == 0:  # cos(k·x)' = -k_j sin(k·x)
+                    self.alg.add_into(out, (k, 1), c * (-k[j]))
+                else:  # sin(k·x)' = k_j cos(k·x)
+                    self.alg.add_into(out, (k, 0), c * k[j])
+        return out
+
+    def dot(self, a: list[TrigPoly], b: list[TrigPoly]) -> TrigPoly:
+        return self.add(*[self.mul(x, y) for x, y in zip(a, b)])
+
+    def matmul(self, A: list[list[TrigPoly]], B: list[list[TrigPoly]]) -> list[list[TrigPoly]]:
+        cols = list(zip(*B))
+        return [[self.dot(row, col) for col in cols] for row in A]
+
+    @staticmethod
+    def T(A: list[list[TrigPoly]]) -> list[list[TrigPoly]]:
+        return [list(r) for r in zip(*A)]
+
+    def size(self, a: TrigPoly) -> int:
+        """Number of monomials of ``a`` over all its Fourier coefficients."""
+        return sum(len(c) for c in a.values())

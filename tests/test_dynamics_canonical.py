@@ -1,0 +1,142 @@
+"""The model computed in the canonical trigonometric-polynomial form: a six-joint arm by DH with generic centres of
+mass against a numeric recursive Newton-Euler at random points, and the same printed forms as the entry-by-entry
+path on library robots."""
+import math
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import solver.dynamics.canonical as canonical
+from solver.dynamics.model import derive
+from solver.math import simplify
+from solver.spec import load_problem, load_problem_text
+
+ROOT = Path(__file__).resolve().parent.parent
+SPECS = ROOT / "benchmarks" / "specs"
+
+
+def rne(rows, links, gravity, q, dq, ddq):
+    """Joint torques by the recursive Newton-Euler algorithm (standard DH, revolute joints), numerically.
+    rows: (a, alpha, d, theta offset); links: (m, r_i in frame i, inertia 3x3 about the CoM in frame i)."""
+    n = len(rows)
+    z = np.array([0.0, 0.0, 1.0])
+    Rs, ps = [], []
+    for (a, al, d, th0), qi in zip(rows, q):
+        th = th0 + qi
+        ct, st, ca, sa = math.cos(th), math.sin(th), math.cos(al), math.sin(al)
+        Rs.append(np.array([[ct, -st * ca, st * sa], [st, ct * ca, -ct * sa], [0, sa, ca]]))
+        ps.append(np.array([a, d * sa, d * ca]))  # O_{i-1} -> O_i in frame i
+    w, wd, vd = np.zeros(3), np.zeros(3), -np.asarray(gravity, float)
+    F, N = [], []
+    for i in range(n):
+        R, p = Rs[i], ps[i]
+        m, r, I = links[i]
+        w_new = R.T @ (w + z * dq[i])
+        wd = R.T @ (wd + z * ddq[i] + np.cross(w, z * dq[i]))
+        w = w_new
+        vd = np.cross(wd, p) + np.cross(w, np.cross(w, p)) + R.T @ vd
+        vc = vd + np.cross(wd, r) + np.cross(w, np.cross(w, r))
+        F.append(m * vc)
+        N.append(I @ wd + np.cross(w, I @ w))
+    f, nm = np.zeros(3), np.zeros(3)
+    tau = np.zeros(n)
+    for i in reversed(range(n)):
+        Rn = Rs[i + 1] if i + 1 < n else np.eye(3)
+        p, r = ps[i], links[i][1]
+        fn = Rn @ f
+        nm = Rn @ nm + np.cross(p, fn) + np.cross(p + r, F[i]) + N[i]
+        f = fn + F[i]
+        tau[i] = nm @ (Rs[i].T @ z)
+    return tau
+
+
+def _numeric_robot(problem, values):
+    """DH rows and links of a benchmark spec with parameter values substituted."""
+    data = problem.located.data["robot"]["dh"]
+    ev = lambda s: float(sp.sympify(str(s), locals={k: sp.Symbol(k) for k in values}).subs(values))  # noqa: E731
+    rows = []
+    for row in data["table"]:
+        th = sp.sympify(str(row.get("theta", 0)))
+        rows.append((ev(row.get("a", 0)), ev(row.get("alpha", 0)), ev(row.get("d", 0)),
+                     float(th.subs({s: 0 for s in th.free_symbols}))))
+    links = []
+    for lk in data["links"]:
+        inertia = [ev(x) for x in lk["inertia"]]
+        links.append((ev(lk["mass"]), np.array([ev(x) for x in lk["com"]]), np.diag(inertia)))
+    return rows, links
+
+
+@pytest.mark.parametrize("spec", ["generic6r.yaml"])
+def test_six_joint_arm_equals_newton_euler(spec):
+    problem = load_problem(SPECS / spec)
+    robot = problem.robot
+    dm = derive(robot)
+    assert dm.skew is True
+    params = sorted({s for s in dm.lhs.free_symbols} - set(robot.q + robot.dq + robot.ddq), key=lambda s: s.name)
+    args = robot.q + robot.dq + robot.ddq + params
+    f = sp.lambdify(args, list(dm.lhs), "math")
+    rng = random.Random(7)
+    declared = [sp.Symbol(name) for name in problem.located.data["symbols"]]  # some do not enter the model
+    for _ in range(3):
+        values = {s: rng.uniform(0.5, 1.5) for s in declared}
+        values.update({s: values[sp.Symbol(s.name)] for s in params})
+        q = [rng.uniform(-3, 3) for _ in robot.q]
+        dq = [rng.uniform(-1, 1) for _ in robot.q]
+        ddq = [rng.uniform(-1, 1) for _ in robot.q]
+        rows, links = _numeric_robot(problem, {s.name: v for s, v in values.items()})
+        g0 = next(v for s, v in values.items() if s.name == "g0")
+        ours = np.array(f(*q, *dq, *ddq, *[values[s] for s in params]))
+        ref = rne(rows, links, [0, 0, -g0], q, dq, ddq)
+        assert np.max(np.abs(ours - ref)) < 1e-9 * max(1.0, np.max(np.abs(ref))), (ours, ref)
+
+
+@pytest.mark.parametrize("name", ["spatial3r.yaml", "planar4r.yaml"])
+def test_canonical_path_prints_what_tidy_prints(name, monkeypatch):
+    """The canonical computation and the entry-by-entry tidy path give identical expressions (canonical forms)."""
+    robot = load_problem(SPECS / name).robot
+    fast = derive(robot)
+    monkeypatch.setattr(canonical, "derive_canonical", lambda r: None)
+    simplify.tidy.cache_clear()
+    slow = derive(robot)
+    for field in ("T", "B", "C", "c", "S", "skew", "U", "g", "lhs"):
+        assert getattr(fast, field) == getattr(slow, field), field
+    for a, b in zip(fast.bodies, slow.bodies):
+        assert (a.pc, a.vc, a.v2, a.T, a.U) == (b.pc, b.vc, b.v2, b.T, b.U)
+
+
+def test_data_outside_the_algebra_take_the_general_path():
+    """Floats or a parameter in a denominator: derive_canonical declines, derive still works."""
+    text = (SPECS / "planar4r.yaml").read_text().replace("com: [d1 - l1, 0, 0]", "com: [d1/l2 - l1, 0, 0.5]")
+    robot = load_problem_text(text).robot
+    assert canonical.derive_canonical(robot) is None
+    dm = derive(robot)
+    assert dm.skew is True and dm.B.shape == (4, 4)
+
+
+def test_large_model_report_defines_parameter_groupings_once(monkeypatch):
+    """Past LARGE_MODEL the report writes B, C_k and g with K_j (each sum of parameters defined once), says so, and
+    B with the K_j substituted back is the model's B; the JSON keeps the full expressions."""
+    import json
+
+    import solver.dynamics.model as model
+    from solver.publish.render import render
+    from solver.solve import solve_problem
+    monkeypatch.setattr(model, "LARGE_MODEL", 50)
+    problem = load_problem(SPECS / "spatial3r.yaml")
+    sols = solve_problem(problem)
+    step = sols[0].steps[0].data
+    abbr, dm = step["abbr"], step["dm"]
+    assert abbr is not None and abbr["defs"]
+    defs = dict(abbr["defs"])
+    assert len(set(defs.values())) == len(defs)  # each sum once
+    assert all(not (e.free_symbols & set(problem.robot.q)) for e in defs.values())
+    assert (abbr["B"].xreplace(defs) - dm.B).applyfunc(sp.expand) == sp.zeros(3, 3)
+    assert all((a.xreplace(defs) - b).applyfunc(sp.expand) == sp.zeros(3, 3) for a, b in zip(abbr["C"], dm.C))
+    md = render(problem, sols, "md")
+    assert "This model is large" in md and "Parameter groupings" in md and "K_{1}" in md
+    assert "Kinetic energy" not in md  # per-body quantities: JSON with --details
+    data = json.loads(render(problem, sols, "json"))
+    assert "K_" not in data["results"]["B"]["expr"]
