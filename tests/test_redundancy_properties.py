@@ -370,3 +370,35 @@ def test_sns_property_check_accepts_feasible_solutions():
     assert alt.correct and alt.fraction == 0.5
     assert not check_sns(p, res, "qddot_sns", [-25 / 3, -25 / 6, 0, 25 / 6], None, None).correct  # PS: q̈4 > 2
     assert not check_sns(p, res, "qddot_sns", [-4, -2, 0, 2], None, None).correct  # scaled: task not realized
+
+
+def test_sns_reduced_problem_results_and_constant_jacobian_without_at():
+    """A constant 2x4 Jacobian (no robot, no at:): every SNS iteration with saturated joints S exposes J_{-S},
+    the residual task x - J_S v_S, its pseudoinverse and the active components, consistent with the iterate."""
+    J = np.array([[1.0, 0.5, -0.3, 0.2], [0.1, 1.0, 0.4, -0.6]])
+    x = np.array([2.0, 1.5])
+    p = load_problem_text("""
+id: sns-const
+title: constant Jacobian
+asks:
+  - kind: redundancy
+    jacobian: [[1, 0.5, -0.3, 0.2], [0.1, 1, 0.4, -0.6]]
+    velocity: [2, 1.5]
+    bounds: [1, 1, 1, 1]
+    methods: [pseudoinverse, sns]
+""")
+    res = all_results(solve_problem(p))
+    num = lambda k: np.array(sp.Matrix(res[k].value).evalf().tolist(), dtype=float)  # noqa: E731
+    its = int(res["sns_iterations"].value)
+    assert its >= 2 and "J_sns_1" not in res
+    for k in range(2, its + 1):
+        v = num(f"qdot_sns_{k}").ravel()
+        Jr, xk = num(f"J_sns_{k}"), num(f"task_sns_{k}").ravel()
+        va = num(f"qdot_sns_{k}_active").ravel()
+        sat = [i for i in range(4) if not any(np.allclose(Jr[:, c], J[:, i]) for c in range(Jr.shape[1]))]
+        assert Jr.shape[1] == 4 - len(sat) and 1 <= len(sat) <= k - 1
+        assert np.allclose(xk, x * float(res["sns_scale"].value if k == its else 1) - J[:, sat] @ v[sat])
+        assert np.allclose(num(f"J_sns_{k}_pinv"), np.linalg.pinv(Jr))
+        assert np.allclose(va, np.delete(v, sat)) and np.allclose(Jr @ va, xk)
+    v = num("qdot_sns").ravel()
+    assert np.all(np.abs(v) <= 1 + 1e-9) and float(res["sns_scale"].value) < 1  # infeasible: scaled

@@ -197,6 +197,8 @@ class _MSpec:
         return {"name": name, "f": f, "J": J, "r": sp.Matrix(val), "m": m}
 
     def _state(self) -> dict[sp.Symbol, sp.Expr]:
+        if self.o.at is None and all(t["f"] is None and not (t["J"].free_symbols & set(self.q)) for t in self.tasks):
+            return {}  # constant Jacobians (given numerically): no configuration needed
         if self.o.at is None:
             raise self.fail((), "the methods need a configuration", "add at: {q1: ..., q2: ...}")
         by_name = {s.name: s for s in self.q}
@@ -496,6 +498,8 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             add("sns_iterations", sp.Integer(len(res.steps)), "number", label="\\text{SNS iterations}")
             for st in res.steps:
                 add(f"{v}_sns_{st.it}", la.sym(st.qdot), "vector", label=f"{vl}^{{({st.it})}}")
+                if st.saturated:
+                    _sns_reduced(add, la, JE, xE, st, v, vl)
             rows = [{"it": st.it, "sat": [i + 1 for i in st.saturated], "v": la.sym(st.qdot),
                      "v_num": la.sym(st.qdot).applyfunc(lambda x: x if x.is_Rational else x.evalf(5)),
                      "viol": [i + 1 for i in st.violating],
@@ -531,6 +535,26 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
     sol.step("m_compare", table=table, names=[t["name"] for t in tasks_num], acc=acc, bounds=spec.lo is not None)
     _sketch(sol, problem, spec, tasks_num, table, subs, acc)
     return sol
+
+
+def _sns_reduced(add: Any, la: rs.LA, J: Any, x: Any, st: rs.SNSStep, v: str, vl: str) -> None:
+    """The reduced problem of an SNS iteration with saturated joints S: J_{-S} (the columns of the active joints),
+    the residual task x_k = s x − Σ_{j∈S} J_j v_j (s = 1 unless the task is scaled), its solution
+    v_{-S} = J_{-S}^# x_k (the active components of the iterate) and J_{-S}^#."""
+    n = la.shape(J)[1]
+    act = [i for i in range(n) if i not in st.saturated]
+    s = st.scale if (not st.violating and st.scale is not None) else 1
+    vN = la.zeros(n, 1)
+    for i in st.saturated:
+        vN[i, 0] = st.qdot[i, 0]
+    Jr = J[:, act]
+    xk = x * s - J @ vN
+    k = st.it
+    add(f"J_sns_{k}", la.sym(Jr), "matrix", label=f"J_{{-S}}^{{({k})}}")
+    add(f"task_sns_{k}", la.sym(xk), "vector", label=f"x^{{({k})}} = s\\,x - J_S {vl}_S")
+    add(f"J_sns_{k}_pinv", la.sym(la.pinv(Jr)), "matrix", label=f"(J_{{-S}}^{{({k})}})^{{\\#}}")
+    add(f"{v}_sns_{k}_active", la.sym(st.qdot[act, :] if not la.exact else st.qdot.extract(act, [0])), "vector",
+        label=f"{vl}_{{-S}}^{{({k})}}")
 
 
 def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs: dict, acc: bool) -> None:  # type: ignore[no-untyped-def]
