@@ -402,3 +402,22 @@ asks:
         assert np.allclose(va, np.delete(v, sat)) and np.allclose(Jr @ va, xk)
     v = num("qdot_sns").ravel()
     assert np.all(np.abs(v) <= 1 + 1e-9) and float(res["sns_scale"].value) < 1  # infeasible: scaled
+
+
+@pytest.mark.parametrize("exact", [True, False])
+def test_sns_rank_deficient_task_in_range_is_not_scaled(exact):
+    """J of rank 1 < m = 2 with the task in its range: removing a column keeps the rank, so SNS goes on
+    saturating and realizes the task in full when a feasible solution exists (an LP confirms one exists)."""
+    la = E if exact else F
+    Jn = np.array([[1.0, 0.5, 2.0, -1.0], [2.0, 1.0, 4.0, -2.0]])
+    J = sp.Matrix([[1, sp.Rational(1, 2), 2, -1], [2, 1, 4, -2]]) if exact else Jn
+    x = sp.Matrix([5, 10]) if exact else np.array([[5.0], [10.0]])
+    hi = [2, 2, 1, sp.Rational(1, 2)] if exact else [2.0, 2.0, 1.0, 0.5]
+    lo = [-h for h in hi]
+    lp = linprog(np.zeros(4), A_eq=Jn, b_eq=[5, 10], bounds=[(-float(h), float(h)) for h in hi])
+    assert lp.status == 0
+    res = rs.sns(la, la.mat(J), la.mat(x), lo, hi)
+    v = np.array(sp.Matrix(la.sym(res.qdot)).evalf().tolist(), dtype=float).ravel()
+    assert float(res.s) == 1 and res.feasible
+    assert np.allclose(Jn @ v, [5, 10]) and np.all(np.abs(v) <= np.array(hi, dtype=float) + 1e-9)
+    assert len(res.steps) > 2
