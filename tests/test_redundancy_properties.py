@@ -228,6 +228,8 @@ def test_acceleration_level_matches_finite_differences():
             return jac4(qt) @ (qd + qdd * t)
 
         assert np.allclose((pdot(h) - pdot(-h)) / (2 * h), rdd, atol=1e-6)  # d/dt (J q̇) = r̈
+    Jd = np.array(sp.Matrix(res["Jdot_at"].value).evalf().tolist(), dtype=float)
+    assert np.allclose(Jd, (jac4(q + qd * 1e-6) - jac4(q - qd * 1e-6)) / 2e-6, atol=1e-6)  # J̇ along q̇
     qn = np.array(sp.Matrix(res["qddot"].value).evalf().tolist(), dtype=float).ravel()
     qp = np.array(sp.Matrix(res["qddot_ps"].value).evalf().tolist(), dtype=float).ravel()
     J = jac4(q)

@@ -274,6 +274,9 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                 add(tn("Jdot_qdot_sym", k), (Jd_sym * dq).applyfunc(tidy), "vector",
                     label=f"\\dot J_{{{k}}}(q)\\dot q" if multi else "\\dot J(q)\\dot q")
             Jdot = sum((t["J"].diff(x) * spec.qd[i] for i, x in enumerate(spec.q)), sp.zeros(*t["J"].shape))
+            Jdot_at = Jdot.subs(subs)
+            add(tn("Jdot_at", k), Jdot_at.applyfunc(sp.nsimplify) if _is_rational(Jdot_at) else Jdot_at, "matrix",
+                label=f"\\dot J_{{{k}}}" if multi else "\\dot J")
             h = (Jdot * spec.qd).subs(subs)
             h = h.applyfunc(sp.nsimplify) if _is_rational(h) else h
             add(tn("Jdot_qdot", k), h, "vector", label=f"\\dot J_{{{k}}}\\dot q" if multi else "\\dot J \\dot q")
