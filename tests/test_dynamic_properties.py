@@ -241,3 +241,38 @@ def test_forward_dynamics():
     u1 = p.robot.inputs[0]
     ddq = r["ddq"].value
     assert all(is_zero(sp.expand(sp.simplify(x))) for x in dm.B * ddq + dm.c + dm.g - sp.Matrix([u1, 0]))
+
+
+BAL = """
+id: t
+title: planar 3R, CoM offsets along the links
+symbols: {l1: l1, l2: l2, m1: m1, m2: m2, m3: m3, d1: {meaning: d1, sign: real}, d2: {meaning: d2, sign: real},
+          d3: {meaning: d3, sign: real}, g0: g0}
+robot:
+  joints: [R, R, R]
+  gravity: [0, -g0]
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1}
+    - {mass: m2, com: [l1*cos(q1) + d2*cos(q1 + q2), l1*sin(q1) + d2*sin(q1 + q2)], angle: q1 + q2}
+    - {mass: m3, com: [l1*cos(q1) + l2*cos(q1 + q2) + d3*cos(q1 + q2 + q3),
+                       l1*sin(q1) + l2*sin(q1 + q2) + d3*sin(q1 + q2 + q3)], angle: q1 + q2 + q3}
+asks:
+  - kind: dynamic_properties
+    find: [balancing]
+    unknowns: UNK
+"""
+
+
+def test_balancing_solves_g_identically_zero_and_says_when_it_cannot():
+    p, r = results(BAL.replace("UNK", "[d1, d2, d3]"))
+    d1, d2, d3, m1, m2, m3, l1, l2 = (p.names[k] for k in ("d1", "d2", "d3", "m1", "m2", "m3", "l1", "l2"))
+    vals = r["balancing"].value
+    assert r["balanceable"].value is True
+    assert sp.simplify(vals[2]) == 0 and sp.simplify(vals[1] + m3 * l2 / m2) == 0
+    assert sp.simplify(vals[0] + (m2 + m3) * l1 / m1) == 0
+    g = derive(p.robot).g.subs({d1: vals[0], d2: vals[1], d3: vals[2]})
+    assert all(is_zero(x) for x in g)  # g ≡ 0 with the solution
+    _, r2 = results(BAL.replace("UNK", "[d3]"))  # d1, d2 left free: the lower links still weigh
+    assert r2["balanceable"].value is False and "balancing" not in r2
+    with pytest.raises(UserError):
+        results(BAL.replace("UNK", "[q1]"))

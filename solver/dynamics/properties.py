@@ -287,7 +287,9 @@ class DynamicPropertiesAsk(Strict):
     kind: Literal["dynamic_properties"]
     title: Optional[str] = Field(None, description="heading of this part in the report")
     find: list[Literal["eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates",
-                       "feasibility", "power", "forward_dynamics"]] = Field(description="which properties")
+                       "feasibility", "power", "forward_dynamics", "balancing"]] = Field(
+        description="which properties")
+    unknowns: list[str] = Field([], description="balancing: the parameters to choose so that g(q) ≡ 0")
     ranges: dict[str, tuple[float, float]] = Field(
         {}, description="range per coordinate for the searches over q (needed for prismatic ones)")
     factorizations: list[GivenFactorization] = Field([], description="factorizations S to check")
@@ -444,7 +446,56 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             _power(problem, options, ctx, sol, dm, robot)
         elif what == "forward_dynamics":
             _forward(problem, options, ctx, sol, dm, robot)
+        elif what == "balancing":
+            _balancing(problem, options, ctx, sol, dm, robot)
     return sol
+
+
+def balancing_conditions(g: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol]) -> list[sp.Expr]:
+    """The conditions (expressions = 0) for g(q) ≡ 0: g expanded in sin q_i, cos q_i (revolute) and q_i
+    (prismatic), every coefficient of the monomials zero. Gravity terms are of degree ≤ 1 in the sine and cosine
+    of each angle, where these monomials are independent functions: the conditions are then also necessary."""
+    gens: list[sp.Expr] = []
+    for x in q:
+        gens += [sp.sin(x), sp.cos(x)] if x in revolute else [x]
+    conds: list[sp.Expr] = []
+    for gi in g:
+        e = sp.expand(sp.expand_trig(gi))
+        if e == 0:
+            continue
+        for c in sp.Poly(e, *gens).coeffs():
+            c = sp.factor(c)
+            if c != 0 and all(not sp.simplify(c - d) == 0 and not sp.simplify(c + d) == 0 for d in conds):
+                conds.append(c)
+    return conds
+
+
+def _balancing(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """Parameters (``unknowns``) making g(q) ≡ 0: solve the coefficient conditions."""
+    if not options.unknowns:
+        raise UserError("balancing needs unknowns: [the parameters to choose]", _place(problem, ctx, "find"),
+                        "add unknowns: [d1, d2]")
+    unk = []
+    for k, name in enumerate(options.unknowns):
+        x = problem.names.get(name)
+        if x is None or x in robot.q or not (dm.g.free_symbols & {x}):
+            raise UserError(f"'{name}' is not a parameter of g(q)", _place(problem, ctx, "unknowns", k),
+                            "name parameters that appear in the gravity term")
+        unk.append(x)
+    revolute = {x for x, j in zip(robot.q, robot.joints) if j == "R"}
+    g = dm.g
+    conds = balancing_conditions(g, list(robot.q), revolute)
+    sols = sp.solve(conds, unk, dict=True) if conds else [{}]
+    # keep the solutions that meet every condition (sympy ignores the equations free of the unknowns)
+    sols = [sl for sl in sols if all(is_zero(sp.simplify(c.xreplace(sl))) for c in conds)]
+    sol.add("balancing_conditions", sp.Matrix(conds) if conds else sp.zeros(1, 1), "vector",
+            label="\\text{conditions } (=0)")
+    sol.add("balanceable", bool(sols), "bool", label="g(q) \\equiv 0 \\text{ possible}")
+    vals = None
+    if sols:
+        vals = sp.Matrix([tidy(sols[0].get(x, x)) for x in unk])
+        sol.add("balancing", vals, "vector", label="(" + ", ".join(sp.latex(x) for x in unk) + ")")
+    sol.step("balancing", g=dm.g, conds=conds, unknowns=unk, sols=sols, vals=vals)
 
 
 def _inverse_dynamics(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
