@@ -276,3 +276,32 @@ def test_balancing_solves_g_identically_zero_and_says_when_it_cannot():
     assert r2["balanceable"].value is False and "balancing" not in r2
     with pytest.raises(UserError):
         results(BAL.replace("UNK", "[q1]"))
+
+
+def test_nonlinear_change_of_coordinates_preserves_the_dynamics():
+    """q = φ(θ) nonlinear: along a trajectory θ(t), B_θ θ̈ + c_θ + g_θ = J_φᵀ (B q̈ + c + g) at q = φ(θ(t))
+    (virtual work), checked numerically at several instants."""
+    text = RP.replace("find: [eigenvalues, inverse_dynamics, coordinates, feasibility]", "find: [coordinates]")
+    text = text.replace("    transform: [[1, 0], [0, 2]]\n", "    map: [p1 + p2^2/4, p2 + sin(p1)/2]\n")
+    p, r = results(text)
+    dm = derive(p.robot)
+    th = sp.symbols("p1 p2", real=True)
+    dth = sp.symbols("dp1 dp2", real=True)
+    t = sp.Symbol("t", real=True)
+    phi = sp.Matrix([th[0] + th[1] ** 2 / 4, th[1] + sp.sin(th[0]) / 2])
+    Jp = phi.jacobian(th)
+    assert all(is_zero(sp.expand(x)) for x in r["J_map"].value - Jp)
+    tht = sp.Matrix([0.3 * sp.sin(t) + 0.2, 0.8 + 0.1 * t ** 2])
+    qt = phi.xreplace(dict(zip(th, tht)))
+    vals = p.values
+    q, dq, ddq = p.robot.q, p.robot.dq, p.robot.ddq
+    for tk in (0.0, 0.7, 1.3):
+        st = {t: tk}
+        qn, dqn, ddqn = qt.subs(st), qt.diff(t).subs(st), qt.diff(t, 2).subs(st)
+        sq = {**dict(zip(q, qn)), **dict(zip(dq, dqn)), **dict(zip(ddq, ddqn)), **vals}
+        tau_q = (dm.B * sp.Matrix(ddqn) + dm.c + dm.g).subs(sq)
+        thn, dthn, ddthn = tht.subs(st), tht.diff(t).subs(st), tht.diff(t, 2).subs(st)
+        sth = {**dict(zip(th, thn)), **dict(zip(dth, dthn)), **vals}
+        tau_th = (r["B_new"].value * ddthn + r["c_new"].value + r["g_new"].value).subs(sth)
+        lhs = np.array((Jp.subs(dict(zip(th, thn))).T * tau_q).evalf(), dtype=float)
+        assert np.allclose(np.array(tau_th.evalf(), dtype=float), lhs, atol=1e-9)

@@ -260,9 +260,10 @@ def affine_bound(A: sp.Matrix, coord: sp.Symbol, others: set[sp.Symbol]) -> tupl
 
 
 def change_coordinates(B: sp.Matrix, g: sp.Matrix, q: list[sp.Symbol], T: sp.Matrix, th: list[sp.Symbol],
-                       dth: list[sp.Symbol]) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
-    """q = T θ: (B_θ, c_θ, g_θ) with B_θ = Tᵀ B(Tθ) T, g_θ = Tᵀ g(Tθ), c_θ from the Christoffel symbols of B_θ."""
-    sub = dict(zip(q, list(T * sp.Matrix(th))))
+                       dth: list[sp.Symbol], phi: sp.Matrix | None = None) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+    """q = T θ (or q = φ(θ) with T = ∂φ/∂θ): (B_θ, c_θ, g_θ) with B_θ = Tᵀ B(q(θ)) T, g_θ = Tᵀ g(q(θ)), c_θ from the
+    Christoffel symbols of B_θ (q̇ = T θ̇: the kinetic energy is ½θ̇ᵀTᵀBTθ̇)."""
+    sub = dict(zip(q, list(phi if phi is not None else T * sp.Matrix(th))))
     Bt = tidy_matrix(T.T * B.xreplace(sub) * T)
     gt = tidy_matrix(T.T * g.xreplace(sub))
     ct = coriolis(christoffel(Bt, th), dth)
@@ -298,6 +299,8 @@ class DynamicPropertiesAsk(Strict):
     cases: list[dict[str, Union[str, int, float]]] = Field(
         [], description="inverse_dynamics: parameter values substituted in u_d(t) (u_d_case<k>), e.g. [{q2b: pi/2}]")
     transform: Optional[ExprT] = Field(None, description="coordinates: the n x n matrix T with q = T θ")
+    map: Optional[ExprT] = Field(None, description="coordinates: q = φ(θ), n expressions in the new coordinates "
+                                                   "(a nonlinear change, e.g. q = f⁻¹(p))")
     new_coordinates: Optional[list[str]] = Field(None, description="names of θ (default th1..thn); "
                                                                   "velocities d<name>")
     candidates: list["Candidate"] = Field([], description="feasibility: other (B, g) to judge, results prefixed "
@@ -401,12 +404,15 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
         elif what == "inverse_dynamics":
             _inverse_dynamics(problem, options, ctx, sol, dm, robot)
         elif what == "coordinates":
-            if options.transform is None:
-                raise UserError("coordinates needs transform: (q = T θ)", _place(problem, ctx, "find"),
-                                "add transform: [[1, 0], [1, 1]]")
-            T = sp.Matrix(ctx.expr("transform"))
-            if T.shape != (n, n) or T.det() == 0:
-                raise UserError(f"transform must be an invertible {n}x{n} matrix", _place(problem, ctx, "transform"))
+            if (options.transform is None) == (options.map is None):
+                raise UserError("coordinates needs transform: (q = T θ) or map: (q = φ(θ))",
+                                _place(problem, ctx, "find"), "add transform: [[1, 0], [1, 1]]")
+            T = None
+            if options.transform is not None:
+                T = sp.Matrix(ctx.expr("transform"))
+                if T.shape != (n, n) or T.det() == 0:
+                    raise UserError(f"transform must be an invertible {n}x{n} matrix",
+                                    _place(problem, ctx, "transform"))
             names = options.new_coordinates or [f"th{i + 1}" for i in range(n)]
             if len(names) != n:
                 raise UserError(f"{len(names)} names for {n} coordinates", _place(problem, ctx, "new_coordinates"))
@@ -420,11 +426,28 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
                 base = latex_of(s_.name).replace("th_", "\\theta_")
                 problem.latex_names.setdefault(s_, base)
                 problem.latex_names.setdefault(ds_, f"\\dot{{{base}}}")
-            Bt, ct, gt = change_coordinates(dm.B, dm.g, q, T, th, dth)
+            phi = None
+            if T is None:
+                raw = problem.parse_at(ctx.path + ("map",), {**problem.names, **{x.name: x for x in th}})
+                if not isinstance(raw, list) or len(raw) != n or any(isinstance(x, list) for x in raw):
+                    raise UserError(f"map must list {n} expressions q_i = φ_i(θ)", _place(problem, ctx, "map"))
+                phi = sp.Matrix(raw)
+                extra = phi.free_symbols & set(q)
+                if extra:
+                    raise UserError("map must be written in the new coordinates, not in "
+                                    + ", ".join(sorted(x.name for x in extra)), _place(problem, ctx, "map"))
+                T = phi.jacobian(th)
+                if is_zero(sp.simplify(T.det())):
+                    raise UserError("the map q = φ(θ) is singular (its Jacobian has zero determinant)",
+                                    _place(problem, ctx, "map"))
+            Bt, ct, gt = change_coordinates(dm.B, dm.g, q, T, th, dth, phi)
             sol.add("B_new", Bt, "matrix", label="B_\\theta")
             sol.add("c_new", ct, "vector", label="c_\\theta")
             sol.add("g_new", gt, "vector", label="g_\\theta")
-            sol.step("coordinates", T=T, th=th, q=q, Bt=Bt, ct=ct, gt=gt, Tinv=T.inv())
+            if phi is not None:
+                sol.add("J_map", T, "matrix", label="\\partial\\varphi/\\partial\\theta")
+            sol.step("coordinates", T=T, th=th, q=q, Bt=Bt, ct=ct, gt=gt, phi=phi,
+                     Tinv=T.inv() if phi is None else None)
         elif what == "feasibility":
             _feasibility(sol, dm.B, dm.g, robot, revolute)
             for k, cand in enumerate(options.candidates):
