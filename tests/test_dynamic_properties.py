@@ -305,3 +305,30 @@ def test_nonlinear_change_of_coordinates_preserves_the_dynamics():
         tau_th = (r["B_new"].value * ddthn + r["c_new"].value + r["g_new"].value).subs(sth)
         lhs = np.array((Jp.subs(dict(zip(th, thn))).T * tau_q).evalf(), dtype=float)
         assert np.allclose(np.array(tau_th.evalf(), dtype=float), lhs, atol=1e-9)
+
+
+@pytest.mark.parametrize("task", ["[(q2 + 0.3)*cos(q1), (q2 + 0.3)*sin(q1)]", "(q2 + 0.3)*sin(q1)"])
+def test_cartesian_inertia_is_the_task_space_kinetic_energy(task):
+    """M_p = (J B⁻¹ Jᵀ)⁻¹ at a state (square and 1-row tasks); for a square J the symbolic M_p agrees and
+    ½ṙᵀM_pṙ = ½q̇ᵀBq̇; M_p_inv_at is its inverse."""
+    text = RP.replace("find: [eigenvalues, inverse_dynamics, coordinates, feasibility]", "find: [cartesian_inertia]")
+    text += f"    task: {task}\n    state: {{q1: 0.3, q2: 0.8}}\n"
+    p, r = results(text)
+    dm = derive(p.robot)
+    q1, q2 = p.robot.q
+    st = {q1: sp.Rational(3, 10), q2: sp.Rational(4, 5), **p.values}
+    fx = sp.sympify(task.replace("^", "**"), locals={"q1": q1, "q2": q2})
+    f = sp.Matrix(fx if isinstance(fx, (list, tuple)) else [fx])
+    J = np.array(f.jacobian([q1, q2]).subs(st).evalf(), dtype=float)
+    B = np.array(dm.B.subs(st).evalf(), dtype=float)
+    Mp = np.array(r["M_p_at"].value.evalf(), dtype=float)
+    assert np.allclose(Mp, np.linalg.inv(J @ np.linalg.inv(B) @ J.T))
+    assert np.allclose(np.array(r["M_p_inv_at"].value.evalf(), dtype=float) @ Mp, np.eye(Mp.shape[0]))
+    assert np.allclose(sorted(np.array(r["eig_M_p_at"].value.evalf(), dtype=float).ravel()), sorted(lam(Mp)))
+    if J.shape[0] == 2:
+        assert np.allclose(np.array(r["M_p"].value.subs(st).evalf(), dtype=float), Mp)
+        v = np.array([0.7, -1.1])
+        rd = J @ v
+        assert np.isclose(rd @ Mp @ rd, v @ B @ v)
+    else:
+        assert "M_p" not in r

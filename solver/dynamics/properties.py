@@ -288,8 +288,9 @@ class DynamicPropertiesAsk(Strict):
     kind: Literal["dynamic_properties"]
     title: Optional[str] = Field(None, description="heading of this part in the report")
     find: list[Literal["eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates",
-                       "feasibility", "power", "forward_dynamics", "balancing"]] = Field(
+                       "feasibility", "power", "forward_dynamics", "balancing", "cartesian_inertia"]] = Field(
         description="which properties")
+    task: Optional[ExprT] = Field(None, description="cartesian_inertia: the task r = f(q) (m ≤ n expressions)")
     unknowns: list[str] = Field([], description="balancing: the parameters to choose so that g(q) ≡ 0")
     ranges: dict[str, tuple[float, float]] = Field(
         {}, description="range per coordinate for the searches over q (needed for prismatic ones)")
@@ -471,7 +472,48 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             _forward(problem, options, ctx, sol, dm, robot)
         elif what == "balancing":
             _balancing(problem, options, ctx, sol, dm, robot)
+        elif what == "cartesian_inertia":
+            _cartesian_inertia(problem, options, ctx, sol, dm, robot)
     return sol
+
+
+def _cartesian_inertia(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """M_p = (J B⁻¹ Jᵀ)⁻¹ (= J⁻ᵀ B J⁻¹ for a square J): symbolic for a square J, and at `state` (q values) with its
+    eigenvalues and inverse (p̈ = M_p⁻¹ F from rest without gravity)."""
+    if options.task is None:
+        raise UserError("cartesian_inertia needs task: [f1(q), ...]", _place(problem, ctx, "find"),
+                        "add task: [l1*cos(q1) + ..., ...]")
+    val = ctx.expr("task")
+    f = sp.Matrix(val if isinstance(val, list) else [val])
+    q = list(robot.q)
+    J = f.jacobian(q)
+    m, n = J.shape
+    if m > n:
+        raise UserError(f"the task has {m} components for {n} joints", _place(problem, ctx, "task"))
+    sol.add("J_task", J.applyfunc(tidy), "matrix", label="J(q)")
+    Mp = None
+    if m == n and sp.count_ops(J) + sp.count_ops(dm.B) <= 400:
+        Ji = J.inv()
+        Mp = tidy_matrix((Ji.T * dm.B * Ji).applyfunc(sp.simplify))
+        sol.add("M_p", Mp, "matrix", label="M_p(q) = J^{-T} B J^{-1}")
+    state = _read_state(problem, options, ctx, robot) if options.state else {}
+    at = None
+    if state and all(x in state for x in q):
+        sub = {**state, **problem.values}
+        Ja, Ba = J.xreplace(sub), dm.B.xreplace(sub)
+        if Ja.rank() < m:
+            raise UserError("the task Jacobian is singular at this state: no Cartesian inertia",
+                            _place(problem, ctx, "state"))
+        Mpa = (Ja * Ba.inv() * Ja.T).inv().applyfunc(sp.nsimplify if all(x.is_Rational for x in Ja) and all(
+            x.is_Rational for x in Ba) else sp.simplify)
+        Mpa = Mpa.applyfunc(lambda x: sp.nsimplify(x) if x.is_Float and sp.nsimplify(x).is_Rational else x)
+        eig = sorted((sp.nsimplify(e) if e.is_number else e for e in Mpa.eigenvals(multiple=True)),
+                     key=lambda e: -float(sp.N(e)))
+        at = {"J": Ja, "B": Ba, "Mp": Mpa, "eig": eig, "inv": Mpa.inv()}
+        sol.add("M_p_at", Mpa, "matrix", label="M_p\\big|_{*}")
+        sol.add("eig_M_p_at", sp.Matrix(eig), "vector", label="\\lambda_i(M_p)\\big|_{*}")
+        sol.add("M_p_inv_at", at["inv"], "matrix", label="M_p^{-1}\\big|_{*}")
+    sol.step("cartesian_inertia", f=f, J=J, Mp=Mp, square=m == n, state=state, at=at)
 
 
 def balancing_conditions(g: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol]) -> list[sp.Expr]:
