@@ -28,9 +28,10 @@ if TYPE_CHECKING:
 ExprT = Union[str, int, float, list[Any]]
 Scalar = Union[str, int, float]
 
-METHODS = ("pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled", "max_scaling")
+METHODS = ("pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled", "max_scaling",
+           "reduced_gradient")
 Method = Literal["pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled",
-                 "max_scaling"]
+                 "max_scaling", "reduced_gradient"]
 EXACT_SIZE = 48  # total entries of the stacked Jacobian up to which exact data are solved exactly
 
 
@@ -135,6 +136,13 @@ class _MSpec:
                 self.direction = self.direction.subs({d: self.qd[i] for i, d in enumerate(problem.robot.dq)})
         if "max_scaling" in self.methods and (self.direction is None or self.lo is None):
             raise self.fail(("methods",), "max_scaling needs direction: and bounds:")
+        if "reduced_gradient" in self.methods and (self.H is None or len(self.tasks) > 1):
+            raise self.fail(("methods",), "reduced_gradient needs gradient: (the objective H) and a single task")
+        if o.decomposition is not None:
+            m0 = self.tasks[0]["m"]
+            if len(o.decomposition) != m0 or len(set(o.decomposition)) != m0 or \
+                    any(not 1 <= j <= self.n for j in o.decomposition):
+                raise self.fail(("decomposition",), f"decomposition must list {m0} distinct joints among 1..{self.n}")
         if any(m in self.methods for m in ("sns", "scaled")) and self.lo is None:
             raise self.fail(("methods",), "sns and scaled need bounds: on the joint "
                                           + ("accelerations" if self.acc else "velocities"))
@@ -335,6 +343,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         add("bounds_upper", sp.Matrix([b.subs(subs) for b in spec.hi]), "vector", label="\\text{upper bounds}")
     # preferred (null-space) vector
     q0 = None
+    grad_at = None
     if spec.q0 is not None or spec.H is not None or spec.Kd is not None:
         q0s = sp.zeros(n, 1)
         grad = None
@@ -345,6 +354,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             gsym = sp.Matrix([tidy(sp.diff(spec.H, x)) for x in spec.q])
             add("grad_H", gsym, "vector", label="\\nabla_q H(q)")
             grad = gsym.subs(subs)
+            grad_at = grad
             q0s += spec.step * grad
             add("grad_H_at", grad, "vector", label="\\nabla_q H")
         if spec.Kd is not None:
@@ -464,6 +474,9 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             sol.step("m_scaled", vps=la.sym(vps), k=la.scalar(k), v=la.sym(vec), x=la.sym(xE), xs=la.sym(xE / k),
                      lo=lo, hi=hi, acc=acc, needed=k != 1)
             record("ps_scaled", "PS,scaled", vec)
+        elif meth == "reduced_gradient":
+            vec = _reduced_gradient(add, sol, la, spec, JE, xE, grad_at, acc)
+            record("rg", "RG", vec)
         elif meth == "max_scaling":
             lo = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
             hi = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
@@ -539,6 +552,50 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
     sol.step("m_compare", table=table, names=[t["name"] for t in tasks_num], acc=acc, bounds=spec.lo is not None)
     _sketch(sol, problem, spec, tasks_num, table, subs, acc)
     return sol
+
+
+def _reduced_gradient(add: Any, sol: Solution, la: rs.LA, spec: _MSpec, J: Any, x: Any, grad: sp.Matrix,
+                      acc: bool) -> Any:
+    """Reduced gradient: J = (J_a J_b) with J_a (m x m) nonsingular, q_b moved along the gradient of
+    H'(q_b) = H(q_a(q_b), q_b), ∇_{q_b}H' = (−(J_a⁻¹J_b)ᵀ I) ∇_q H (reordered), q̇_b = step·∇H', q̇_a = J_a⁻¹(x − J_b q̇_b)."""
+    import itertools
+    m, n = la.shape(J)
+    if spec.o.decomposition is not None:
+        a = [j - 1 for j in spec.o.decomposition]
+    else:
+        best = None
+        for cols in itertools.combinations(range(n), m):
+            d = abs(float(sp.N(la.sym(J[:, list(cols)]).det())))
+            if best is None or d > best[0] + 1e-12:
+                best = (d, list(cols))
+        a = best[1]
+    b = [j for j in range(n) if j not in a]
+    Ja, Jb = J[:, a], J[:, b]
+    if la.rank(Ja) < m:
+        raise spec.fail(("decomposition",), "J_a (the columns " + ", ".join(str(j + 1) for j in a)
+                        + ") is singular here", "choose other joints")
+    Jai = la.inv(Ja)
+    g = la.mat(grad.applyfunc(_exact) if la.exact else grad)
+    ga, gb = g[a, :] if not la.exact else g.extract(a, [0]), g[b, :] if not la.exact else g.extract(b, [0])
+    K = Jai @ Jb
+    rg = gb - K.T @ ga
+    step = spec.step
+    step = sp.nsimplify(step) if la.exact else float(step)
+    vb = rg * step
+    va = Jai @ (x - Jb @ vb)
+    vec = la.zeros(n, 1)
+    for i, j in enumerate(a):
+        vec[j, 0] = va[i, 0]
+    for i, j in enumerate(b):
+        vec[j, 0] = vb[i, 0]
+    add("Ja", la.sym(Ja), "matrix", label="J_a")
+    add("Ja_inv", la.sym(Jai), "matrix", label="J_a^{-1}")
+    add("Jb", la.sym(Jb), "matrix", label="J_b")
+    add("reduced_gradient", la.sym(rg), "vector", label="\\nabla_{q_b} H'")
+    sol.step("m_rg", a=[j + 1 for j in a], b=[j + 1 for j in b], Ja=la.sym(Ja), Jai=la.sym(Jai), Jb=la.sym(Jb),
+             g=la.sym(g), rg=la.sym(rg), step=la.scalar(step), va=la.sym(va), vb=la.sym(vb), v=la.sym(vec), acc=acc,
+             x=la.sym(x))
+    return vec
 
 
 def _sns_reduced(add: Any, la: rs.LA, J: Any, x: Any, st: rs.SNSStep, v: str, vl: str) -> None:

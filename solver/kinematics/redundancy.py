@@ -83,6 +83,9 @@ class RedundancyAsk(Strict):
     rank_tol: float = Field(rs.DEFAULT_TOL, gt=0, lt=1e-2,
                             description="a singular value σ ≤ rank_tol · max(1, σ_max) counts as zero")
     sketch: bool = Field(True, description="draw the planar robot at the state (method path)")
+    decomposition: Optional[list[int]] = Field(
+        None, description="reduced_gradient: the m joints (1-based) of the nonsingular J_a; default: the m x m minor "
+                          "with the largest |det|")
 
     @model_validator(mode="after")
     def _exclusive(self) -> "RedundancyAsk":
