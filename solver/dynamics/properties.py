@@ -490,7 +490,7 @@ def _cartesian_inertia(problem, options, ctx, sol, dm, robot) -> None:  # type: 
     m, n = J.shape
     if m > n:
         raise UserError(f"the task has {m} components for {n} joints", _place(problem, ctx, "task"))
-    sol.add("J_task", J.applyfunc(tidy), "matrix", label="J(q)")
+    sol.add("J_cart", J.applyfunc(tidy), "matrix", label="J(q)")
     Mp = None
     if m == n and sp.count_ops(J) + sp.count_ops(dm.B) <= 400:
         Ji = J.inv()
