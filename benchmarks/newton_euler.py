@@ -21,11 +21,11 @@ import sympy as sp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from solver.dynamics.model import derive  # noqa: E402
-from solver.dynamics.newton_euler import newton_euler  # noqa: E402
-from solver.math.rigid import dh_chain, omega_from_rotation  # noqa: E402
-from solver.math.simplify import tidy  # noqa: E402
-from solver.spec.robot import Body, Robot  # noqa: E402
+from solver.dynamics.model import derive
+from solver.dynamics.newton_euler import newton_euler
+from solver.math.rigid import dh_chain, omega_from_rotation
+from solver.math.simplify import tidy
+from solver.spec.robot import Body, Robot
 
 
 def dh_robot(rows, com_x, n: int, gravity: sp.Matrix) -> Robot:
@@ -113,7 +113,7 @@ def main() -> None:
     for name in args.robots.split(","):
         ne = timed("ne", name, args.cap)
         lag = timed("lagrange", name, args.cap)
-        fmt = lambda v: f"{v:.2f}" if v is not None else f"> {args.cap:.0f}"  # noqa: E731
+        fmt = lambda v: f"{v:.2f}" if v is not None else f"> {args.cap:.0f}"
         ratio = f"{lag / ne:.1f}x" if ne and lag else (f"> {args.cap / ne:.1f}x" if ne else "–")
         label = (f"spatial {name[1:]} (DH)" if name.startswith("S") and name != "S6Rn"
                  else "spatial 6R, numeric data" if name == "S6Rn" else f"planar {name}")

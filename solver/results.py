@@ -43,6 +43,7 @@ class Panel:
     hlines: list[tuple[float, str]] = field(default_factory=list)  # (y, label): bounds, drawn dashed
     markers: list[tuple[float, float, str]] = field(default_factory=list)  # (x, y, label): points to mark
     equal_axes: bool = False  # same scale on x and y (a path in the plane)
+    categorical: bool = False  # x are indices (joints): points side by side, dashed curves as bound ticks
     sketch: Optional["Sketch"] = None  # a robot sketch (drawn to scale) instead of, or over, the curves
 
 

@@ -162,7 +162,7 @@ def test_feasibility():
     _, r = results(given("[[a1 + 2*a2*cos(q2), a3 + a2*cos(q2)], [a3 + a2*cos(q2), a3]]"))
     conds = r["pd_conditions"].value
     assert r["real_robot"].value is True and len(conds) == 2
-    a1, a2, a3 = sp.symbols("a1 a2 a3", positive=True)
+    a1, a2 = sp.symbols("a1 a2", positive=True)
     assert any(is_zero(sp.expand(c.subs({s: sp.Symbol(s.name, positive=True) for s in c.free_symbols}) - (a1 - 2 * a2)))
                for c in conds)
     _, r = results(given("[[a1 + 2*a2*cos(q2), a1 + a2*cos(q2)], [a1 + a2*cos(q2), a1]]"))
@@ -188,6 +188,10 @@ def test_property_checks_accept_alternatives_and_reject_wrong():
     assert PROPERTY_CHECKS["S_skew"](p, r, "S_skew", S1.tolist(), None, None).correct
     N = r["Bdot"].value - 2 * other
     assert PROPERTY_CHECKS["N_alt"](p, r, "N_alt", N.tolist(), None, None).correct
+    own = lambda nm: other.tolist() if nm == "S_alt" else None
+    assert PROPERTY_CHECKS["N_alt"](p, r, "N_alt", N.tolist(), own, None).correct
+    theirs = lambda nm: S2.tolist() if nm == "S_alt" else None
+    assert not PROPERTY_CHECKS["N_alt"](p, r, "N_alt", N.tolist(), theirs, None).correct   # N of another S
 
 
 def test_render_and_errors():
@@ -332,3 +336,53 @@ def test_cartesian_inertia_is_the_task_space_kinetic_energy(task):
         assert np.isclose(rd @ Mp @ rd, v @ B @ v)
     else:
         assert "M_p" not in r
+
+
+def test_fault_torque_imposes_the_acceleration():
+    """With τ_f at joint 1, the forward dynamics of B q̈ + c + g = u − e₁ τ_f give q̈₁ = −λ q̇₁ (planar RP)."""
+    text = PRP.replace("[alpha, forward_dynamics]", "[fault]").replace(
+        "    u: [u1, 0]\n", "    u: [u1, u2]\n    fault: {joint: 1, ddq: -5*dq1}\n")
+    p, r = results(text)
+    dm = derive(p.robot)
+    tf = r["tau_f"].value
+    vals = {s: sp.Rational(k + 3, 4) for k, s in enumerate(sorted(p.symbols.values(), key=lambda s: s.name))}
+    st = {**dict(zip(p.robot.q, [0.3, 1.1])), **dict(zip(p.robot.dq, [0.5, -1])),
+          **dict(zip(p.robot.inputs, [2, -1])), **vals}
+    B = dm.B.xreplace(st)
+    rhs = (sp.Matrix(p.robot.inputs) - dm.c - dm.g - sp.Matrix([tf, 0])).xreplace(st)
+    ddq = np.linalg.solve(np.array(B.evalf(), float), np.array(rhs.evalf(), float).ravel())
+    assert abs(ddq[0] + 5 * 0.5) < 1e-9
+    want = np.array(r["ddq_fault"].value.xreplace(st).evalf(), float).ravel()
+    assert np.allclose(ddq, want)
+
+
+def test_symbolic_inverse_is_bounded():
+    text = """
+id: t
+title: symbolic 3R given model
+symbols: {a1: a1, a2: a2, a3: a3}
+robot:
+  joints: [R, R, R]
+  model: {B: "[[a1 + a2*cos(q2), a3, 0], [a3, a2 + a3*cos(q3), 0], [0, 0, a1]]"}
+asks: [{kind: dynamic_properties, find: [forward_dynamics], u: [u1, u2, u3]}]
+"""
+    with pytest.raises(UserError, match="too large"):
+        solve_problem(load_problem_text(text))
+    _, r = results(text.replace("symbols: {a1: a1, a2: a2, a3: a3}", "symbols: {a1: a1, a2: a2, a3: a3}\nvalues: {a1: 3, a2: 1, a3: 0.5}"))
+    assert r["ddq"].value.shape == (3, 1)
+
+
+def test_torque_limits_vertices_and_zero_condition():
+    text = PRP.replace("[alpha, forward_dynamics]", "[torque_limits]").replace("    u: [u1, 0]\n", "    limits: [5, 3]\n")
+    p, r = results(text)
+    dm = derive(p.robot)
+    nv = dm.c + dm.g
+    for k, v in enumerate(r["acc_vertices"].value):
+        s1, s2 = (1, 1, -1, -1)[k], (1, -1, 1, -1)[k]
+        assert all(is_zero(sp.expand(sp.simplify(x))) for x in dm.B * v + nv - sp.Matrix([5 * s1, 3 * s2]))
+    conds = r["zero_acc_conditions"].value
+    vals = {s: sp.Integer(1) for s in p.symbols.values()}
+    st = {**vals, p.robot.q[0]: 0, p.robot.q[1]: 1, p.robot.dq[0]: 0, p.robot.dq[1]: 0}
+    feasible = all(float(c.xreplace(st)) > 0 for c in conds)
+    nn = [float(x.xreplace(st)) for x in nv]
+    assert feasible == (abs(nn[0]) < 5 and abs(nn[1]) < 3)

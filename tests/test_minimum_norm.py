@@ -115,3 +115,38 @@ def test_errors():
         solve_problem(load_problem_text(ROBOT.replace("    weight: [1, 4, 9]\n", "")))
     with pytest.raises(UserError, match="left symbolic"):
         solve_problem(load_problem_text(ROBOT.replace("values: {g0: 9.81}", "values: {}")))
+
+
+ROBOT2 = """
+id: mn2
+title: planar 2R in a vertical plane
+symbols: {g0: gravity, m2: mass 2}
+values: {g0: 9.81}
+robot:
+  joints: [R, R]
+  gravity: [0, -g0, 0]
+  links:
+    - {mass: 3, com: [cos(q1)/2, sin(q1)/2], angle: q1, inertia: 1/4}
+    - {mass: m2, com: [cos(q1) + cos(q1+q2)/2, sin(q1) + sin(q1+q2)/2], angle: q1+q2, inertia: m2/12}
+asks:
+  - kind: minimum_norm
+    task: sin(q1) + sin(q1 + q2)
+    acceleration: 2
+    objectives: [torque]
+"""
+
+
+def test_symbolic_generic_state_matches_numeric():
+    """Without at: the solutions are symbolic in (q, q̇); at a state they equal the numeric path, M τ* = d."""
+    rs_ = all_results(solve_problem(load_problem_text(ROBOT2 + "    null_torque: [-dq1, -2*dq2]\n")))
+    M, d, tau, tns = (rs_[k].value for k in ("M", "d", "tau_tau", "tau_ns"))
+    pt = {s: v for s, v in zip(sorted(tau.free_symbols | tns.free_symbols | d.free_symbols, key=str),
+                               (0.3, 0.8, 1.7, 0.5, -0.2, 0.9, 0.4))}
+    assert {s.name for s in pt} <= {"q1", "q2", "dq1", "dq2", "m2", "g0"}
+    assert np.allclose(arr(M.subs(pt)) @ arr(tau.subs(pt)), arr(d.subs(pt)), atol=1e-9)
+    assert np.allclose(arr(M.subs(pt)) @ arr(tns.subs(pt)), arr(d.subs(pt)), atol=1e-9)  # damping leaves the task
+    vals = {s.name: float(v) for s, v in pt.items()}
+    num_text = ROBOT2.replace("values: {g0: 9.81}", f"values: {{g0: {vals.get('g0', 9.81)}, m2: {vals['m2']}}}") \
+        + f"    at: {{q1: {vals['q1']}, q2: {vals['q2']}}}\n    joint_velocity: [{vals['dq1']}, {vals['dq2']}]\n"
+    num = all_results(solve_problem(load_problem_text(num_text)))
+    assert np.allclose(arr(tau.subs(pt)).ravel(), arr(num["tau_tau"].value).ravel(), atol=1e-9)

@@ -1,9 +1,6 @@
 """The `newton_euler` ask: the recursive Newton–Euler algorithm equals the Euler–Lagrange model on every library
 robot given by DH and on spatial robots no exercise uses (both DH conventions, prismatic joints, a base
 transform); NE as a routine gives g, c, the columns of B and T; the report renders."""
-import glob
-
-import numpy as np
 import pytest
 import sympy as sp
 from conftest import PROBLEMS
@@ -16,7 +13,7 @@ from solver.solve import all_results, solve_problem
 from solver.spec import load_problem, load_problem_text
 from solver.spec.errors import UserError
 
-DH_PROBLEMS = sorted(f for f in glob.glob(str(PROBLEMS / "*.yaml")) if "\n  dh:" in open(f).read())
+DH_PROBLEMS = sorted(str(f) for f in PROBLEMS.glob("*.yaml") if "\n  dh:" in f.read_text())
 
 SPATIAL = """
 id: t

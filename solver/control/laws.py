@@ -15,20 +15,28 @@ from __future__ import annotations
 
 from typing import Any, Literal, Optional, Union
 
+import numpy as np
 import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
 from solver.math.simplify import is_zero, tidy
-from solver.registry import PropertyVerdict, ask_kind, property_check
-from solver.results import Solution
+from solver.registry import PROPERTY_CHECKS, PropertyVerdict, ask_kind, property_check
+from solver.results import Result, Solution
 from solver.spec.errors import UserError
 from solver.spec.models import Strict
 
 ExprT = Union[str, int, float, list[Any]]
 LAWS = {"computed_torque": "computed torque (feedback linearization in joint space)",
         "pd_gravity": "PD with gravity compensation",
-        "adaptive": "adaptive control (Slotine-Li)"}
+        "pd_constant": "PD with constant gravity compensation g(q_d)",
+        "lyapunov_tracking": "Lyapunov-based tracking (passivity, without cancellation)",
+        "adaptive": "adaptive control (Slotine-Li)",
+        "cartesian_computed_torque": "computed torque in the Cartesian space",
+        "elastic": "feedback linearization of a robot with elastic joints",
+        "partial_fbl": "partial feedback linearization of an underactuated robot",
+        "linearization": "linear approximation at an equilibrium and its controllability"}
+JOINT_LAWS = ("computed_torque", "pd_gravity", "pd_constant", "adaptive", "lyapunov_tracking")
 
 
 class ControlLawAsk(Strict):
@@ -36,9 +44,19 @@ class ControlLawAsk(Strict):
 
     kind: Literal["control_law"]
     title: Optional[str] = Field(None, description="heading of this part in the report")
-    law: Literal["computed_torque", "pd_gravity", "adaptive"] = Field(
+    law: Literal["computed_torque", "pd_gravity", "pd_constant", "adaptive", "lyapunov_tracking", "cartesian_computed_torque", "elastic",
+                 "partial_fbl", "linearization"] = Field(
         "computed_torque", description="computed_torque: u = B(q)(ddq_d + K_D de + K_P e) + c + g (+ F_v dq); "
                                        "pd_gravity: u = K_P e - K_D dq + g(q) (constant q_d); "
+                                       "pd_constant: u = K_P e - K_D dq + g(q_d) (constant q_d); "
+                                       "lyapunov_tracking: u = B(q) ddq_d + S(q, dq) dq_d + g + K_D de + K_P e; "
+                                       "cartesian_computed_torque: u = B J^-1 (ddr_d + K_D(dr_d - J dq) + "
+                                       "K_P(r_d - r) - dJ dq) + c + g, r = task(q); "
+                                       "elastic: feedback linearization of the reduced model of elastic joints "
+                                       "(link output, 4th order, jerk and snap); "
+                                       "partial_fbl: collocated (actuated coordinates) or non-collocated (passive "
+                                       "coordinates) partial feedback linearization of an underactuated robot; "
+                                       "linearization: linear approximation at an equilibrium, controllability; "
                                        "adaptive (Slotine-Li): u = Y(q, dq, dq_r, ddq_r) ahat + K_D s, "
                                        "dahat = Gamma Y^T s, s = dq_r - dq, dq_r = dq_d + Lambda e")
     kp: Optional[ExprT] = Field(None, description="proportional gains: one expression (same for every joint) or a "
@@ -49,8 +67,25 @@ class ControlLawAsk(Strict):
     regulation: bool = Field(False, description="computed_torque, adaptive: constant q_d (dq_d = ddq_d = 0)")
     lam: Optional[ExprT] = Field(None, alias="lambda",
                                  description="adaptive: Lambda, as kp (diagonal); default lambda1..lambdan")
-    gamma: Optional[ExprT] = Field(None, description="adaptive: Gamma, one expression or a list of p (diagonal of "
-                                                     "the adaptation gain); default gamma1..gammap")
+    gamma: Optional[ExprT] = Field(None, description="adaptive: Gamma, one expression, a list of p (diagonal of "
+                                                     "the adaptation gain) or a p x p symmetric positive definite "
+                                                     "matrix; default gamma1..gammap")
+    task: Optional[ExprT] = Field(None, description="cartesian_computed_torque: the task r = f(q) (a list of n "
+                                                    "expressions; square J = df/dq)")
+    rd: Optional[ExprT] = Field(None, description="cartesian_computed_torque: a constant desired task value r_d "
+                                                  "(needs regulation: true); default symbols rd1.., drd1.., ddrd1..")
+    collocated: bool = Field(True, description="partial_fbl: true linearizes the actuated coordinates "
+                                               "(ddq_a = v), false the passive ones (ddq_p = v, needs the "
+                                               "inertial coupling M_pa of full row rank)")
+    gains: Optional[list[ExprT]] = Field(None, description="elastic: the gains [k0, k1, k2, k3] of v = y_d^(4) + "
+                                                           "K3 (y_d^(3) - y^(3)) + ... + K0 (y_d - y) (each one "
+                                                           "expression or a diagonal list; default symbols)")
+    equilibrium: Optional[dict[str, ExprT]] = Field(None, description="linearization: the equilibrium "
+                                                                      "configuration {q1: .., q2: ..} (at rest)")
+    at: Optional[dict[str, ExprT]] = Field(None, description="joint-space laws: values of names (q1, dq1, qd1, dqd1, "
+                                                            "ddqd1, parameters) where u is evaluated (u_at)")
+    suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
+                        description="appended to every result name (several control asks in one problem)")
 
 
 def _fresh(problem, base: str) -> str:  # type: ignore[no-untyped-def]
@@ -102,6 +137,37 @@ def _gains(problem, options: ControlLawAsk, ctx, key: str, n: int, pos: bool) ->
     return [sp.sympify(v) for v in vals]
 
 
+def _gamma(problem, options: ControlLawAsk, ctx, p: int) -> sp.Matrix:  # type: ignore[no-untyped-def]
+    """Γ: diagonal (default symbols, one expression, a list of p) or a p×p symmetric matrix (positive definite
+    when numeric)."""
+    val = ctx.expr("gamma") if options.gamma is not None else None
+    if not (isinstance(val, list) and val and isinstance(val[0], list)):
+        return sp.diag(*_gains(problem, options, ctx, "gamma", p, True))
+    place = problem.located.place(ctx.path + ("gamma",))
+    if len(val) != p or any(not isinstance(r, list) or len(r) != p for r in val):
+        raise UserError(f"gamma as a matrix must be {p}x{p} (one row and column per dynamic coefficient)", place)
+    Gam = sp.Matrix([[sp.sympify(x) for x in r] for r in val])
+    if any(not _zero(x) for x in (Gam - Gam.T)):
+        raise UserError("gamma must be symmetric", place, "write a symmetric positive definite matrix")
+    if not Gam.free_symbols:
+        ev = np.linalg.eigvalsh(np.array(Gam.evalf(), dtype=float))
+        if ev.min() <= 0:
+            raise UserError(f"gamma must be positive definite (smallest eigenvalue {ev.min():.4g})", place)
+    return Gam
+
+
+def record_law(problem, sfx: str, tracked: list, desired: list, qd: list | None = None, subs: dict | None = None,
+               ahat: list | None = None, adot: sp.Matrix | None = None, true_a: list | None = None) -> None:  # type: ignore[no-untyped-def]
+    """What ``simulate`` needs of a law: the tracked variables, per variable the symbols of the desired value and its
+    derivatives (None where numeric or zero), the constant numeric q_d (if given), the substitutions that write u in
+    the state (adaptive q̇_r, q̈_r; elastic v), the estimates and their update law, the true coefficients."""
+    problem.__dict__["_law" + sfx] = {"kind": "control_law", "tracked": list(tracked),
+                                      "desired": [[s if isinstance(s, sp.Symbol) else None for s in row]
+                                                  for row in desired],
+                                      "qd": qd, "subs": subs or {}, "ahat": list(ahat or []), "adot": adot,
+                                      "true_a": true_a}
+
+
 def _input_inverse(problem, dm, ctx, law: str) -> sp.Matrix | None:  # type: ignore[no-untyped-def]
     G = dm.G
     if G is None:
@@ -135,13 +201,48 @@ def reference_law(problem, law: str, dm, K: dict) -> tuple[sp.Matrix, sp.Matrix]
     if law == "computed_torque":
         v = K["ddqd"] + KD * de + KP * e
         return dm.B * v + dm.c + dm.g + fr, v
+    if law == "lyapunov_tracking":
+        frd = dm.Fv * K["dqd"] if dm.Fv is not None else sp.zeros(robot.n, 1)
+        return dm.B * K["ddqd"] + dm.S * K["dqd"] + dm.g + frd + KD * de + KP * e, KD * de + KP * e
+    if law == "pd_constant":
+        gd = dm.g.xreplace(dict(zip(robot.q, K["qd"])))
+        return KP * e - KD * dq + gd, KP * e - KD * dq
     return KP * e - KD * dq + dm.g, KP * e - KD * dq
 
 
 @ask_kind("control_law", ControlLawAsk,
           "joint-space control law (computed torque, PD + gravity compensation) and its closed-loop dynamics")
 def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """Results: u, closed_loop, closed_loop_check; pd_gravity also equilibrium_check."""
+    """The law's solution, every result name followed by the ask's ``suffix``."""
+    sol = _solve_law(problem, options, ctx)
+    sfx = options.suffix
+    if sfx:
+        sol.results = {k + sfx: Result(k + sfx, r.value, r.kind, r.label) for k, r in sol.results.items()}
+    _register_checks(sfx)
+    if len(ctx.path) == 2 and isinstance(ctx.path[1], int):   # simulate reuses it
+        problem.__dict__.setdefault("_control_solutions", {})[ctx.path[1]] = sol
+    return sol
+
+
+def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results: u, closed_loop, closed_loop_check; pd_gravity, pd_constant also equilibrium_check."""
+    law = options.law
+    allowed = {"cartesian_computed_torque": {"kp", "kd", "task", "rd", "regulation"},
+               "partial_fbl": {"kp", "kd", "qd", "collocated"}, "elastic": {"gains", "regulation", "qd"},
+               "linearization": {"equilibrium"}}
+    opt_keys = {"lam": "lambda", "gamma": "gamma", "qd": "qd", "kp": "kp", "kd": "kd", "task": "task", "rd": "rd",
+                "gains": "gains", "equilibrium": "equilibrium", "at": "at"}
+    mine = allowed.get(law, {"kp", "kd", "qd", "regulation", "lam", "gamma"} | ({"at"} if law != "adaptive" else set()))
+    for key, yk in opt_keys.items():
+        if getattr(options, key) is not None and key not in mine:
+            users = [k for k, v in allowed.items() if key in v] or ["computed_torque", "adaptive"]
+            raise UserError(f"{yk}: is not an option of law: {law} (it is one of law: {', '.join(users)})",
+                            problem.located.place(ctx.path + (yk,)), "remove it")
+    if law not in JOINT_LAWS:
+        from solver.control import cartesian, elastic, linearization, underactuated
+        solver = {"cartesian_computed_torque": cartesian.solve_cartesian, "elastic": elastic.solve_elastic,
+                  "partial_fbl": underactuated.solve_partial, "linearization": linearization.solve_linearization}
+        return solver[law](problem, options, ctx)
     robot = require_model(problem)
     dm = derive(robot)
     n = robot.n
@@ -151,7 +252,7 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
         raise UserError("lambda: and gamma: are gains of law: adaptive", problem.located.place(ctx.path + ("law",)),
                         "write law: adaptive, or remove them")
     q, dq, ddq = sp.Matrix(robot.q), sp.Matrix(robot.dq), sp.Matrix(robot.ddq)
-    regulation = law == "pd_gravity" or options.regulation
+    regulation = law in ("pd_gravity", "pd_constant") or options.regulation
     if options.qd is not None:
         if not regulation:
             raise UserError("qd: (a constant desired configuration) needs regulation: true",
@@ -176,6 +277,9 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
             raise UserError("law: adaptive has no K_P (K_D s = K_D (de + Lambda e) is the PD action, K_P = K_D Lambda)",
                             problem.located.place(ctx.path + ("kp",)), "give lambda: and kd: instead")
         return _solve_adaptive(problem, options, ctx, robot, dm, Ginv, qd, dqd, ddqd, regulation)
+    if law == "lyapunov_tracking" and dm.S is None:
+        raise UserError("law: lyapunov_tracking needs the factorization S(q, dq) (Christoffel symbols), not available "
+                        "with a given c(q, dq)", problem.located.place(ctx.path + ("law",)), "give B (and g) only")
     kp = _gains(problem, options, ctx, "kp", n, True)
     kd = _gains(problem, options, ctx, "kd", n, True)
     K = {"qd": qd, "dqd": dqd, "ddqd": ddqd, "kp": kp, "kd": kd}
@@ -191,18 +295,31 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
         closed = dde + KD * de + KP * e
         # along the closed loop B q̈ + n = G u, so B (ë + K_D ė + K_P e) = B (q̈_d + K_D ė + K_P e) - (G u - n)
         residual = dm.B * (ddqd + KD * de + KP * e) - (G * u - nvec)
+    elif law == "pd_constant":
+        closed = dm.B * ddq + dm.c + fr + KD * dq - KP * e + dm.g - dm.g.xreplace(dict(zip(robot.q, qd)))
+        residual = (dm.B * ddq + nvec - G * u) - closed
+    elif law == "lyapunov_tracking":
+        frs = dm.Fv * de if dm.Fv is not None else sp.zeros(n, 1)
+        closed = dm.B * dde + dm.S * de + frs + KD * de + KP * e
+        residual = (dm.B * ddq + nvec - G * u) + closed
     else:
         closed = dm.B * ddq + dm.c + fr + KD * dq - KP * e
         residual = (dm.B * ddq + nvec - G * u) - closed
     ok = all(_zero(x) for x in residual)
+    record_law(problem, options.suffix, list(q), [[a, b, c] for a, b, c in zip(qd, dqd, ddqd)],
+               list(qd) if options.qd is not None else None)
     sol = Solution("control_law", title=options.title or f"Control law: {LAWS[law]}")
     sol.add("u", u, "vector", label="u")
     sol.add("closed_loop", closed.applyfunc(sp.expand), "vector",
             label="\\ddot e + K_D\\dot e + K_P e" if law == "computed_torque"
-            else "B(q)\\ddot q + c(q,\\dot q) + K_D\\dot q - K_P e")
+            else "B\\ddot e + S\\dot e + K_D\\dot e + K_P e" if law == "lyapunov_tracking"
+            else "B(q)\\ddot q + c(q,\\dot q) + K_D\\dot q - K_P e" + (" + g(q) - g(q_d)" if law == "pd_constant" else ""))
     sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")
+    u_at = _at(problem, options, ctx, u)
+    if u_at is not None:
+        sol.add("u_at", u_at, "vector", label="u")
     eq_ok = None
-    if law == "pd_gravity":
+    if law in ("pd_gravity", "pd_constant"):
         at = {**{a: b for a, b in zip(robot.q, qd)}, **{s: 0 for s in robot.dq + robot.ddq}}
         eq_ok = all(_zero(x.xreplace(at)) for x in closed)
         sol.add("equilibrium_check", bool(eq_ok), "bool", label="(q_d, 0) \\text{ equilibrium}")
@@ -210,8 +327,32 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
     sol.step("law", law=law, KP=KP, KD=KD, qd=qd, dqd=dqd, ddqd=ddqd, v=v, tau=tau, u=u, Ginv=Ginv,
              regulation=regulation, e=e, friction=dm.Fv is not None)
     sol.step("closed_loop", law=law, closed=closed, ok=ok, eq_ok=eq_ok, kp=kp, kd=kd, n=n, friction=dm.Fv is not None,
-             skew=dm.skew)
+             skew=dm.skew, u_at=u_at, at=_at_pairs(problem, options, ctx))
     return sol
+
+
+def _at_pairs(problem, options: ControlLawAsk, ctx) -> list | None:  # type: ignore[no-untyped-def]
+    if options.at is None:
+        return None
+    out = []
+    for key in options.at:
+        s = problem.names.get(key)
+        if not isinstance(s, sp.Symbol):
+            raise UserError(f"at: {key} is not a name of the problem or of the law (q1, dq1, qd1, dqd1, ddqd1, a "
+                            f"parameter)", problem.located.place(ctx.path + ("at", key)))
+        val = ctx.expr("at", key)
+        if isinstance(val, list):
+            raise UserError(f"at: {key} must be one expression", problem.located.place(ctx.path + ("at", key)))
+        out.append((s, sp.sympify(val)))
+    return out
+
+
+def _at(problem, options: ControlLawAsk, ctx, u: sp.Matrix) -> sp.Matrix | None:  # type: ignore[no-untyped-def]
+    """u with the at: values substituted (simplified)."""
+    pairs = _at_pairs(problem, options, ctx)
+    if pairs is None:
+        return None
+    return u.xreplace(dict(pairs)).applyfunc(lambda x: tidy(sp.simplify(x)))
 
 
 # ------------------------------------------------------------------------------------------------ adaptive
@@ -271,8 +412,8 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
     p = par.p
     lam = _gains(problem, options, ctx, "lam", n, True)
     kd = _gains(problem, options, ctx, "kd", n, True)
-    gam = _gains(problem, options, ctx, "gamma", p, True)
-    Lam, KD, Gam = sp.diag(*lam), sp.diag(*kd), sp.diag(*gam)
+    Gam = _gamma(problem, options, ctx, p)
+    Lam, KD = sp.diag(*lam), sp.diag(*kd)
 
     def tex_of(s: sp.Symbol) -> str:
         return problem.latex_names.get(s, s.name)
@@ -302,6 +443,11 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
     u_true = u.xreplace(dict(zip(ahat, a))).xreplace(defs)
     residual = closed - (G * u_true - (dm.B * ddq + dm.c + dm.g + fr(dq)))
     ok = yr_ok and all(_zero(x) for x in residual)
+    record_law(problem, options.suffix, list(q), [[a_, b, c] for a_, b, c in zip(qd, dqd, ddqd)],
+               list(qd) if options.qd is not None else None, subs=defs, ahat=ahat, adot=adot.xreplace(defs),
+               true_a=list(a))
+    problem.__dict__["_adaptive" + options.suffix] = {"defs": defs, "ahat": ahat, "Yr": Yr, "Lam": Lam,
+                                                      "qd": list(qd), "dqd": list(dqd)}
     sol = Solution("control_law", title=options.title or f"Control law: {LAWS['adaptive']}")
     sol.add("u", u, "vector", label="u")
     sol.add("Y_r", Yr, "matrix", label="Y(q,\\dot q,\\dot q_r,\\ddot q_r)")
@@ -332,21 +478,116 @@ def _qname(name: str, mark: str) -> str:
 
 
 # ------------------------------------------------------------------------------------------------ grading
-def _control_ask(problem):  # type: ignore[no-untyped-def]
+def _control_ask(problem, sfx: str = ""):  # type: ignore[no-untyped-def]
     for a in problem.asks:
-        if a.kind == "control_law":
+        if a.kind == "control_law" and a.options.suffix == sfx:
             return a
     return None
+
+
+def _register_checks(sfx: str) -> None:
+    """The property check of u under its suffixed name (the check registered before stays the fallback)."""
+    if not sfx or getattr(PROPERTY_CHECKS.get("u" + sfx), "_control_law", False):
+        return
+    previous = PROPERTY_CHECKS.get("u" + sfx)
+
+    def check(problem, results, name, value, other, options):  # type: ignore[no-untyped-def]
+        v = check_control_law(problem, results, name, value, other, options)
+        if v is None and previous is not None:
+            return previous(problem, results, name, value, other, options)
+        return v
+
+    check._control_law = True  # type: ignore[attr-defined]
+    property_check("u" + sfx)(check)
+
+
+def _suffix_of(problem, name: str) -> Optional[str]:  # type: ignore[no-untyped-def]
+    for a in problem.asks:
+        if a.kind == "control_law" and name == "u" + a.options.suffix:
+            return a.options.suffix
+    return None
+
+
+def _answer_vector(value, n: int) -> sp.Matrix | PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    try:
+        U = sp.Matrix(value) if isinstance(value, list) else sp.Matrix([value])
+    except (ValueError, TypeError, sp.ShapeError):
+        return None
+    if U.shape == (1, n):
+        U = U.T
+    if U.shape != (n, 1):
+        return PropertyVerdict(False, 0.0, [f"u must have {n} components (one per joint), not {len(U)}"])
+    return U
+
+
+def check_adaptive(problem, results, sfx: str, value) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
+    """Adaptive u: right iff u = Y(q, q̇, q̇_r, q̈_r) â + K_e e + K_ė ė with constant K_ė = K_ėᵀ > 0 and
+    M = K_e − K_ė Λ such that M = Mᵀ ≥ 0, MΛ = (MΛ)ᵀ ≥ 0 (M = 0: the Slotine–Li K_D s; otherwise
+    V = ½sᵀBs + ½ãᵀΓ⁻¹ã + ½eᵀMe still gives V̇ = −sᵀK_ės − eᵀMΛe ≤ 0). Symbolic gains are sampled at positive
+    values."""
+    info = problem.__dict__.get("_adaptive" + sfx)
+    robot = problem.robot
+    if info is None or robot is None:
+        return None
+    n = robot.n
+    U = _answer_vector(value, n)
+    if not isinstance(U, sp.Matrix):
+        return U
+    defs, ahat, Yr, Lam, qd, dqd = (info[k] for k in ("defs", "ahat", "Yr", "Lam", "qd", "dqd"))
+    q, dq = list(robot.q), list(robot.dq)
+    d = (U.xreplace(defs) - (Yr * sp.Matrix(ahat)).xreplace(defs)).applyfunc(sp.expand)
+    if any(_nonzero(sp.diff(x, a)) for x in d for a in ahat):
+        return PropertyVerdict(False, 0.0, ["the part of u in the estimates â is not Y(q, q̇, q̇_r, q̈_r) â (the "
+                                            "model evaluated on the reference velocity and acceleration, with c "
+                                            "factorized as S q̇_r)"], final=False)
+    Ke = (-d.jacobian(q)).applyfunc(sp.expand)
+    Kde = (-d.jacobian(dq)).applyfunc(sp.expand)
+    moving = set(q) | set(dq) | set(robot.ddq) | set(ahat)
+    e = sp.Matrix(qd) - sp.Matrix(q)
+    de = sp.Matrix(dqd) - sp.Matrix(dq)
+    rest = (d - Ke * e - Kde * de).applyfunc(sp.expand)
+    if (Ke.free_symbols | Kde.free_symbols) & moving or any(_nonzero(x) for x in rest):
+        return PropertyVerdict(False, 0.0, ["besides Y â, u must be a PD action K_P e + K_D ė (= K_D s) with "
+                                            "constant gains: it is not"], final=False)
+    M = Ke - Kde * Lam
+    rng = np.random.default_rng(7)
+    syms = sorted((Kde.free_symbols | M.free_symbols | Lam.free_symbols), key=str)
+    for _ in range(8):
+        at = {x: sp.Float(rng.uniform(0.5, 3.0)) for x in syms}
+        kd_ = np.array(Kde.xreplace(at).evalf(), dtype=float)
+        m_ = np.array(M.xreplace(at).evalf(), dtype=float)
+        ml = np.array((M * Lam).xreplace(at).evalf(), dtype=float)
+        if not np.allclose(kd_, kd_.T) or np.linalg.eigvalsh(kd_).min() <= 0:
+            return PropertyVerdict(False, 0.0, ["the gain of ė (K_D) must be symmetric positive definite"],
+                                   final=False)
+        if np.abs(m_).max() > 1e-12 and (not np.allclose(m_, m_.T) or not np.allclose(ml, ml.T)
+                                         or np.linalg.eigvalsh(m_).min() < -1e-12
+                                         or np.linalg.eigvalsh((ml + ml.T) / 2).min() < -1e-12):
+            return PropertyVerdict(False, 0.5, ["u = Y â + K_P e + K_D ė with K_P − K_D Λ not positive "
+                                                "semidefinite: the Lyapunov argument (V̇ = −sᵀK_D s − eᵀ(K_P − "
+                                                "K_D Λ)Λ e) fails; take K_P = K_D Λ (u = Y â + K_D s)"], final=False)
+    note = ("u = Y(q, q̇, q̇_r, q̈_r) â + K_D s (Slotine–Li)" if all(_zero(x) for x in M) else
+            "u = Y â + K_P e + K_D ė with K_P − K_D Λ ≥ 0: V = ½sᵀBs + ½ãᵀΓ⁻¹ã + ½eᵀ(K_P − K_D Λ)e has V̇ ≤ 0")
+    return PropertyVerdict(True, 1.0, [note + "; with the update â̇ = Γ Yᵀ s the tracking error converges to zero"])
+
+
+def _nonzero(x: sp.Expr) -> bool:
+    return not _zero(x)
 
 
 @property_check("u")
 def check_control_law(problem, results, name, value, other, options) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
     """Computed torque: u is right iff the closed loop it gives is q̈ ≡ q̈_d + K_D ė + K_P e, i.e.
     B⁻¹ G (u − u_ref) ≡ 0 (checked on adj(B) G (u − u_ref)); names the closed-loop equations that fail and a missing
-    c or g term. Other laws: None (compare with the reference)."""
+    c or g term. Adaptive: ``check_adaptive``. Other laws: None (compare with the reference)."""
     from solver.math.equivalence import scalar_equiv
-    ask, ref = _control_ask(problem), results.get("u")
+    sfx = _suffix_of(problem, name)
+    if sfx is None:
+        return None
+    ask, ref = _control_ask(problem, sfx), results.get(name)
     robot = problem.robot
+    if ask is not None and ask.options.law == "adaptive" and ref is not None:
+        return check_adaptive(problem, results, sfx, value)
     if ask is None or ref is None or robot is None or ask.options.law != "computed_torque":
         return None
     try:

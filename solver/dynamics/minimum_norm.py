@@ -42,8 +42,11 @@ class MinimumNormAsk(Strict):
     title: Optional[str] = Field(None, description="heading of this part in the report")
     task: Optional[ExprT] = Field(None, description="task function r = f(q) (vector or scalar)")
     jacobian: Optional[ExprT] = Field(None, description="task Jacobian J(q), instead of task:")
-    at: dict[str, Scalar] = Field(..., description="configuration {q1: ..., qn: ...}")
-    joint_velocity: ExprT = Field(..., description="q̇ at the state (zeros for a robot at rest)")
+    at: Optional[dict[str, Scalar]] = Field(
+        None, description="configuration {q1: ..., qn: ...}; without it the solutions are symbolic at a generic "
+                          "state (q, q̇) (small tasks, within a CPU budget)")
+    joint_velocity: Optional[ExprT] = Field(None, description="q̇ at the state (zeros for a robot at rest); "
+                                                              "default with at: zeros, without at: the symbols dq")
     acceleration: ExprT = Field(..., description="desired task acceleration r̈_d")
     objectives: list[Objective] = Field(
         ["acceleration", "inertia", "torque"],
@@ -52,6 +55,9 @@ class MinimumNormAsk(Strict):
     weight: Optional[ExprT] = Field(
         None, description="W of weighted_torque (n x n, n diagonal entries, or `inverse_inertia_squared` for B⁻²)")
     bounds: Optional[ExprT] = Field(None, description="torque bounds |τ_i| ≤ τ_max,i (n values)")
+    null_torque: Optional[ExprT] = Field(
+        None, description="τ₀ (e.g. -KD*dq1, ...): the torque τ = M^#d + (I − M^#M)τ₀ minimizing ½‖τ − τ₀‖² "
+                          "(M = JB⁻¹, d = x + JB⁻¹n), which damps q̇ without affecting the task")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$", description="appended to every result name")
 
 
@@ -129,6 +135,8 @@ def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # ty
     if Jq.shape[1] != nq:
         raise _fail(problem, ctx, ("jacobian",), f"the task Jacobian must have {nq} columns")
     m = Jq.shape[0]
+    if options.at is None:
+        return _symbolic(problem, options, ctx, sol, add, Jq, f, q, dq)
     state = {}
     by_name = {s.name: s for s in q}
     for name in options.at:
@@ -137,7 +145,7 @@ def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # ty
         state[by_name[name]] = ctx.expr("at", name)
     if len(state) != nq:
         raise _fail(problem, ctx, ("at",), "at: must give every coordinate")
-    qd = _vec(problem, ctx, "joint_velocity", nq)
+    qd = _vec(problem, ctx, "joint_velocity", nq) if options.joint_velocity is not None else sp.zeros(nq, 1)
     rdd = _vec(problem, ctx, "acceleration", m)
     dm = derive(robot)
     ddq = list(robot.ddq)
@@ -227,5 +235,77 @@ def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # ty
     return sol
 
 
-def _np(M: sp.Matrix) -> np.ndarray:
-    return np.array(M.evalf().tolist(), dtype=float)
+SYMBOLIC_SECONDS = 6.0
+
+
+def _symbolic(problem, options: MinimumNormAsk, ctx, sol: Solution, add, Jq: sp.Matrix,  # type: ignore[no-untyped-def]
+              f: sp.Matrix | None, q: list, dq: list) -> Solution:
+    """Generic state (q, q̇): M = JB⁻¹, d = r̈_d − J̇q̇ + JB⁻¹n, τ* = M^#d (and the other objectives)."""
+    from solver.dynamics.model import derive
+    from solver.kinematics.redundancy import _quot, _tidy_rational
+    from solver.math.budget import BudgetExceeded, cpu_budget
+    m, nq = Jq.shape
+    if m > 2 or nq > 3:
+        raise _fail(problem, ctx, ("at",), f"a symbolic minimum-norm solution is given for tasks of up to 2 rows and "
+                    f"3 joints (here {m}x{nq})", "add at: for the solution at a state")
+    qd = _vec(problem, ctx, "joint_velocity", nq) if options.joint_velocity is not None else sp.Matrix(dq)
+    rdd = _vec(problem, ctx, "acceleration", m)
+    dm = derive(problem.robot)
+    nvec = dm.lhs.subs({d: 0 for d in problem.robot.ddq})
+    if options.joint_velocity is not None:
+        nvec = nvec.subs({d: qd[i] for i, d in enumerate(dq)})
+    Jdot = sum((Jq.diff(x) * qd[i] for i, x in enumerate(q)), sp.zeros(m, nq))
+    h = (Jdot * qd).applyfunc(_tidy_rational)
+    T = _tidy_rational
+    try:
+        with cpu_budget(SYMBOLIC_SECONDS):
+            # numerators and denominators kept apart (trigonometric polynomials tidy fast; their quotients do not):
+            # M = N/det B with N = J adj B; M^# = Nᵀ adj G det B / det G with G = N Nᵀ
+            B = dm.B
+            detB = T(B.det())
+            N = (Jq * B.adjugate()).applyfunc(T)
+            M = N.applyfunc(lambda e: _quot(e, detB))
+            dnum = (rdd * detB - h * detB + N * nvec).applyfunc(T)
+            d = dnum.applyfunc(lambda e: _quot(e, detB))
+            add("J", Jq, "matrix", label="J(q)")
+            add("Jdot_qdot_sym", h, "vector", label="\\dot J\\dot q")
+            add("M", M, "matrix", label="M = J B^{-1}")
+            add("d", d, "vector", label="d = \\ddot r_d - \\dot J\\dot q + J B^{-1} n")
+            G = (N * N.T).applyfunc(T)
+            dG = T(G.det()) if m > 1 else G[0, 0]
+            adjG = G.adjugate().applyfunc(T) if m > 1 else sp.Matrix([[1]])
+            NtA = (N.T * adjG).applyfunc(T)
+            Mp = NtA.applyfunc(lambda e: _quot(T(e * detB), dG))
+            out = {"M": M, "d": d, "Mp": Mp, "B": B, "n": nvec, "h": h, "J": Jq, "f": f}
+            tau_num = (NtA * dnum).applyfunc(T)
+            if "torque" in options.objectives:
+                tau = tau_num.applyfunc(lambda e: _quot(e, dG))
+                add("M_pinv", Mp, "matrix", label="M^{\\#}")
+                add("tau_tau", tau, "vector", label="\\tau^* = M^{\\#} d")
+                out["tau"] = tau
+            if options.weight is not None and "weighted_torque" in options.objectives:
+                w = ctx.expr("weight")
+                shp = shape_of(w)
+                W = sp.diag(*w) if shp == (nq,) else sp.Matrix(w) if shp == (nq, nq) else None
+                if W is None:
+                    raise _fail(problem, ctx, ("weight",), f"weight must be {nq}x{nq} or {nq} diagonal entries")
+                Wi = W.inv()
+                GW = (N * Wi * N.T).applyfunc(T)
+                dGW = T(GW.det()) if m > 1 else GW[0, 0]
+                adjGW = GW.adjugate().applyfunc(T) if m > 1 else sp.Matrix([[1]])
+                MpW = (Wi * N.T * adjGW).applyfunc(lambda e: _quot(T(e * detB), dGW))
+                add("M_pinv_W", MpW, "matrix", label="M_W^{\\#}")
+                tauW = (Wi * N.T * adjGW * dnum).applyfunc(lambda e: _quot(T(e), dGW))
+                add("tau_tauW", tauW, "vector", label="\\tau_W = M_W^{\\#} d")
+                out.update(W=W, MpW=MpW)
+            if options.null_torque is not None:
+                t0 = _vec(problem, ctx, "null_torque", nq)
+                tns_num = (tau_num + dG * t0 - NtA * N * t0).applyfunc(T)
+                tns = tns_num.applyfunc(lambda e: _quot(e, dG))
+                add("tau_ns", tns, "vector", label="M^{\\#}d + (I - M^{\\#}M)\\tau_0")
+                out.update(t0=t0, tns=tns)
+    except BudgetExceeded:
+        sol.step("too_big", seconds=SYMBOLIC_SECONDS)
+        return sol
+    sol.step("symbolic", **out)
+    return sol

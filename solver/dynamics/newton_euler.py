@@ -24,7 +24,7 @@ c(q, q̇) = NE₀(q, q̇, 0), b_j(q) = NE₀(q, 0, e_j), B q̈ + g = NE(q, 0, q�
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal, Optional, Union
+from typing import Any, Literal
 
 import sympy as sp
 from pydantic import Field
@@ -63,7 +63,7 @@ class LinkState:
     ac: sp.Matrix
     f: sp.Matrix = field(default_factory=lambda: sp.zeros(3, 1))
     tau: sp.Matrix = field(default_factory=lambda: sp.zeros(3, 1))
-    u: sp.Expr = sp.Integer(0)
+    u: sp.Expr = field(default_factory=lambda: sp.Integer(0))
 
 
 @dataclass
@@ -185,11 +185,11 @@ class NECall(Strict):
     """One call NE_γ(q, q̇, q̈) of the routine."""
 
     name: str = Field(description="result name of the output vector (letters, digits, _)")
-    q: Optional[ExprT] = Field(None, description="configuration (default: the symbolic q)")
+    q: ExprT | None = Field(None, description="configuration (default: the symbolic q)")
     dq: ExprT = Field(0, description="velocity argument: a list of n expressions, or 0")
     ddq: ExprT = Field(0, description="acceleration argument: a list of n expressions, or 0")
     gravity: bool = Field(True, description="with gravity (NE_g) or without (NE_0)")
-    dot_with: Optional[ExprT] = Field(None, description="also the scalar product vᵀ y with this vector "
+    dot_with: ExprT | None = Field(None, description="also the scalar product vᵀ y with this vector "
                                                          "(result <name>_dot), e.g. dq for T = q̇ᵀ NE₀(q, 0, q̇/2)")
 
 
@@ -197,7 +197,7 @@ class NewtonEulerAsk(Strict):
     """The recursive Newton–Euler algorithm on a DH robot."""
 
     kind: Literal["newton_euler"]
-    title: Optional[str] = Field(None, description="heading of this part in the report")
+    title: str | None = Field(None, description="heading of this part in the report")
     model: bool = Field(True, description="run NE(q, q̇, q̈) symbolically, recursions shown step by step (results "
                                           "ne_w<i>, ne_dw<i>, ne_a<i>, ne_ac<i>, ne_f<i>, ne_tau<i>, ne_u)")
     gravity: bool = Field(True, description="gravity in the model run (a₀ = −g₀)")
@@ -207,7 +207,7 @@ class NewtonEulerAsk(Strict):
                         "kinetic_energy = q̇ᵀ NE₀(q,0,q̇/2) -> ne_T")
     calls: list[NECall] = Field([], description="further calls with given arguments")
     check: bool = Field(True, description="compare with the Lagrangian model (result ne_equals_lagrange)")
-    at: Optional[dict[str, Union[str, int, float]]] = Field(
+    at: dict[str, str | int | float] | None = Field(
         None, description="a state (q, dq, ddq values) where ne_u is also evaluated (ne_u_at)")
 
 
@@ -218,7 +218,7 @@ def _vector_arg(value: Any, n: int, place, what: str) -> list[sp.Expr]:  # type:
         return list(value)
     if not isinstance(value, (list, sp.MatrixBase)) and sp.sympify(value) == 0:
         return [sp.Integer(0)] * n
-    raise UserError(f"{what} must be a list of {n} expressions or 0", place, f"e.g. [dq1, dq2]")
+    raise UserError(f"{what} must be a list of {n} expressions or 0", place, "e.g. [dq1, dq2]")
 
 
 @ask_kind("newton_euler", NewtonEulerAsk, "recursive Newton–Euler: forward/backward recursions, NE as a routine")
@@ -275,7 +275,9 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
         if not c.name.replace("_", "").isalnum() or not c.name[0].isalpha():
             raise UserError(f"call name '{c.name}' is not a plain name", problem.located.place(ctx.path + ("calls", k, "name")),
                             "use letters, digits and _")
-        place = lambda f: problem.located.place(ctx.path + ("calls", k, f))  # noqa: E731
+        def place(f: str, k: int = k):  # type: ignore[no-untyped-def]
+            return problem.located.place(ctx.path + ("calls", k, f))
+
         qa = _vector_arg(ctx.expr("calls", k, "q"), n, place("q"), "q") if c.q is not None else None
         dqa = _vector_arg(ctx.expr("calls", k, "dq"), n, place("dq"), "dq")
         ddqa = _vector_arg(ctx.expr("calls", k, "ddq"), n, place("ddq"), "ddq")

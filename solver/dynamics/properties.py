@@ -19,14 +19,25 @@
 from __future__ import annotations
 
 import itertools
-from typing import Any, Literal, Optional, Union
+from typing import Any, Literal
 
 import numpy as np
 import sympy as sp
 from pydantic import Field
 
-from solver.control.gravity_bound import _snap, abs_bound, gradient_bound, matrix_function, maximize
-from solver.dynamics.model import christoffel, coriolis, derive, factorization, require_model
+from solver.control.gravity_bound import (
+    _snap,
+    abs_bound,
+    gradient_bound,
+    matrix_function,
+    maximize,
+)
+from solver.dynamics.model import (
+    christoffel,
+    coriolis,
+    derive,
+    require_model,
+)
 from solver.math.simplify import angle_symbols, is_zero, tidy, tidy_matrix
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -170,7 +181,7 @@ def _real_eigenvalues(M: sp.Matrix) -> list[sp.Expr]:
     are complex-looking: then [])."""
     try:
         ev = [sp.radsimp(e) for e in M.eigenvals(multiple=True)]
-    except Exception:  # pragma: no cover - sympy could not find the roots
+    except Exception:  # noqa: BLE001 - sympy could not find the roots
         return []
     return ev if all(not e.has(sp.I) for e in ev) else []
 
@@ -279,36 +290,45 @@ class GivenFactorization(Strict):
 class Candidate(Strict):
     name: str = Field(description="result prefix, e.g. MA")
     B: ExprT = Field(description="the n x n inertia matrix, in the robot's coordinates q1..qn")
-    g: Optional[ExprT] = Field(None, description="the gravity vector (default 0)")
+    g: ExprT | None = Field(None, description="the gravity vector (default 0)")
+
+
+class Fault(Strict):
+    joint: int = Field(description="the joint i whose acceleration is imposed (1..n)")
+    ddq: ExprT = Field(description="the imposed acceleration of joint i, e.g. -lambda2*dq2 (incipient block)")
 
 
 class DynamicPropertiesAsk(Strict):
     """Properties of the dynamic model of the spec's robot."""
 
     kind: Literal["dynamic_properties"]
-    title: Optional[str] = Field(None, description="heading of this part in the report")
+    title: str | None = Field(None, description="heading of this part in the report")
     find: list[Literal["eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates",
-                       "feasibility", "power", "forward_dynamics", "balancing", "cartesian_inertia"]] = Field(
+                       "feasibility", "power", "forward_dynamics", "fault", "torque_limits", "balancing",
+                       "cartesian_inertia"]] = Field(
         description="which properties")
-    task: Optional[ExprT] = Field(None, description="cartesian_inertia: the task r = f(q) (m ≤ n expressions)")
+    task: ExprT | None = Field(None, description="cartesian_inertia: the task r = f(q) (m ≤ n expressions)")
     unknowns: list[str] = Field([], description="balancing: the parameters to choose so that g(q) ≡ 0")
     ranges: dict[str, tuple[float, float]] = Field(
         {}, description="range per coordinate for the searches over q (needed for prismatic ones)")
     factorizations: list[GivenFactorization] = Field([], description="factorizations S to check")
-    trajectory: Optional[ExprT] = Field(None, description="q_d(t) for inverse_dynamics: n expressions in t")
-    times: list[Union[str, int, float]] = Field([], description="times where u_d(t) is evaluated (u_d_at<k>)")
-    cases: list[dict[str, Union[str, int, float]]] = Field(
-        [], description="inverse_dynamics: parameter values substituted in u_d(t) (u_d_case<k>), e.g. [{q2b: pi/2}]")
-    transform: Optional[ExprT] = Field(None, description="coordinates: the n x n matrix T with q = T θ")
-    map: Optional[ExprT] = Field(None, description="coordinates: q = φ(θ), n expressions in the new coordinates "
-                                                   "(a nonlinear change, e.g. q = f⁻¹(p))")
-    new_coordinates: Optional[list[str]] = Field(None, description="names of θ (default th1..thn); "
+    trajectory: ExprT | None = Field(None, description="q_d(t) for inverse_dynamics: n expressions in t")
+    times: list[str | int | float] = Field([], description="times where u_d(t) is evaluated (u_d_at<k>)")
+    cases: list[dict[str, str | int | float]] = Field(
+        [], description="inverse_dynamics, torque_limits: parameter values substituted (u_d_case<k>, tau_lower_case<k>, ...), e.g. [{q2b: pi/2}]")
+    transform: ExprT | None = Field(None, description="coordinates: the n x n matrix T with q = T θ")
+    map: ExprT | None = Field(None, description="coordinates: q = φ(θ), n expressions in the new coordinates "
+                                                "(a nonlinear change, e.g. q = f⁻¹(p))")
+    new_coordinates: list[str] | None = Field(None, description="names of θ (default th1..thn); "
                                                                   "velocities d<name>")
-    candidates: list["Candidate"] = Field([], description="feasibility: other (B, g) to judge, results prefixed "
+    candidates: list[Candidate] = Field([], description="feasibility: other (B, g) to judge, results prefixed "
                                                            "<name>_ (B_indep_q1, det_B, pd_conditions, real_robot, ...)")
-    state: Optional[dict[str, Union[str, int, float]]] = Field(
+    state: dict[str, str | int | float] | None = Field(
         None, description="power: the state (q.., dq..) where Ė, U̇, Ṫ, L̇ are evaluated")
-    u: Optional[ExprT] = Field(None, description="power: the input u at that state (n expressions)")
+    u: ExprT | None = Field(None, description="power, forward_dynamics, fault: the input u (n expressions)")
+    limits: ExprT | None = Field(None, description="torque_limits: the bounds T_i in |u_i| <= T_i (n expressions)")
+    fault: Fault | None = Field(None, description="fault: the extra torque τ_f,i at one joint that imposes its "
+                                                     "acceleration (B q̈ + c + g = G u − e_i τ_f,i)")
 
 
 def _place(problem, ctx, *sub):  # type: ignore[no-untyped-def]
@@ -470,6 +490,10 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             _power(problem, options, ctx, sol, dm, robot)
         elif what == "forward_dynamics":
             _forward(problem, options, ctx, sol, dm, robot)
+        elif what == "fault":
+            _fault(problem, options, ctx, sol, dm, robot)
+        elif what == "torque_limits":
+            _torque_limits(problem, options, ctx, sol, dm, robot)
         elif what == "balancing":
             _balancing(problem, options, ctx, sol, dm, robot)
         elif what == "cartesian_inertia":
@@ -622,7 +646,7 @@ def _feasibility(sol, B, g, robot, revolute, prefix: str = "") -> None:  # type:
     sym = all(is_zero(x) for x in (B - B.T))
     indep = not any(q[0] in e.free_symbols for e in B)
     invariant, shift = base_invariance(B, q, revolute)
-    conds, minors, possible, blocks, diag = pd_conditions(B, q, revolute)
+    conds, _, possible, blocks, diag = pd_conditions(B, q, revolute)
     A = g.jacobian(q)
     conservative = all(is_zero(sp.expand(x)) for x in (A - A.T))
     real = bool(sym and invariant and possible and conservative)
@@ -650,6 +674,19 @@ def _read_state(problem, options, ctx, robot) -> dict:  # type: ignore[no-untype
     return state
 
 
+MAX_SYMBOLIC_INVERSE = 2   # B⁻¹ with symbolic parameters only up to this size (3x3 trigonometric inverses explode)
+
+
+def _inverse(problem, ctx, B: sp.Matrix, q: list[sp.Symbol]) -> sp.Matrix:  # type: ignore[no-untyped-def]
+    """B⁻¹ (entries simplified); beyond MAX_SYMBOLIC_INVERSE the parameter values are substituted first."""
+    if B.rows > MAX_SYMBOLIC_INVERSE:
+        B = B.xreplace(problem.values)
+        if set().union(*[e.free_symbols for e in B]) - set(q):
+            raise UserError(f"B⁻¹ of a {B.rows}x{B.rows} inertia matrix with symbolic parameters is too large",
+                            _place(problem, ctx, "find"), "give numeric values: for the parameters")
+    return B.inv().applyfunc(tidy)
+
+
 def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
     """q̈ = B⁻¹ (G u − c − g − F_v q̇) for the given u (at the given state, else symbolic)."""
     m = len(robot.inputs)
@@ -662,11 +699,108 @@ def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-
     v = sp.Matrix(robot.dq)
     rhs = G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(robot.n, 1))
     state = _read_state(problem, options, ctx, robot)
-    Binv = dm.B.inv()
+    Binv = _inverse(problem, ctx, dm.B, robot.q)
     ddq = tidy_matrix((Binv * rhs).xreplace(state))
     sol.add("ddq", ddq, "vector", label="\\ddot q")
     sol.step("forward_dynamics", u=sp.Matrix(u), Binv=Binv.applyfunc(tidy), rhs=rhs.applyfunc(tidy), state=state,
              ddq=ddq)
+
+
+def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """B q̈ + n = G u − e_i τ_f with H = B⁻¹: q̈ = H (G u − n) − h_i τ_f, so q̈_i = a needs
+    τ_f = (h_iᵀ (G u − n) − a) / h_ii, and then q̈_j = h_jᵀ (G u − n) − h_ji τ_f."""
+    n = robot.n
+    if options.fault is None or options.u is None:
+        raise UserError("fault needs fault: {joint: i, ddq: ...} and u: [...]", _place(problem, ctx, "find"),
+                        "add fault: {joint: 2, ddq: -lambda2*dq2} and u: [tau1, tau2]")
+    i = options.fault.joint
+    if not 1 <= i <= n:
+        raise UserError(f"joint must be between 1 and {n}", _place(problem, ctx, "fault", "joint"))
+    names = {**problem.names, **{x.name: x for x in robot.inputs}}
+    u = problem.parse_at(ctx.path + ("u",), names)
+    m = len(robot.inputs)
+    if not isinstance(u, list) or len(u) != m:
+        raise UserError(f"u must be a list of {m} expressions", _place(problem, ctx, "u"))
+    a = problem.parse_at(ctx.path + ("fault", "ddq"), names)
+    if isinstance(a, list):
+        raise UserError("ddq must be one expression", _place(problem, ctx, "fault", "ddq"))
+    G = robot.input_map if robot.input_map is not None else sp.eye(n)
+    v = sp.Matrix(robot.dq)
+    w = G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1))
+    H = _inverse(problem, ctx, dm.B, robot.q)
+    k = i - 1
+    tau_f = tidy((H[k, :] * w)[0] / H[k, k] - a / H[k, k])
+    ddq = (H * w - H[:, k] * tau_f).applyfunc(tidy)
+    ddq[k] = tidy(ddq[k])
+    sol.add("H", H, "matrix", label="H = B^{-1}")
+    sol.add("tau_f", tau_f, "scalar", label=f"\\tau_{{f,{i}}}")
+    sol.add("ddq_fault", ddq, "vector", label="\\ddot q")
+    sol.step("fault", i=i, a=a, H=H, w=w.applyfunc(tidy), tau_f=tau_f, ddq=ddq)
+
+
+def _case_subs(problem, ctx, options, robot) -> list[dict]:  # type: ignore[no-untyped-def]
+    out = []
+    for k, case in enumerate(options.cases):
+        sub = {}
+        for name in case:
+            sym = problem.names.get(name)
+            if sym is None or not isinstance(sym, sp.Symbol) or sym in robot.q + robot.dq + robot.ddq:
+                raise UserError(f"'{name}' in cases: is not a parameter", _place(problem, ctx, "cases", k, name),
+                                "use a symbol declared under symbols:")
+            sub[sym] = problem.parse_at(ctx.path + ("cases", k, name))
+        out.append(sub)
+    return out
+
+
+def _torque_limits(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """|u_i| ≤ T_i with u = B q̈ + n (n = c + g + F_v q̇): −T − n ≤ B q̈ ≤ T − n, a parallelogram (n = 2) of
+    accelerations with vertices B⁻¹(±T₁ − n₁, ±T₂ − n₂); the zero-torque lines b_i1 q̈₁ + b_i2 q̈₂ = 0 have slopes
+    −b_i1/b_i2; q̈ = 0 is feasible iff |n_i| ≤ T_i."""
+    n = robot.n
+    if robot.input_map is not None:
+        raise UserError("torque_limits needs one torque per coordinate (no input_map)", _place(problem, ctx, "find"))
+    if options.limits is None:
+        raise UserError("torque_limits needs limits: [T1, T2, ...]", _place(problem, ctx, "find"), "add limits: [T1, T2]")
+    T = ctx.expr("limits")
+    if not isinstance(T, list) or len(T) != n:
+        raise UserError(f"limits must be a list of {n} expressions", _place(problem, ctx, "limits"))
+    T = sp.Matrix(T)
+    v = sp.Matrix(robot.dq)
+    nv = (dm.c + dm.g + (dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1))).applyfunc(tidy)
+    Bq = (dm.B * sp.Matrix(robot.ddq)).applyfunc(tidy)
+    lo, hi = (-T - nv).applyfunc(tidy), (T - nv).applyfunc(tidy)
+    sol.add("acc_map", Bq, "vector", label="B(q)\\ddot q")
+    sol.add("tau_lower", lo, "vector", label="-T - n")
+    sol.add("tau_upper", hi, "vector", label="T - n")
+    slopes = []
+    if n == 2:
+        for i in range(2):
+            if not is_zero(dm.B[i, 1]):
+                sl = tidy(-dm.B[i, 0] / dm.B[i, 1])
+                sol.add(f"slope{i + 1}", sl, "scalar", label=f"\\text{{slope}}_{i + 1}")
+                slopes.append((i + 1, sl))
+    zero = reduce_conds([T[i] - nv[i] for i in range(n)] + [T[i] + nv[i] for i in range(n)])
+    sol.add("zero_acc_conditions", zero, "conditions", label="\\ddot q = 0 \\text{ feasible}")
+    cases = []
+    for k, sub in enumerate(_case_subs(problem, ctx, options, robot)):
+        l_k, h_k = lo.xreplace(sub).applyfunc(tidy), hi.xreplace(sub).applyfunc(tidy)
+        sol.add(f"tau_lower_case{k + 1}", l_k, "vector", label=f"(-T - n)_{{{k + 1}}}")
+        sol.add(f"tau_upper_case{k + 1}", h_k, "vector", label=f"(T - n)_{{{k + 1}}}")
+        cases.append((sub, l_k, h_k))
+    vertices = []
+    if n == 2:
+        Binv = dm.B.inv().applyfunc(tidy)
+        for s1 in (1, -1):
+            for s2 in (1, -1):
+                vertices.append((Binv * sp.Matrix([s1 * T[0] - nv[0], s2 * T[1] - nv[1]])).applyfunc(tidy))
+        sol.add("acc_vertices", vertices, "list", label="\\ddot q_{\\text{vertices}}")
+    sol.step("torque_limits", T=T, nv=nv, Bq=Bq, lo=lo, hi=hi, slopes=slopes, zero=zero, cases=cases,
+             vertices=vertices)
+
+
+def reduce_conds(conds: list[sp.Expr]) -> list[sp.Expr]:
+    from solver.math.equivalence import normalize_condition, reduce_conditions
+    return reduce_conditions([normalize_condition(c) for c in conds])
 
 
 def _power(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
@@ -719,6 +853,10 @@ def check_factorizations(problem, results, name, value, other, options) -> Prope
     if M is None:
         return None
     S = (Bd.value - M) / 2 if name.startswith("N") else M
+    if name.startswith("N") and other is not None:          # with the student's own S: N must be Ḃ − 2S
+        S_own = _matrix(other("S" + name[1:]), n) if other("S" + name[1:]) is not None else None
+        if S_own is not None and not all(scalar_equiv(x, 0).ok for x in (M - (Bd.value - 2 * S_own))):
+            return PropertyVerdict(False, 0.0, ["N differs from Ḃ − 2S with your S"], final=False)
     c = results["S_skew"].value * sp.Matrix(robot.dq)
     if not all(scalar_equiv(x, y).ok for x, y in zip(S * sp.Matrix(robot.dq), c)):
         return PropertyVerdict(False, 0.0, ["S q̇ differs from c(q, q̇): not a factorization"], final=False)
@@ -764,6 +902,6 @@ def check_affine_bound(problem, results, name, value, other, options) -> Propert
             s = max((abs(v) for v, c in zip(x, coords) if robot.joints[robot.q.index(c)] == "P"), default=0.0)
             nrm = np.linalg.norm(np.array(An(*x), dtype=float), 2)
             if nrm > a + b * s + 1e-9:
-                return PropertyVerdict(False, 0.0, [f"not a bound: ‖∂g/∂q‖ = {nrm:.4g} > α + β|s| = {a + b * s:.4g} "
-                                                    f"at q = {np.round(x, 3).tolist()}"])
+                return PropertyVerdict(False, 0.0, [(f"not a bound: ‖∂g/∂q‖ = {nrm:.4g} > α + β|s| = {a + b * s:.4g} "
+                                                     f"at q = {np.round(x, 3).tolist()}")])
     return PropertyVerdict(True, 1.0, ["α + β|s| bounds ‖∂g/∂q‖ at every sampled configuration"])

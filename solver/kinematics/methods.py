@@ -29,9 +29,10 @@ ExprT = Union[str, int, float, list[Any]]
 Scalar = Union[str, int, float]
 
 METHODS = ("pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled", "max_scaling",
-           "reduced_gradient")
+           "reduced_gradient", "extended_optimal")
 Method = Literal["pseudoinverse", "weighted", "dls", "null_space", "priority", "extended", "sns", "scaled",
-                 "max_scaling", "reduced_gradient"]
+                 "max_scaling", "reduced_gradient", "extended_optimal"]
+NAMED_H = ("manipulability", "joint_range")
 EXACT_SIZE = 48  # total entries of the stacked Jacobian up to which exact data are solved exactly
 
 
@@ -45,15 +46,43 @@ class TaskItem(Strict):
     acceleration: Optional[ExprT] = Field(None, description="desired task acceleration r̈ (acceleration level)")
 
 
+class Motion(Strict):
+    """A motion at velocity level from a start configuration, with constant task velocities."""
+
+    start: dict[str, Scalar] = Field(..., description="q at t = 0 {q1: ..., ...}")
+    duration: float = Field(..., gt=0, le=1e4, description="seconds to integrate (stops earlier at a singularity)")
+    method: Optional[Literal["pseudoinverse", "weighted", "dls", "extended", "priority", "null_space", "sns",
+                             "scaled"]] = Field(
+        None, description="the method commanding q̇ (q̈ at acceleration level; null_space, sns and scaled only "
+                          "there); default: the first of methods: that applies")
+    steps: int = Field(400, ge=10, le=20000, description="integration steps (RK4; smaller near a singularity)")
+    sigma_min: float = Field(1e-4, gt=0, lt=1, description="stop when the smallest singular value of the "
+                                                           "(stacked or projected) Jacobian falls below this")
+
+
+class VariableDamping(Strict):
+    """μ chosen from the smallest singular value σ of J: μ² = μ_max²(1 − (σ/ε)²) for σ < ε, else 0."""
+
+    epsilon: float = Field(..., gt=0, description="size of the singular region (on σ_min)")
+    max: float = Field(..., gt=0, description="largest damping μ_max (at σ = 0)")
+
+
 class Bounds(Strict):
-    lower: ExprT = Field(..., description="lower bounds (n values)")
-    upper: ExprT = Field(..., description="upper bounds (n values)")
+    lower: Optional[ExprT] = Field(None, description="lower bounds (n values)")
+    upper: Optional[ExprT] = Field(None, description="upper bounds (n values)")
+    position: Optional[list[ExprT]] = Field(None, description="joint range [[min, max], ...] (with velocity:, "
+                                                                "acceleration: and T: the bounds are derived)")
+    velocity: Optional[ExprT] = Field(None, description="|q̇_i| ≤ V_i (n values)")
+    acceleration: Optional[ExprT] = Field(None, description="|q̈_i| ≤ A_i (n values, acceleration level)")
+    T: Optional[Scalar] = Field(None, description="the control sampling time of the derived bounds")
 
 
 def wants_methods(o: Any) -> bool:
     """True when the ask uses the method path (any of its options given)."""
+    if isinstance(o.gradient, str) and o.gradient.strip() in NAMED_H:
+        return True
     return any(getattr(o, k) is not None for k in ("tasks", "methods", "mu", "bounds", "damping",
-                                                    "joint_velocity", "acceleration", "direction")) or o.level == "acceleration"
+                                                    "joint_velocity", "acceleration", "direction", "motion")) or o.level == "acceleration"
 
 
 # ------------------------------------------------------------------------------------------------ parsing
@@ -86,9 +115,10 @@ class _MSpec:
         if "weighted" in self.methods and self.W is None:
             raise self.fail(("methods",), "the weighted method needs weight:")
         self.mu = None
-        if o.mu is not None:
+        self.mu_auto = o.mu if isinstance(o.mu, VariableDamping) else None
+        if o.mu is not None and self.mu_auto is None:
             self.mu = ctx.expr("mu")
-        if "dls" in self.methods and self.mu is None:
+        if "dls" in self.methods and self.mu is None and self.mu_auto is None:
             raise self.fail(("methods",), "the dls method needs mu: (the damping factor μ)")
         self.Kd = None
         if o.damping is not None:
@@ -103,7 +133,12 @@ class _MSpec:
             if getattr(o, key) is not None:
                 self.q0 = self._vec(key, self.n)
         self.H = None
-        if o.gradient is not None:
+        self.H_name = None
+        if isinstance(o.gradient, str) and o.gradient.strip() in NAMED_H:
+            self.H_name = o.gradient.strip()
+            self.H = self._named_H(self.H_name)
+            self.step = ctx.expr("step") if "step" in o.model_fields_set else sp.Integer(1)
+        elif o.gradient is not None:
             H = ctx.expr("gradient")
             if isinstance(H, list):
                 raise self.fail(("gradient",), "gradient: must be a scalar function H(q)")
@@ -111,9 +146,11 @@ class _MSpec:
             self.step = ctx.expr("step") if "step" in o.model_fields_set else sp.Integer(1)
         self.lo = self.hi = None
         if o.bounds is not None:
-            if isinstance(o.bounds, Bounds):
+            if isinstance(o.bounds, Bounds) and o.bounds.lower is not None and o.bounds.upper is not None:
                 self.lo = list(self._vec(("bounds", "lower"), self.n))
                 self.hi = list(self._vec(("bounds", "upper"), self.n))
+            elif isinstance(o.bounds, Bounds):
+                self.lo, self.hi = self._derived_bounds(o.bounds)
             else:
                 b = ctx.expr("bounds")
                 b = [b] * self.n if not isinstance(b, list) else b
@@ -136,18 +173,67 @@ class _MSpec:
                 self.direction = self.direction.subs({d: self.qd[i] for i, d in enumerate(problem.robot.dq)})
         if "max_scaling" in self.methods and (self.direction is None or self.lo is None):
             raise self.fail(("methods",), "max_scaling needs direction: and bounds:")
-        if "reduced_gradient" in self.methods and (self.H is None or len(self.tasks) > 1):
-            raise self.fail(("methods",), "reduced_gradient needs gradient: (the objective H) and a single task")
-        if o.decomposition is not None:
-            m0 = self.tasks[0]["m"]
-            if len(o.decomposition) != m0 or len(set(o.decomposition)) != m0 or \
-                    any(not 1 <= j <= self.n for j in o.decomposition):
-                raise self.fail(("decomposition",), f"decomposition must list {m0} distinct joints among 1..{self.n}")
         if any(m in self.methods for m in ("sns", "scaled")) and self.lo is None:
             raise self.fail(("methods",), "sns and scaled need bounds: on the joint "
                                           + ("accelerations" if self.acc else "velocities"))
         if len(self.tasks) > 1 and ("null_space" in self.methods or "weighted" in self.methods):
             pass
+
+    def _derived_bounds(self, b: Bounds) -> tuple[list, list]:
+        """Bounds on the command from joint range Q, velocity V and acceleration A limits over one sampling time T
+        (the SNS convention): velocity level max{(Q_min − q)/T, −V} ≤ q̇ ≤ min{(Q_max − q)/T, V}; acceleration level
+        max{2(Q_min − q − q̇T)/T², −(V + q̇)/T, −A} ≤ q̈ ≤ min{2(Q_max − q − q̇T)/T², (V − q̇)/T, A}."""
+        if b.T is None or b.velocity is None or (self.acc and b.acceleration is None):
+            raise self.fail(("bounds",), "give lower:/upper:, or T: with velocity: (and acceleration: at "
+                                         "acceleration level), position: optional")
+        T = self.ctx.expr("bounds", "T")
+        V = list(self._vec(("bounds", "velocity"), self.n))
+        A = list(self._vec(("bounds", "acceleration"), self.n)) if self.acc else None
+        Q = None
+        if b.position is not None:
+            if len(b.position) != self.n:
+                raise self.fail(("bounds", "position"), f"position: needs {self.n} ranges [min, max]")
+            Q = [(self.ctx.expr("bounds", "position", i, 0), self.ctx.expr("bounds", "position", i, 1))
+                 for i in range(self.n)]
+        vals = {**self.problem.values, **self.state}
+        q = [x.subs(vals) for x in self.q]
+        qd = list(self.qd.subs(self.problem.values)) if self.qd is not None else [0] * self.n
+        lo, hi = [], []
+        for i in range(self.n):
+            if self.acc:
+                cl = [-(V[i] + qd[i]) / T, -A[i]]
+                ch = [(V[i] - qd[i]) / T, A[i]]
+                if Q:
+                    cl.append(2 * (Q[i][0] - q[i] - qd[i] * T) / T ** 2)
+                    ch.append(2 * (Q[i][1] - q[i] - qd[i] * T) / T ** 2)
+            else:
+                cl, ch = [-V[i]], [V[i]]
+                if Q:
+                    cl.append((Q[i][0] - q[i]) / T)
+                    ch.append((Q[i][1] - q[i]) / T)
+            cl = [sp.nsimplify(sp.sympify(c)) if sp.sympify(c).is_Float else sp.sympify(c) for c in cl]
+            ch = [sp.nsimplify(sp.sympify(c)) if sp.sympify(c).is_Float else sp.sympify(c) for c in ch]
+            lo.append(sp.Max(*cl))
+            hi.append(sp.Min(*ch))
+            if bool(lo[-1] > hi[-1]):
+                raise self.fail(("bounds",), f"the derived bounds of joint {i + 1} are empty ({lo[-1]} > {hi[-1]})")
+        return lo, hi
+
+    def _named_H(self, name: str) -> sp.Expr:
+        """manipulability √det(JJᵀ) of the stacked tasks; joint_range −1/(2n) Σ ((q_i − q̄_i)/(q_M,i − q_m,i))²."""
+        if name == "manipulability":
+            JE = sp.Matrix.vstack(*[t["J"] for t in self.tasks]).subs(self.problem.values)
+            return sp.sqrt((JE * JE.T).det())
+        rng = self.o.joint_ranges
+        if not rng:
+            raise self.fail(("gradient",), "gradient: joint_range needs joint_ranges: {q1: [min, max], ...}")
+        terms = []
+        for x in self.q:
+            if x.name not in rng:
+                raise self.fail(("joint_ranges",), f"joint_ranges: misses {x.name}")
+            lo, hi = (self.ctx.expr("joint_ranges", x.name, k) for k in (0, 1))
+            terms.append(((x - (lo + hi) / 2) / (hi - lo)) ** 2)
+        return -sp.Add(*terms) / (2 * len(self.q))
 
     def _default_methods(self) -> list[str]:
         out = ["pseudoinverse"] if len(self.tasks) == 1 else ["extended", "priority"]
@@ -270,6 +356,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         add(tn("J_at", k), Ja, "matrix", label=f"J_{{{k}}}" if multi else "J")
         h = None
         if t["f"] is not None:
+            add(tn("f", k), t["f"], "vector", label=f"f_{{{k}}}(q)" if multi else "f(q)")
             add(tn("r_at", k), t["f"].subs(subs), "vector", label=f"r_{{{k}}}" if multi else "r")
         if acc:
             rdot = (t["J"] * spec.qd).subs(subs)
@@ -343,7 +430,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         add("bounds_upper", sp.Matrix([b.subs(subs) for b in spec.hi]), "vector", label="\\text{upper bounds}")
     # preferred (null-space) vector
     q0 = None
-    grad_at = None
+    grad = None
     if spec.q0 is not None or spec.H is not None or spec.Kd is not None:
         q0s = sp.zeros(n, 1)
         grad = None
@@ -351,10 +438,12 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             q0s += spec.q0.subs(subs)
         if spec.H is not None:
             from solver.math.simplify import tidy
-            gsym = sp.Matrix([tidy(sp.diff(spec.H, x)) for x in spec.q])
-            add("grad_H", gsym, "vector", label="\\nabla_q H(q)")
-            grad = gsym.subs(subs)
-            grad_at = grad
+            if spec.H_name == "manipulability":  # √det(JJᵀ): its symbolic gradient is long; evaluated at the state
+                grad = sp.Matrix([sp.diff(spec.H, x) for x in spec.q]).subs(subs).evalf(15)
+            else:
+                gsym = sp.Matrix([tidy(sp.diff(spec.H, x)) for x in spec.q])
+                add("grad_H", gsym, "vector", label="\\nabla_q H(q)")
+                grad = gsym.subs(subs)
             q0s += spec.step * grad
             add("grad_H_at", grad, "vector", label="\\nabla_q H")
         if spec.Kd is not None:
@@ -372,7 +461,8 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             JE, xE = la.vstack(Js), la.vstack(xs)
         q0 = la.mat(q0s.applyfunc(_exact) if exact else q0s)
         add(f"{v}0", la.sym(q0), "vector", label=f"{vl}_0")
-        sol.step("m_null", q0=la.sym(q0), grad=grad, H=spec.H, step=getattr(spec, "step", None), Kd=spec.Kd,
+        sol.step("m_null", q0=la.sym(q0), grad=grad, H=None if spec.H_name == "manipulability" else spec.H,
+                 H_name=spec.H_name, step=getattr(spec, "step", None), Kd=spec.Kd,
                  acc=acc, given=spec.q0)
 
     results: list[tuple[str, str, Any]] = []  # (method label, result name, vector)
@@ -401,12 +491,18 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             sol.step("m_weighted", W=la.sym(W), Jp=la.sym(JWp), v=la.sym(vec), acc=acc)
             record("w", "W", vec)
         elif meth == "dls":
-            mu = spec.mu.subs(subs) if isinstance(spec.mu, sp.Basic) else spec.mu
-            mu = sp.nsimplify(mu) if exact else float(mu)
+            if spec.mu_auto is not None:
+                mu = rs.variable_damping(la, JE, spec.mu_auto.epsilon, spec.mu_auto.max)
+                if exact:  # σ_min is irrational in general: μ to 12 decimals, the rest stays exact
+                    mu = sp.Rational(str(round(mu, 12)))
+                add("mu_dls", la.scalar(mu), "number", label="\\mu")
+            else:
+                mu = spec.mu.subs(subs) if isinstance(spec.mu, sp.Basic) else spec.mu
+                mu = sp.nsimplify(mu) if exact else float(mu)
             Jd = rs.dls(la, JE, mu)
             vec = Jd @ xE
             add("J_dls", la.sym(Jd), "matrix", label="J_{DLS}")
-            sol.step("m_dls", mu=la.scalar(mu), J=la.sym(JE), Jd=la.sym(Jd), v=la.sym(vec), acc=acc,
+            sol.step("m_dls", mu=la.scalar(mu), auto=spec.mu_auto, J=la.sym(JE), Jd=la.sym(Jd), v=la.sym(vec), acc=acc,
                      JJ=la.sym(JE @ JE.T + mu ** 2 * la.eye(JE.shape[0])))
             record("dls", "DLS", vec)
         elif meth == "null_space":
@@ -419,6 +515,60 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             add("P", la.sym(P), "matrix", label="I - J^{\\#}J")
             sol.step("m_ns", P=la.sym(P), vps=la.sym(vps), vn=la.sym(P @ q0), v=la.sym(vec), acc=acc)
             record("", "", vec)
+        elif meth == "reduced_gradient":
+            if q0 is None or spec.H is None:
+                raise spec.fail(("methods",), "reduced_gradient needs gradient: (H(q), or a named H)")
+            gnum = grad if grad is not None else sp.Matrix([sp.diff(spec.H, x) for x in spec.q]).subs(subs)
+            gvec = la.mat(gnum.applyfunc(_exact) if exact else gnum.evalf(15))
+            if spec.o.partition:
+                names = [x.name for x in spec.q]
+                bad = [p for p in spec.o.partition if p not in names]
+                if bad or len(spec.o.partition) != JE.shape[0]:
+                    raise spec.fail(("partition",), f"partition: must name {JE.shape[0]} coordinates (the joints of "
+                                                    "the square J_a)")
+                a_idx = [names.index(p) for p in spec.o.partition]
+            else:
+                a_idx = rs.best_partition(la, JE)
+            Ja = JE[:, a_idx]
+            if la.rank(Ja) < JE.shape[0]:
+                raise spec.fail(("partition",), "J_a is singular here: choose other joints in partition:")
+            stp = spec.step.subs(problem.values) if isinstance(spec.step, sp.Basic) else spec.step
+            stp = _exact(sp.sympify(stp)) if exact else float(sp.N(stp))
+            vec, gr = rs.reduced_gradient(la, JE, xE, gvec, a_idx, stp)
+            add("grad_reduced", la.sym(gr), "vector", label="\\nabla' H")
+            sol.step("m_rg", a=[spec.q[i] for i in a_idx], b=[x for i, x in enumerate(spec.q) if i not in a_idx],
+                     Ja=la.sym(Ja), gr=la.sym(gr), v=la.sym(vec), step=la.scalar(stp), acc=acc,
+                     grad=la.sym(gvec))
+            record("rg", "RG", vec)
+        elif meth == "extended_optimal":
+            # Baillieul: with n - m = 1, the optimality condition of H along the self-motion, g(q) = n(q)ᵀ∇H = 0,
+            # n(q) the generalized cross product of the rows of J (signed m x m minors), completes J to a square J_ext
+            JEs = sp.Matrix.vstack(*[t["J"] for t in spec.tasks]).subs(problem.values)
+            mE = JEs.shape[0]
+            if spec.H is None or spec.n - mE != 1:
+                raise spec.fail(("methods",), "extended_optimal needs gradient: (H) and a redundancy degree n - m = 1")
+            nvec = sp.Matrix([(-1) ** j * JEs[:, [c for c in range(spec.n) if c != j]].det() for j in range(spec.n)])
+            gH = sp.Matrix([sp.diff(spec.H, x) for x in spec.q]).subs(problem.values)
+            g = (nvec.T * gH)[0, 0]
+            dg = sp.Matrix([[sp.diff(g, x) for x in spec.q]])
+            Jx = sp.Matrix.vstack(JEs, dg).subs(subs)
+            g_at = g.subs(subs)
+            Jxn = la.mat(Jx.applyfunc(_exact) if exact and _exact_number(Jx) and _is_rational(Jx) else Jx.evalf(15))
+            if la.exact and not _is_rational(Jx):
+                lf = rs.LA(False, o.rank_tol)
+                Jxn, xx = lf.mat(Jx.evalf(15)), lf.mat(la.sym(xE).evalf(15))
+            else:
+                lf, xx = la, xE
+            rk = lf.rank(Jxn)
+            rhs = lf.vstack([xx, lf.zeros(1, 1)])
+            vec_f = (lf.inv(Jxn) if rk == spec.n else lf.pinv(Jxn)) @ rhs
+            vec = la.mat(lf.sym(vec_f)) if la.exact and lf is not la else vec_f
+            add("g_opt_at", g_at.evalf(15) if not g_at.is_Rational else g_at, "number",
+                label="g(q) = n(q)^T\\nabla H")
+            add("J_ext", lf.sym(Jxn), "matrix", label="J_{ext}")
+            sol.step("m_extopt", n=lf.sym(Jxn), g=sp.Float(float(sp.N(g_at)), 6), rank=rk, v=lf.sym(vec_f),
+                     nvec=nvec if sp.count_ops(nvec) < 60 else None, acc=acc)
+            record("xo", "ext,opt", vec)
         elif meth == "extended":
             vec, JEe, JEp, rk = rs.extended(la, Js, xs)
             add("JE", la.sym(JEe), "matrix", label="J_E")
@@ -471,12 +621,10 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             k = rs.ps_scaling(la, vps, lo, hi)
             vec = vps / k
             add("ps_scaling", la.scalar(k), "number", label="k")
+            add("ps_fraction", la.scalar(1 / k), "number", label="1/k")
             sol.step("m_scaled", vps=la.sym(vps), k=la.scalar(k), v=la.sym(vec), x=la.sym(xE), xs=la.sym(xE / k),
                      lo=lo, hi=hi, acc=acc, needed=k != 1)
             record("ps_scaled", "PS,scaled", vec)
-        elif meth == "reduced_gradient":
-            vec = _reduced_gradient(add, sol, la, spec, JE, xE, grad_at, acc)
-            record("rg", "RG", vec)
         elif meth == "max_scaling":
             lo = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.lo]
             hi = [_exact(b.subs(subs)) if exact else float(b.subs(subs)) for b in spec.hi]
@@ -541,6 +689,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                 label=f"J_{{{t['name']}}}{vl} - " + ("(\\ddot r - \\dot J\\dot q)" if acc else "\\dot r"))
         nm = la.norm(vec)
         add(f"norm_{name}", nm, None, label=f"\\|{vl}_{{\\mathrm{{{label}}}}}\\|")
+        add(f"achieved_{name}", la.sym(JE @ vec), "vector", label=f"J{vl}_{{\\mathrm{{{label}}}}}")
         table.append({"label": label, "name": name + sfx, "v": la.sym(vec), "norm": nm,
                       "v_num": la.sym(vec).applyfunc(lambda x: x if x.is_Integer else x.evalf(5)),
                       "norm_num": sp.Float(float(nm), 6), "errs": [sp.Float(float(e), 6) for e in errs]})
@@ -550,52 +699,265 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
         for row in table:
             row["within"] = all(lo[i] - 1e-9 <= float(row["v"][i]) <= hi[i] + 1e-9 for i in range(n))
     sol.step("m_compare", table=table, names=[t["name"] for t in tasks_num], acc=acc, bounds=spec.lo is not None)
-    _sketch(sol, problem, spec, tasks_num, table, subs, acc)
+    motion = None
+    if o.motion is not None:
+        motion = _motion(sol, problem, spec, add, tasks_num)
+    _sketch(sol, problem, spec, tasks_num, table, subs, acc, motion)
     return sol
 
 
-def _reduced_gradient(add: Any, sol: Solution, la: rs.LA, spec: _MSpec, J: Any, x: Any, grad: sp.Matrix,
-                      acc: bool) -> Any:
-    """Reduced gradient: J = (J_a J_b) with J_a (m x m) nonsingular, q_b moved along the gradient of
-    H'(q_b) = H(q_a(q_b), q_b), ∇_{q_b}H' = (−(J_a⁻¹J_b)ᵀ I) ∇_q H (reordered), q̇_b = step·∇H', q̇_a = J_a⁻¹(x − J_b q̇_b)."""
-    import itertools
-    m, n = la.shape(J)
-    if spec.o.decomposition is not None:
-        a = [j - 1 for j in spec.o.decomposition]
-    else:
-        best = None
-        for cols in itertools.combinations(range(n), m):
-            d = abs(float(sp.N(la.sym(J[:, list(cols)]).det())))
-            if best is None or d > best[0] + 1e-12:
-                best = (d, list(cols))
-        a = best[1]
-    b = [j for j in range(n) if j not in a]
-    Ja, Jb = J[:, a], J[:, b]
-    if la.rank(Ja) < m:
-        raise spec.fail(("decomposition",), "J_a (the columns " + ", ".join(str(j + 1) for j in a)
-                        + ") is singular here", "choose other joints")
-    Jai = la.inv(Ja)
-    g = la.mat(grad.applyfunc(_exact) if la.exact else grad)
-    ga, gb = g[a, :] if not la.exact else g.extract(a, [0]), g[b, :] if not la.exact else g.extract(b, [0])
-    K = Jai @ Jb
-    rg = gb - K.T @ ga
-    step = spec.step
-    step = sp.nsimplify(step) if la.exact else float(step)
-    vb = rg * step
-    va = Jai @ (x - Jb @ vb)
-    vec = la.zeros(n, 1)
-    for i, j in enumerate(a):
-        vec[j, 0] = va[i, 0]
-    for i, j in enumerate(b):
-        vec[j, 0] = vb[i, 0]
-    add("Ja", la.sym(Ja), "matrix", label="J_a")
-    add("Ja_inv", la.sym(Jai), "matrix", label="J_a^{-1}")
-    add("Jb", la.sym(Jb), "matrix", label="J_b")
-    add("reduced_gradient", la.sym(rg), "vector", label="\\nabla_{q_b} H'")
-    sol.step("m_rg", a=[j + 1 for j in a], b=[j + 1 for j in b], Ja=la.sym(Ja), Jai=la.sym(Jai), Jb=la.sym(Jb),
-             g=la.sym(g), rg=la.sym(rg), step=la.scalar(step), va=la.sym(va), vb=la.sym(vb), v=la.sym(vec), acc=acc,
-             x=la.sym(x))
-    return vec
+def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | None:  # type: ignore[no-untyped-def]
+    """Integrate q̇ = method(q) (RK4, constant task velocities) from the start configuration; stop where the
+    monitored smallest singular value falls below sigma_min (the first singularity met)."""
+    mo = spec.o.motion
+    if spec.acc:
+        return _motion_acc(sol, problem, spec, add, tasks)
+    if mo.method in ("null_space", "sns", "scaled"):
+        raise spec.fail(("motion", "method"), f"{mo.method} along a motion is available at acceleration level")
+    meth = mo.method or next((m for m in spec.methods if m in ("pseudoinverse", "weighted", "dls", "extended",
+                                                                "priority")), "pseudoinverse")
+    if meth == "priority" and len(tasks) < 2:
+        raise spec.fail(("motion", "method"), "priority needs two or more tasks")
+    by_name = {x.name: x for x in spec.q}
+    start = []
+    for x in spec.q:
+        if x.name not in mo.start:
+            raise spec.fail(("motion", "start"), f"start: must give every coordinate; missing {x.name}")
+    for name in mo.start:
+        if name not in by_name:
+            raise spec.fail(("motion", "start", name), f"'{name}' is not a coordinate")
+    start = [float(sp.N(spec.ctx.expr("motion", "start", x.name).subs(problem.values))) for x in spec.q]
+    la = rs.LA(False, spec.o.rank_tol)
+    Jf = [sp.lambdify([spec.q], t["J"].subs(problem.values), "numpy") for t in tasks]
+    xs = [np.array(sp.Matrix(t["r"]).subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1)
+          for t in tasks]
+    W = None
+    if meth == "weighted":
+        Wf = sp.lambdify([spec.q], spec.W.subs(problem.values), "numpy")
+    mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if (meth == "dls" and spec.mu is not None) else None
+
+    def jac(q: np.ndarray) -> list[np.ndarray]:
+        return [np.atleast_2d(np.array(f(list(q)), dtype=float)) for f in Jf]
+
+    # with task functions, the singular configuration is refined on r(q) = r(q(0)) + ṙ t, det J_E(q) = 0
+    fb = all(tk["f"] is not None for tk in tasks)
+    ff = [sp.lambdify([spec.q], tk["f"].subs(problem.values), "numpy") for tk in tasks] if fb else []
+    r0 = [np.array(f(start), dtype=float).reshape(-1, 1) for f in ff]
+    now = [0.0]
+
+    def vel(q: np.ndarray) -> tuple[np.ndarray, float]:
+        Js = jac(q)
+        xs_t = xs
+        JE, xE = np.vstack(Js), np.vstack(xs_t)
+        if meth == "priority":
+            v, levels = rs.task_priority(la, Js, xs_t)
+            sig = min([float(np.linalg.svd(Js[0], compute_uv=False)[-1])] + [lv.smin_JP for lv in levels[1:]])
+        else:
+            sv = np.linalg.svd(JE, compute_uv=False)
+            sig = float(sv[min(JE.shape) - 1])
+            if meth == "dls":
+                v = rs.dls(la, JE, mu) @ xE
+            elif meth == "weighted":
+                v = rs.weighted_pinv(la, JE, np.array(Wf(list(q)), dtype=float)) @ xE
+            else:
+                v = la.pinv(JE) @ xE
+        return v.ravel(), sig
+
+    q = np.array(start)
+    t, dt0 = 0.0, mo.duration / mo.steps
+    ts, qs, vs, sigs = [], [], [], []
+    reached = False
+    while t < mo.duration - 1e-12 and len(ts) < 50 * mo.steps:
+        now[0] = t
+        v, sig = vel(q)
+        ts.append(t), qs.append(q.copy()), vs.append(v), sigs.append(sig)
+        if sig < mo.sigma_min:
+            reached = True
+            break
+        dt = min(dt0, mo.duration - t, 0.002 / max(1e-12, float(np.max(np.abs(v)))) if np.max(np.abs(v)) > 0
+                 else dt0)
+        k1 = v
+        now[0] = t + dt / 2
+        k2 = vel(q + dt / 2 * k1)[0]
+        k3 = vel(q + dt / 2 * k2)[0]
+        now[0] = t + dt
+        k4 = vel(q + dt * k3)[0]
+        q = q + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        t += dt
+    if not reached:
+        now[0] = t
+        v, sig = vel(q)
+        ts.append(t), qs.append(q.copy()), vs.append(v), sigs.append(sig)
+    refined = False
+    m_tot = sum(x.shape[0] for x in xs)
+    if reached and fb and m_tot == len(spec.q) and meth != "priority":
+        z = np.concatenate([qs[-1], [ts[-1]]])
+        xv = np.vstack(xs).ravel()
+        rv = np.vstack(r0).ravel()
+
+        def F(zz: np.ndarray) -> np.ndarray:
+            qq, tt = zz[:-1], zz[-1]
+            rq = np.concatenate([np.array(f(list(qq)), dtype=float).ravel() for f in ff])
+            return np.concatenate([rq - rv - xv * tt, [np.linalg.det(np.vstack(jac(qq)))]])
+
+        for _ in range(30):
+            Fz = F(z)
+            if np.linalg.norm(Fz) < 1e-12:
+                break
+            D = np.column_stack([(F(z + e) - F(z - e)) / 2e-7 for e in np.eye(z.size) * 1e-7])
+            try:
+                z = z - np.linalg.solve(D, Fz)
+            except np.linalg.LinAlgError:
+                break
+        if np.linalg.norm(F(z)) < 1e-9 and np.linalg.norm(z[:-1] - qs[-1]) < 0.05:
+            qs[-1], ts[-1], refined = z[:-1], float(z[-1]), True
+    qe = sp.Matrix([sp.Float(x, 15) if abs(x) > 1e-12 else sp.Integer(0) for x in qs[-1]])
+    add("q_end", qe, "vector", label="q(t_{end})")
+    add("t_end", sp.Float(ts[-1], 15), "number", label="t_{end}")
+    add("singularity_reached", bool(reached), "bool", label="\\text{singularity reached}")
+    if reached:
+        add("q_s", qe, "vector", label="q_s")
+    pos = next((t for t in tasks if t["f"] is not None and t["m"] == 2), None)
+    p_end = None
+    if pos is not None:
+        p_end = pos["f"].subs(problem.values).subs(dict(zip(spec.q, list(qe))))
+        add("p_end", p_end.evalf(15), "vector", label="p(t_{end})")
+    sol.step("m_motion", method=meth, start=sp.Matrix(start), duration=mo.duration, reached=reached,
+             t_end=sp.Float(ts[-1], 6), q_end=qe.evalf(6), sig=sp.Float(sigs[-1], 3), sigma_min=mo.sigma_min,
+             p_end=None if p_end is None else p_end.evalf(6), refined=refined)
+    lo = [float(sp.N(b.subs(problem.values))) for b in spec.lo] if spec.lo is not None else None
+    hi = [float(sp.N(b.subs(problem.values))) for b in spec.hi] if spec.hi is not None else None
+    T, V, S = list(ts), np.array(vs), list(sigs)
+    peak = np.max(np.abs(V), axis=1)
+    keep = peak <= 20 * max(1e-9, float(np.median(peak)))  # the blow-up at a singularity would hide the rest
+    if not np.all(keep):
+        T, V, S = [x for x, k in zip(T, keep) if k], V[keep], [x for x, k in zip(S, keep) if k]
+
+    def sample() -> list[Panel]:
+        curves = [Curve(f"$\\dot q_{{{i + 1}}}$", T, [float(x) for x in V[:, i]]) for i in range(V.shape[1])]
+        hl = _bound_lines(lo, hi)
+        return [Panel("$t$ [s]", "$\\dot q$", curves, hlines=hl),
+                Panel("$t$ [s]", "$\\sigma_{min}$", [Curve("$\\sigma_{min}$", T, S)])]
+
+    sol.figures.append(Figure("motion" + spec.o.suffix, f"Joint velocities along the motion ({meth}) and the "
+                              "smallest singular value monitored" + (", with the bounds (dashed)" if hi else "")
+                              + (" (the last samples, where the joint velocity blows up at the singularity, are not "
+                                 "drawn)" if not np.all(keep) else "") + ".", sample))
+    pts = [(float(sp.N(pos["f"][0].subs(problem.values).subs(dict(zip(spec.q, list(qq)))))),
+            float(sp.N(pos["f"][1].subs(problem.values).subs(dict(zip(spec.q, list(qq))))))) for qq in qs[::max(1, len(qs) // 60)]] \
+        if pos is not None else None
+    return {"start": dict(zip(spec.q, [sp.Float(x, 6) for x in start])),
+            "end": dict(zip(spec.q, list(qe))), "path": pts, "reached": reached}
+
+
+def _motion_acc(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | None:  # type: ignore[no-untyped-def]
+    """Acceleration level: integrate (q, q̇) with q̈ = method(q, q̇) applied to x = r̈_d − J̇(q)q̇ (constant r̈_d), RK4;
+    stop at a singularity (σ_min below sigma_min). The report plots q̈(t) (with the bounds) and q̇(t)."""
+    mo = spec.o.motion
+    meth = mo.method or next((m for m in spec.methods if m in ("pseudoinverse", "weighted", "dls", "extended",
+                                                                "priority", "null_space", "sns", "scaled")),
+                             "pseudoinverse")
+    if meth == "priority" and len(tasks) < 2:
+        raise spec.fail(("motion", "method"), "priority needs two or more tasks")
+    if meth in ("sns", "scaled") and spec.lo is None:
+        raise spec.fail(("motion", "method"), f"{meth} needs bounds:")
+    for x in spec.q:
+        if x.name not in mo.start:
+            raise spec.fail(("motion", "start"), f"start: must give every coordinate; missing {x.name}")
+    n = len(spec.q)
+    q_start = np.array([float(sp.N(spec.ctx.expr("motion", "start", x.name).subs(problem.values))) for x in spec.q])
+    qd_start = np.array([float(sp.N(v.subs(problem.values))) for v in spec.qd])
+    la = rs.LA(False, spec.o.rank_tol)
+    dq = sp.symbols(f"_dq1:{n + 1}")
+    Jf, hf = [], []
+    for t in tasks:
+        J = t["J"].subs(problem.values)
+        Jdot = sum((J.diff(x) * dq[i] for i, x in enumerate(spec.q)), sp.zeros(*J.shape))
+        Jf.append(sp.lambdify([spec.q], J, "numpy"))
+        hf.append(sp.lambdify([spec.q, dq], Jdot * sp.Matrix(dq), "numpy"))
+    rdd = [np.array(t["r"].subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1) for t in tasks]
+    lo = [float(sp.N(b.subs(problem.values))) for b in spec.lo] if spec.lo is not None else None
+    hi = [float(sp.N(b.subs(problem.values))) for b in spec.hi] if spec.hi is not None else None
+    Kd = np.array(spec.Kd.subs(problem.values).evalf().tolist(), dtype=float) if spec.Kd is not None else None
+    mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if (meth == "dls" and spec.mu is not None) else None
+    Wf = sp.lambdify([spec.q], spec.W.subs(problem.values), "numpy") if meth == "weighted" else None
+    q0c = np.array(spec.q0.subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1) \
+        if spec.q0 is not None and not spec.q0.free_symbols else None
+
+    def acc(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, float]:
+        Js = [np.atleast_2d(np.array(f(list(q)), dtype=float)) for f in Jf]
+        xs = [r - np.array(h(list(q), list(qd)), dtype=float).reshape(-1, 1) for r, h in zip(rdd, hf)]
+        JE, xE = np.vstack(Js), np.vstack(xs)
+        sv = np.linalg.svd(JE, compute_uv=False)
+        sig = float(sv[min(JE.shape) - 1])
+        if meth == "priority":
+            a, levels = rs.task_priority(la, Js, xs)
+            sig = min([float(np.linalg.svd(Js[0], compute_uv=False)[-1])] + [lv.smin_JP for lv in levels[1:]])
+        elif meth == "dls":
+            muv = mu if mu is not None else rs.variable_damping(la, JE, spec.mu_auto.epsilon, spec.mu_auto.max)
+            a = rs.dls(la, JE, muv) @ xE
+        elif meth == "weighted":
+            a = rs.weighted_pinv(la, JE, np.array(Wf(list(q)), dtype=float)) @ xE
+        elif meth == "sns":
+            a = rs.sns(la, JE, xE, lo, hi).qdot
+        else:
+            Jp = la.pinv(JE)
+            a = Jp @ xE
+            if meth == "scaled":
+                a = a / rs.ps_scaling(la, a, lo, hi)
+            elif meth == "null_space":
+                v0 = np.zeros((n, 1))
+                if Kd is not None:
+                    v0 = v0 - Kd @ qd.reshape(-1, 1)
+                if q0c is not None:
+                    v0 = v0 + q0c
+                a = a + (np.eye(n) - Jp @ JE) @ v0
+        return a.ravel(), sig
+
+    q, qd = q_start.copy(), qd_start.copy()
+    t, dt = 0.0, mo.duration / mo.steps
+    ts, qs, qds, qdds, sigs = [], [], [], [], []
+    reached = False
+    while t < mo.duration - 1e-12:
+        a, sig = acc(q, qd)
+        ts.append(t), qs.append(q.copy()), qds.append(qd.copy()), qdds.append(a), sigs.append(sig)
+        if sig < mo.sigma_min:
+            reached = True
+            break
+        h = min(dt, mo.duration - t)
+        k1q, k1v = qd, a
+        k2q, k2v = qd + h / 2 * k1v, acc(q + h / 2 * k1q, qd + h / 2 * k1v)[0]
+        k3q, k3v = qd + h / 2 * k2v, acc(q + h / 2 * k2q, qd + h / 2 * k2v)[0]
+        k4q, k4v = qd + h * k3v, acc(q + h * k3q, qd + h * k3v)[0]
+        q = q + h / 6 * (k1q + 2 * k2q + 2 * k3q + k4q)
+        qd = qd + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        t += h
+    if not reached:
+        a, sig = acc(q, qd)
+        ts.append(t), qs.append(q.copy()), qds.append(qd.copy()), qdds.append(a), sigs.append(sig)
+    qe = sp.Matrix([sp.Float(x, 15) if abs(x) > 1e-12 else sp.Integer(0) for x in qs[-1]])
+    add("q_end", qe, "vector", label="q(t_{end})")
+    add("qdot_end", sp.Matrix([sp.Float(x, 15) for x in qds[-1]]), "vector", label="\\dot q(t_{end})")
+    add("t_end", sp.Float(ts[-1], 15), "number", label="t_{end}")
+    add("singularity_reached", bool(reached), "bool", label="\\text{singularity reached}")
+    QDD = np.array(qdds)
+    if hi is not None:
+        within = bool(np.all(QDD <= np.array(hi) + 1e-7) and np.all(QDD >= np.array(lo) - 1e-7))
+        add("motion_within_bounds", within, "bool", label="\\text{within bounds along the motion}")
+    sol.step("m_motion", method=meth, start=sp.Matrix(q_start), duration=mo.duration, reached=reached,
+             t_end=sp.Float(ts[-1], 6), q_end=qe.evalf(6), sig=sp.Float(sigs[-1], 3), sigma_min=mo.sigma_min,
+             p_end=None, refined=False, acc=True)
+    T, QD = list(ts), np.array(qds)
+
+    def sample() -> list[Panel]:
+        ca = [Curve(f"$\\ddot q_{{{i + 1}}}$", T, [float(x) for x in QDD[:, i]]) for i in range(n)]
+        cv = [Curve(f"$\\dot q_{{{i + 1}}}$", T, [float(x) for x in QD[:, i]]) for i in range(n)]
+        return [Panel("$t$ [s]", "$\\ddot q$", ca, hlines=_bound_lines(lo, hi)), Panel("$t$ [s]", "$\\dot q$", cv)]
+
+    sol.figures.append(Figure("motion" + spec.o.suffix, f"Joint accelerations (with the bounds, dashed) and "
+                              f"velocities along the motion ({meth}).", sample))
+    return {"start": dict(zip(spec.q, [sp.Float(x, 6) for x in q_start])), "end": dict(zip(spec.q, list(qe))),
+            "path": None, "reached": reached}
 
 
 def _sns_reduced(add: Any, la: rs.LA, J: Any, x: Any, st: rs.SNSStep, v: str, vl: str) -> None:
@@ -618,7 +980,8 @@ def _sns_reduced(add: Any, la: rs.LA, J: Any, x: Any, st: rs.SNSStep, v: str, vl
         label=f"{vl}_{{-S}}^{{({k})}}")
 
 
-def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs: dict, acc: bool) -> None:  # type: ignore[no-untyped-def]
+def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs: dict, acc: bool,  # type: ignore[no-untyped-def]
+            motion: dict | None = None) -> None:
     """The planar robot at the state, with the desired task vector of the first planar-position task."""
     if spec.o.sketch is False or problem.robot is None:
         return
@@ -637,8 +1000,17 @@ def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs
             pos = task.subs(subs)
             arrows.append(("$\\ddot r_d$" if acc else "$\\dot r_d$", spec.state, pos,
                            [x * scale * _reach(task, subs) for x in vals]))
-    fig = robot_sketch(problem, [("$q$", spec.state)], task=task, arrows=arrows,
-                       name="sketch" + spec.o.suffix, caption="The robot at the state used, with the task direction")
+    confs = [("$q$", spec.state)]
+    paths = None
+    if motion is not None:
+        same = all(abs(float(sp.N(spec.state[x])) - float(motion["start"][x])) < 1e-5 for x in spec.q)
+        confs = [("$q(0)$", motion["start"])] + ([] if same else confs) + \
+            [("$q_s$" if motion["reached"] else "$q(t_{end})$", motion["end"])]
+        if motion["path"]:
+            paths = [("path", motion["path"])]
+    fig = robot_sketch(problem, confs, task=task, arrows=arrows, paths=paths,
+                       name="sketch" + spec.o.suffix, caption="The robot at the state used, with the task direction"
+                       + (" (and at the start of the motion, with the end-effector path)" if motion else ""))
     if fig is not None:
         sol.figures.append(fig)
     if spec.lo is not None and table:
@@ -651,10 +1023,18 @@ def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs
             curves = [Curve(f"{lab}", [float(j) for j in js], vals) for lab, vals in rows]
             curves += [Curve("bounds", [float(j) for j in js], hi, dashed=True),
                        Curve("", [float(j) for j in js], lo, dashed=True)]
-            return [Panel("joint", "$\\ddot q_i$" if acc else "$\\dot q_i$", curves)]
+            return [Panel("joint $i$", "$\\ddot q_i$" if acc else "$\\dot q_i$", curves, categorical=True)]
 
         sol.figures.append(Figure("bounds" + spec.o.suffix, "Joint " + ("accelerations" if acc else "velocities")
                                   + " of each method against their bounds (dashed).", sample))
+
+
+def _bound_lines(lo: list | None, hi: list | None) -> list[tuple[float, str]]:
+    """Horizontal lines at the distinct bounds, one legend entry ("bounds") for all."""
+    if hi is None or lo is None:
+        return []
+    vals = sorted(set(round(float(v), 12) for v in list(hi) + list(lo)))
+    return [(v, "bounds" if k == 0 else "") for k, v in enumerate(vals)]
 
 
 def _inf(x: Any) -> sp.Expr:

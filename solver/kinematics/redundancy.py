@@ -22,7 +22,8 @@ import sympy as sp
 from pydantic import Field, model_validator
 
 from solver.kinematics import resolution as rs
-from solver.kinematics.methods import Bounds, Method, TaskItem, solve_methods, wants_methods
+from solver.kinematics.methods import (Bounds, Method, Motion, TaskItem, VariableDamping, solve_methods,
+                                       wants_methods)
 from solver.math.simplify import tidy
 from solver.registry import ask_kind
 from solver.results import Solution
@@ -51,7 +52,9 @@ class RedundancyAsk(Strict):
         None, description="preferred joint velocity q̇₀, projected in the null space of J (quote the key, \"null\": "
                           "a bare null: is YAML's empty key; or write qdot0:)")
     qdot0: Optional[ExprT] = Field(None, description="the same as null: (preferred joint velocity q̇₀)")
-    gradient: Optional[Scalar] = Field(None, description="scalar H(q): q̇₀ = step · ∇H(q) projected in the null space")
+    gradient: Optional[Scalar] = Field(
+        None, description="scalar H(q): q̇₀ = step · ∇H(q) projected in the null space; or a named H "
+                          "(method path): manipulability (√det JJᵀ), joint_range (needs joint_ranges:)")
     step: Scalar = Field(1, description="step along ∇H (negative to decrease H)")
     symbolic: Optional[bool] = Field(
         None, description="give J_W^# and q̇_ps also as functions of q (1×n up to n = 4, 2×2, 2×3 Jacobians): "
@@ -70,7 +73,9 @@ class RedundancyAsk(Strict):
         None, description="methods compared in one table: pseudoinverse, weighted (weight:), dls (mu:), "
                           "null_space (null:/gradient:/damping:), priority and extended (tasks:), scaled and sns "
                           "(bounds:); default: those the given options call for")
-    mu: Optional[Scalar] = Field(None, description="damping factor μ of damped least squares")
+    mu: Optional[Union[VariableDamping, Scalar]] = Field(
+        None, description="damping factor μ of damped least squares, or {epsilon, max}: μ chosen from the smallest "
+                          "singular value σ, μ² = max²(1 − (σ/epsilon)²) for σ < epsilon, 0 elsewhere")
     direction: Optional[ExprT] = Field(
         None, description="task direction d for max_scaling: the task λ d with the largest λ ≥ 0 whose minimum-norm "
                           "command is within bounds:; `stop` for d = −J q̇ (decelerate along the current velocity)")
@@ -83,9 +88,14 @@ class RedundancyAsk(Strict):
     rank_tol: float = Field(rs.DEFAULT_TOL, gt=0, lt=1e-2,
                             description="a singular value σ ≤ rank_tol · max(1, σ_max) counts as zero")
     sketch: bool = Field(True, description="draw the planar robot at the state (method path)")
-    decomposition: Optional[list[int]] = Field(
-        None, description="reduced_gradient: the m joints (1-based) of the nonsingular J_a; default: the m x m minor "
-                          "with the largest |det|")
+    joint_ranges: Optional[dict[str, tuple[Scalar, Scalar]]] = Field(
+        None, description="{q1: [min, max], ...} for gradient: joint_range")
+    partition: Optional[list[str]] = Field(
+        None, description="reduced_gradient: the m coordinates q_a whose columns J_a are inverted (default: the best "
+                          "conditioned choice)")
+    motion: Optional[Motion] = Field(
+        None, description="velocity level: integrate q̇ of one method from start: for duration: seconds (constant "
+                          "task velocities), stopping at the first singularity; plots q̇(t) with the bounds")
 
     @model_validator(mode="after")
     def _exclusive(self) -> "RedundancyAsk":

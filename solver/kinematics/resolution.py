@@ -129,9 +129,20 @@ def weighted_pinv(la: LA, J: Any, W: Any | None = None) -> Any:
 
 
 def dls(la: LA, J: Any, mu: Any) -> Any:
-    """J_DLS = Jᵀ(JJᵀ + μ²I)⁻¹ (μ ≠ 0), the minimizer of ½‖Jq̇ − ṙ‖² + ½μ²‖q̇‖² applied to ṙ."""
+    """J_DLS = Jᵀ(JJᵀ + μ²I)⁻¹ (μ ≠ 0), the minimizer of ½‖Jq̇ − ṙ‖² + ½μ²‖q̇‖² applied to ṙ; μ = 0: J^#."""
     m = la.shape(J)[0]
+    if mu == 0:
+        return la.pinv(J)
     return J.T @ la.inv(J @ J.T + mu ** 2 * la.eye(m))
+
+
+def variable_damping(la: LA, J: Any, epsilon: float, mu_max: float) -> float:
+    """The damping chosen from the smallest singular value σ of J: μ² = μ_max²(1 − (σ/ε)²) when σ < ε, 0 otherwise
+    (DLS only near a singularity, the pseudoinverse elsewhere)."""
+    s = la.svals(J)
+    m = la.shape(J)[0]
+    smin = float(s[m - 1]) if s.size >= m else 0.0
+    return float(np.sqrt(mu_max ** 2 * (1 - (smin / epsilon) ** 2))) if smin < epsilon else 0.0
 
 
 def projector(la: LA, J: Any, Jp: Any) -> Any:
@@ -323,3 +334,38 @@ def max_scaling(la: LA, a: Any, b: Any, lo: Sequence[Any], hi: Sequence[Any]) ->
     lam = min(upper)
     low = max(iv[0] for iv in ivs if iv is not None)
     return MaxScaling(lam if low <= lam + eps else None, ivs, upper, low)
+
+
+# ------------------------------------------------------------------------------------------------ reduced gradient
+def best_partition(la: LA, J: Any) -> list[int]:
+    """The m columns of J (0-based, lexicographically first among the best conditioned) forming J_a."""
+    from itertools import combinations
+    m, n = la.shape(J)
+    best, best_s = None, -1.0
+    for cols in combinations(range(n), m):
+        s = la.svals(J[:, list(cols)])
+        smin = float(s[-1]) if s.size else 0.0
+        if smin > best_s + 1e-12:
+            best, best_s = list(cols), smin
+    return best or list(range(m))
+
+
+def reduced_gradient(la: LA, J: Any, x: Any, grad: Any, a: Sequence[int], step: Any = 1) -> tuple[Any, Any]:
+    """Reduced gradient: q = (q_a, q_b) with J_a (m×m) nonsingular; ∇'H = ∇_b H − (J_a⁻¹J_b)ᵀ∇_a H (the gradient of H
+    along the task-preserving motions parametrized by q_b), q̇_b = step·∇'H, q̇_a = J_a⁻¹(x − J_b q̇_b).
+    Returns (q̇, ∇'H)."""
+    m, n = la.shape(J)
+    b = [j for j in range(n) if j not in a]
+    Ja, Jb = J[:, list(a)], J[:, b]
+    Jai = la.inv(Ja)
+    ga = grad[list(a), :] if la.exact else grad[list(a)]
+    gb = grad[b, :] if la.exact else grad[b]
+    gr = gb - (Jai @ Jb).T @ ga
+    vb = step * gr
+    va = Jai @ (x - Jb @ vb)
+    v = la.zeros(n, 1)
+    for k, j in enumerate(a):
+        v[j, 0] = va[k, 0]
+    for k, j in enumerate(b):
+        v[j, 0] = vb[k, 0]
+    return v, gr

@@ -7,6 +7,26 @@ from pathlib import Path
 from solver.results import Figure, RobotPose, Sketch, Solution
 
 
+def _categorical(ax, curves: list) -> None:  # type: ignore[no-untyped-def]
+    """Values at integer x (one per joint): each solid curve as points, side by side; each dashed curve (a bound)
+    as a short red tick at every x. No line joins different joints."""
+    solid = [c for c in curves if not c.dashed]
+    width = 0.6 / max(1, len(solid))
+    for k, c in enumerate(solid):
+        off = (k - (len(solid) - 1) / 2) * width
+        ax.plot([x + off for x in c.x], c.y, "o", markersize=6, label=c.label)
+    labelled = False
+    for c in curves:
+        if c.dashed:
+            for x, y in zip(c.x, c.y):
+                ax.plot([x - 0.4, x + 0.4], [y, y], color="tab:red", linestyle="--", linewidth=1.2,
+                        label=None if labelled or not c.label else c.label)
+                labelled = labelled or bool(c.label)
+    xs = sorted({x for c in curves for x in c.x})
+    ax.set_xticks(xs)
+    ax.set_xticklabels([f"{x:g}" for x in xs])
+
+
 def _angle_ticks(ax, lo: float, hi: float) -> None:  # type: ignore[no-untyped-def]
     names = {-4: r"$-2\pi$", -3: r"$-3\pi/2$", -2: r"$-\pi$", -1: r"$-\pi/2$", 0: "0", 1: r"$\pi/2$", 2: r"$\pi$",
              3: r"$3\pi/2$", 4: r"$2\pi$"}
@@ -30,7 +50,9 @@ def draw(fig: Figure, path: Path) -> None:
         if panel.sketch is not None:
             draw_sketch(ax, panel.sketch)
             continue
-        for c in panel.curves:
+        if panel.categorical:
+            _categorical(ax, panel.curves)
+        for c in ([] if panel.categorical else panel.curves):
             ax.plot(c.x, c.y, label=c.label, linewidth=1.6, linestyle="--" if c.dashed else "-")
         for y, label in panel.hlines:
             ax.axhline(y, color="tab:red", linestyle="--", linewidth=1.0, label=label or None)

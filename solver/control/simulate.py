@@ -1,0 +1,336 @@
+"""Closed-loop simulation of a designed control law (ask kind ``simulate``).
+
+The law is the ``u`` of another ask of the problem (``control_law`` or ``regulation``, chosen by ``ask:``), the plant
+the spec's robot with its numeric ``values``:
+    B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u(t, q, q̇, â),       â̇ = Γ Y_rᵀ s   (adaptive law only),
+integrated with scipy's ``solve_ivp`` from (q₀, q̇₀, â₀) in chunks, within a budget of right-hand-side evaluations
+and wall seconds. The reference q_d(t) is any expression of t (constant, polynomial, sinusoidal, ...): its
+derivatives are taken exactly. Reported: the error e = q_d − q (or r_d − r) at the end and at its largest, the
+settling time (the instant after which ‖e‖ stays below ``settle``), the largest inputs, the final estimates; figures of
+errors, inputs and estimates.
+"""
+from __future__ import annotations
+
+import time
+from typing import Any, Literal, Optional, Union
+
+import numpy as np
+import sympy as sp
+from pydantic import Field
+
+from solver.dynamics.model import derive, require_model
+from solver.registry import ask_kind
+from solver.results import Curve, Figure, Panel, Solution
+from solver.spec.errors import UserError
+from solver.spec.models import Strict
+
+ExprT = Union[str, int, float, list[Any]]
+Scalar = Union[str, int, float]
+CONTROL_KINDS = ("control_law", "regulation")
+
+
+class SimulateAsk(Strict):
+    """Closed-loop simulation of the control law of another ask, with the robot's numeric values."""
+
+    kind: Literal["simulate"]
+    title: Optional[str] = Field(None, description="heading of this part in the report")
+    ask: Optional[int] = Field(None, ge=1, description="the number (1, 2, ... in asks:) of the control_law or "
+                                                       "regulation ask to simulate; default the first one")
+    q0: Optional[ExprT] = Field(None, description="initial configuration (list of n numbers); default 0")
+    dq0: Optional[ExprT] = Field(None, description="initial velocity (list of n numbers); default 0")
+    qd: Optional[ExprT] = Field(None, description="the reference: one expression of t per tracked variable (joint "
+                                                  "coordinates; link coordinates for elastic; task for Cartesian), "
+                                                  "e.g. ['pi/2 + 3*sin(pi*t/2)', '1 - cos(2*pi*t)'], '[0.5, 1]' or "
+                                                  "polynomials; default the law's own constant q_d")
+    set: dict[str, ExprT] = Field({}, description="values of the law's remaining symbols (gains kp1.., lambda1.., "
+                                                  "gamma1..; an auxiliary input v1 as an expression of t, q, dq)")
+    ahat0: Optional[ExprT] = Field(None, description="adaptive: initial estimates (list of p numbers); default 0")
+    T: Scalar = Field(5, description="simulated time [s]")
+    points: int = Field(400, ge=20, le=5000, description="samples of the plotted curves")
+    settle: Optional[Scalar] = Field(None, description="settling band on ‖e‖ (absolute); default 2% of the "
+                                                       "largest ‖e‖")
+    max_steps: int = Field(200000, ge=100, le=5000000, description="budget of right-hand-side evaluations")
+    wall: float = Field(30.0, gt=0, le=600, description="budget of wall seconds")
+    method: Literal["RK45", "LSODA", "Radau", "DOP853"] = Field("LSODA", description="solve_ivp method")
+    rtol: float = Field(1e-7, gt=0, le=1e-2, description="relative tolerance of the integrator")
+    suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$", description="appended to every result name")
+
+
+class _Budget(Exception):
+    pass
+
+
+def _place(problem, ctx, *key: Any):  # type: ignore[no-untyped-def]
+    return problem.located.place(ctx.path + tuple(key))
+
+
+def _qname(name: str, mark: str) -> str:
+    head = name.rstrip("0123456789")
+    return head + mark + name[len(head):]
+
+
+def _target(problem, options: SimulateAsk, ctx):  # type: ignore[no-untyped-def]
+    """(index, ask) of the simulated control ask."""
+    if options.ask is not None:
+        i = options.ask - 1
+        if i >= len(problem.asks) or problem.asks[i].kind not in CONTROL_KINDS:
+            raise UserError(f"ask: {options.ask} is not a control_law or regulation ask", _place(problem, ctx, "ask"),
+                            "count the asks from 1")
+        return i, problem.asks[i]
+    for i, a in enumerate(problem.asks):
+        if a.kind in CONTROL_KINDS:
+            return i, a
+    raise UserError("simulate needs a control_law or regulation ask in the problem", _place(problem, ctx, "kind"),
+                    "add the control law to simulate")
+
+
+def _vector(problem, ctx, key: str, n: int, names: dict) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
+    """A list of n expressions (one expression is also accepted when n = 1), parsed with ``names``."""
+    val = ctx.parse_at(ctx.path + (key,), names)
+    vals = val if isinstance(val, list) else [val]
+    if len(vals) != n or any(isinstance(x, list) for x in vals):
+        raise UserError(f"{key} must list {n} values", _place(problem, ctx, key))
+    return [sp.sympify(x) for x in vals]
+
+
+def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped-def]
+    """What the law tracks and the symbols of its desired signals: the record left by control_law, or, for
+    regulation, the joint coordinates with the desired symbols found by name (qd1, dqd1, ...)."""
+    sfx = getattr(ask.options, "suffix", "")
+    rec = problem.__dict__.get("_law" + sfx) if ask.kind == "control_law" else None
+    if rec is not None and rec.get("kind") == ask.kind:
+        return rec
+    robot = problem.robot
+    desired = []
+    for c in robot.q:
+        row = []
+        for pre in ("", "d", "dd"):
+            s = problem.names.get(pre + _qname(c.name, "d"))
+            row.append(s if isinstance(s, sp.Symbol) else None)
+        desired.append(row)
+    qd_given = None
+    if getattr(ask.options, "qd", None) is not None:
+        val = ask.ctx.expr("qd")
+        qd_given = [sp.sympify(x) for x in (val if isinstance(val, list) else [val])]
+    return {"kind": ask.kind, "tracked": list(robot.q), "desired": desired, "qd": qd_given, "subs": {},
+            "ahat": [], "adot": None, "true_a": None}
+
+
+@ask_kind("simulate", SimulateAsk, "closed-loop simulation of a control law (errors, inputs, estimates)")
+def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results (with the suffix): e_final, e_final_norm, e_max_norm, settling_time, u_max, t_end, completed,
+    nfev; adaptive also ahat_final."""
+    from solver.registry import load_all
+    robot = require_model(problem)
+    dm = derive(robot)
+    n = robot.n
+    idx, ask = _target(problem, options, ctx)
+    cache = problem.__dict__.setdefault("_control_solutions", {})
+    if idx not in cache:
+        cache[idx] = load_all()[ask.kind].solve(problem, ask.options, ask.ctx)
+    law_sol = cache[idx]
+    sfx = getattr(ask.options, "suffix", "")
+    if "u" + sfx not in law_sol.results:
+        raise UserError(f"ask {idx + 1} ({ask.kind}) has no control input u to simulate",
+                        _place(problem, ctx, "ask"), "simulate a law that gives u")
+    rec = _law_record(problem, ask, law_sol)
+    u = sp.Matrix(law_sol.results["u" + sfx].value).xreplace(rec["subs"])
+    q, dq = list(robot.q), list(robot.dq)
+    t = sp.Symbol("t", real=True)
+    # the reference and its derivatives
+    tracked = rec["tracked"]
+    m = len(tracked)
+    if options.qd is not None:
+        ref = _vector(problem, ctx, "qd", m, {**problem.names, "t": t})
+        bad = set().union(*(x.free_symbols for x in ref)) - {t} - set(problem.values)
+        if bad:
+            raise UserError(f"qd may use only t and parameters with values (not {', '.join(sorted(map(str, bad)))})",
+                            _place(problem, ctx, "qd"))
+    elif rec.get("qd") is not None:
+        ref = list(rec["qd"])
+    else:
+        raise UserError("simulate needs the reference qd (the law's desired values are symbols)",
+                        _place(problem, ctx, "qd"), "e.g. qd: [0.5, 'sin(t)']")
+    subs: dict = {}
+    for i, row in enumerate(rec["desired"]):
+        for k, s in enumerate(row):
+            if s is not None:
+                subs[s] = sp.diff(ref[i], t, k)
+    # user-set symbols (gains, auxiliary inputs)
+    setv: dict = {}
+    for key in options.set:
+        s = problem.names.get(key)
+        if not isinstance(s, sp.Symbol):
+            raise UserError(f"set: {key} is not a symbol of the problem or of the law", _place(problem, ctx, "set", key))
+        val = ctx.parse_at(ctx.path + ("set", key), {**problem.names, "t": t})
+        if isinstance(val, list):
+            raise UserError(f"set: {key} must be one expression", _place(problem, ctx, "set", key))
+        setv[s] = sp.sympify(val)
+    vals = dict(problem.values)
+    ahat = list(rec["ahat"])
+    state = q + dq + ahat
+    allowed = set(state) | {t}
+
+    def close(x: sp.Expr) -> sp.Expr:
+        for _ in range(3):
+            x = x.xreplace(setv).xreplace(subs)
+        return x.xreplace(vals)
+
+    u_num = u.applyfunc(close)
+    adot = rec["adot"].applyfunc(close) if rec["adot"] is not None else None
+    plant_B = dm.B.xreplace(vals)
+    Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
+    plant_n = (dm.c + dm.g + Fv * sp.Matrix(dq)).xreplace(vals)
+    G = (dm.G if dm.G is not None else sp.eye(n)).xreplace(vals)
+    free = set()
+    for x in list(u_num) + list(plant_B) + list(plant_n) + list(G) + (list(adot) if adot is not None else []):
+        free |= x.free_symbols - allowed
+    if free:
+        raise UserError("simulate needs numbers for " + ", ".join(sorted(map(str, free))),
+                        _place(problem, ctx, "set"), "give them in the problem's values: or in set: {name: value}")
+    err_expr = [ref[i] - tracked[i].xreplace(vals) for i in range(m)]
+    args = [t] + state
+    f_u = sp.lambdify(args, list(u_num), "numpy")
+    f_B = sp.lambdify(args, plant_B, "numpy")
+    f_n = sp.lambdify(args, list(plant_n), "numpy")
+    f_G = sp.lambdify(args, G, "numpy")
+    f_a = sp.lambdify(args, list(adot), "numpy") if adot is not None else None
+    f_e = sp.lambdify(args, err_expr, "numpy")
+    q0 = _floats(problem, options, ctx, "q0", n)
+    dq0 = _floats(problem, options, ctx, "dq0", n)
+    a0 = _floats(problem, options, ctx, "ahat0", len(ahat)) if ahat else []
+    y0 = np.array(q0 + dq0 + a0, dtype=float)
+    budget = {"nfev": 0, "deadline": time.monotonic() + options.wall}
+
+    def rhs(tt: float, y: np.ndarray) -> np.ndarray:
+        budget["nfev"] += 1
+        if budget["nfev"] > options.max_steps or time.monotonic() > budget["deadline"]:
+            raise _Budget()
+        a = [tt, *y]
+        uu = np.array(f_u(*a), dtype=float).ravel()
+        B = np.array(f_B(*a), dtype=float)
+        nn = np.array(f_n(*a), dtype=float).ravel()
+        Gm = np.array(f_G(*a), dtype=float).reshape(n, -1)
+        ddq = np.linalg.solve(B, Gm @ uu - nn)
+        out = [y[n:2 * n], ddq]
+        if f_a is not None:
+            out.append(np.array(f_a(*a), dtype=float).ravel())
+        return np.concatenate(out)
+
+    from scipy.integrate import solve_ivp
+    T = float(sp.sympify(options.T))
+    if not (0 < T <= 1e4):
+        raise UserError("T must be a positive time (at most 10^4 s)", _place(problem, ctx, "T"))
+    grid = np.linspace(0.0, T, options.points)
+    ts, ys = [0.0], [y0]
+    completed, t0, y = True, 0.0, y0
+    chunks = np.linspace(0.0, T, 21)
+    for a, b in zip(chunks[:-1], chunks[1:]):
+        sel = grid[(grid > a) & (grid <= b)]
+        try:
+            r = solve_ivp(rhs, (a, b), y, method=options.method, t_eval=sel if len(sel) else None,
+                          rtol=options.rtol, atol=options.rtol * 1e-2)
+        except _Budget:
+            completed = False
+            break
+        if not r.success:
+            completed = False
+            break
+        y = r.y[:, -1] if len(sel) == 0 else _final(rhs, a, b, y, r, options)
+        ts += list(r.t)
+        ys += list(r.y.T)
+        t0 = b
+        if not np.all(np.isfinite(y)):
+            completed = False
+            break
+    Ts = np.array(ts)
+    Y = np.array(ys)
+    E = np.array([np.array(f_e(tt, *yy), dtype=float).ravel() for tt, yy in zip(Ts, Y)])
+    U = np.array([np.array(f_u(tt, *yy), dtype=float).ravel() for tt, yy in zip(Ts, Y)])
+    en = np.linalg.norm(E, axis=1)
+    band = float(sp.sympify(options.settle)) if options.settle is not None else 0.02 * max(float(en.max()), 1e-12)
+    above = np.nonzero(en > band)[0]
+    settling = 0.0 if len(above) == 0 else (float(Ts[above[-1] + 1]) if above[-1] + 1 < len(Ts) else None)
+    sol = Solution("simulate", title=options.title or f"Simulation of the closed loop (ask {idx + 1})")
+
+    def add(name: str, value: Any, kind: str, label: str) -> None:
+        sol.add(name + options.suffix, value, kind, label=label)
+
+    add("e_final", sp.Matrix([sp.Float(x, 6) for x in E[-1]]), "vector", "e(T)")
+    add("e_final_norm", sp.Float(en[-1], 6), "number", "\\|e(T)\\|")
+    add("e_max_norm", sp.Float(en.max(), 6), "number", "\\max_t\\|e(t)\\|")
+    add("settling_time", sp.Float(settling, 6) if settling is not None else sp.oo, "number", "t_s")
+    add("u_max", sp.Matrix([sp.Float(x, 6) for x in np.abs(U).max(axis=0)]), "vector", "\\max_t|u_i(t)|")
+    add("t_end", sp.Float(Ts[-1], 6), "number", "t_{end}")
+    add("completed", bool(completed and abs(Ts[-1] - T) < 1e-9), "bool", "\\text{completed}")
+    add("nfev", sp.Integer(budget["nfev"]), "number", "\\text{evaluations}")
+    A = Y[:, 2 * n:]
+    if ahat:
+        add("ahat_final", sp.Matrix([sp.Float(x, 6) for x in A[-1]]), "vector", "\\hat a(T)")
+    true_a = None
+    if rec.get("true_a") is not None:
+        try:
+            true_a = [float(sp.sympify(x).xreplace(vals)) for x in rec["true_a"]]
+        except (TypeError, ValueError):
+            true_a = None
+    _figures(sol, Ts, E, U, A, en, band, settling, rec, true_a, problem, options, n, m)
+    sol.step("simulate", ask=idx + 1, kind=ask.kind, law=getattr(ask.options, "law", ""), ref=sp.Matrix(ref),
+             tracked=sp.Matrix(tracked), q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), a0=sp.Matrix(a0) if a0 else None,
+             T=T, method=options.method, setv=list(setv.items()), completed=completed,
+             t_end=float(Ts[-1]), nfev=budget["nfev"], e_final=float(en[-1]), e_max=float(en.max()),
+             settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
+             umax=[float(x) for x in np.abs(U).max(axis=0)],
+             ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a)
+    return sol
+
+
+def _final(rhs, a, b, y, r, options):  # type: ignore[no-untyped-def]
+    """The state at b (t_eval ends at b when b is on the grid; else integrate the remaining bit)."""
+    if abs(r.t[-1] - b) < 1e-12:
+        return r.y[:, -1]
+    from scipy.integrate import solve_ivp
+    r2 = solve_ivp(rhs, (r.t[-1], b), r.y[:, -1], method=options.method, rtol=options.rtol, atol=options.rtol * 1e-2)
+    return r2.y[:, -1]
+
+
+def _floats(problem, options: SimulateAsk, ctx, key: str, n: int) -> list[float]:  # type: ignore[no-untyped-def]
+    """The numbers of a list option (default zeros)."""
+    if getattr(options, key) is None:
+        return [0.0] * n
+    val = ctx.expr(key)
+    vals = val if isinstance(val, list) else [val]
+    if len(vals) != n or any(isinstance(x, list) for x in vals):
+        raise UserError(f"{key} must list {n} numbers", _place(problem, ctx, key))
+    out = []
+    for x in vals:
+        x = sp.sympify(x).xreplace(problem.values)
+        if x.free_symbols or not x.is_real:
+            raise UserError(f"{key} must be numbers", _place(problem, ctx, key))
+        out.append(float(x))
+    return out
+
+
+def _figures(sol, Ts, E, U, A, en, band, settling, rec, true_a, problem, options, n, m):  # type: ignore[no-untyped-def]
+    t = [float(x) for x in Ts]
+    names = [problem.latex_names.get(s, str(s)) if isinstance(s, sp.Symbol) else f"r_{{{i + 1}}}"
+             for i, s in enumerate(rec["tracked"])]
+
+    def sample() -> list[Panel]:
+        err = Panel("$t$ [s]", "$e$", [Curve(f"$e_{{{i + 1}}}$ (${names[i]}$)", t, [float(x) for x in E[:, i]])
+                                     for i in range(m)] + [Curve("$\\|e\\|$", t, [float(x) for x in en], dashed=True)])
+        if settling is not None and settling > 0:
+            err.markers.append((settling, band, f"$t_s$ = {settling:.3g} s"))
+        torque = Panel("$t$ [s]", "$u$", [Curve(f"$u_{{{i + 1}}}$", t, [float(x) for x in U[:, i]])
+                                        for i in range(U.shape[1])])
+        panels = [err, torque]
+        if A.shape[1]:
+            est = Panel("$t$ [s]", "$\\hat a$", [Curve(f"$\\hat a_{{{i + 1}}}$", t, [float(x) for x in A[:, i]])
+                                               for i in range(A.shape[1])])
+            if true_a is not None:
+                est.hlines = [(a, f"$a_{{{i + 1}}}$") for i, a in enumerate(true_a)]
+            panels.append(est)
+        return panels
+
+    caption = "Closed-loop simulation: tracking errors, inputs" + (" and parameter estimates (true values dashed)"
+                                                                   if A.shape[1] else "") + "."
+    sol.figures.append(Figure("simulation" + options.suffix, caption, sample))
