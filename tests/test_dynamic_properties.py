@@ -247,6 +247,97 @@ def test_forward_dynamics():
     assert all(is_zero(sp.expand(sp.simplify(x))) for x in dm.B * ddq + dm.c + dm.g - sp.Matrix([u1, 0]))
 
 
+BAL = """
+id: t
+title: planar 3R, CoM offsets along the links
+symbols: {l1: l1, l2: l2, m1: m1, m2: m2, m3: m3, d1: {meaning: d1, sign: real}, d2: {meaning: d2, sign: real},
+          d3: {meaning: d3, sign: real}, g0: g0}
+robot:
+  joints: [R, R, R]
+  gravity: [0, -g0]
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1}
+    - {mass: m2, com: [l1*cos(q1) + d2*cos(q1 + q2), l1*sin(q1) + d2*sin(q1 + q2)], angle: q1 + q2}
+    - {mass: m3, com: [l1*cos(q1) + l2*cos(q1 + q2) + d3*cos(q1 + q2 + q3),
+                       l1*sin(q1) + l2*sin(q1 + q2) + d3*sin(q1 + q2 + q3)], angle: q1 + q2 + q3}
+asks:
+  - kind: dynamic_properties
+    find: [balancing]
+    unknowns: UNK
+"""
+
+
+def test_balancing_solves_g_identically_zero_and_says_when_it_cannot():
+    p, r = results(BAL.replace("UNK", "[d1, d2, d3]"))
+    d1, d2, d3, m1, m2, m3, l1, l2 = (p.names[k] for k in ("d1", "d2", "d3", "m1", "m2", "m3", "l1", "l2"))
+    vals = r["balancing"].value
+    assert r["balanceable"].value is True
+    assert sp.simplify(vals[2]) == 0 and sp.simplify(vals[1] + m3 * l2 / m2) == 0
+    assert sp.simplify(vals[0] + (m2 + m3) * l1 / m1) == 0
+    g = derive(p.robot).g.subs({d1: vals[0], d2: vals[1], d3: vals[2]})
+    assert all(is_zero(x) for x in g)  # g ≡ 0 with the solution
+    _, r2 = results(BAL.replace("UNK", "[d3]"))  # d1, d2 left free: the lower links still weigh
+    assert r2["balanceable"].value is False and "balancing" not in r2
+    with pytest.raises(UserError):
+        results(BAL.replace("UNK", "[q1]"))
+
+
+def test_nonlinear_change_of_coordinates_preserves_the_dynamics():
+    """q = φ(θ) nonlinear: along a trajectory θ(t), B_θ θ̈ + c_θ + g_θ = J_φᵀ (B q̈ + c + g) at q = φ(θ(t))
+    (virtual work), checked numerically at several instants."""
+    text = RP.replace("find: [eigenvalues, inverse_dynamics, coordinates, feasibility]", "find: [coordinates]")
+    text = text.replace("    transform: [[1, 0], [0, 2]]\n", "    map: [p1 + p2^2/4, p2 + sin(p1)/2]\n")
+    p, r = results(text)
+    dm = derive(p.robot)
+    th = sp.symbols("p1 p2", real=True)
+    dth = sp.symbols("dp1 dp2", real=True)
+    t = sp.Symbol("t", real=True)
+    phi = sp.Matrix([th[0] + th[1] ** 2 / 4, th[1] + sp.sin(th[0]) / 2])
+    Jp = phi.jacobian(th)
+    assert all(is_zero(sp.expand(x)) for x in r["J_map"].value - Jp)
+    tht = sp.Matrix([0.3 * sp.sin(t) + 0.2, 0.8 + 0.1 * t ** 2])
+    qt = phi.xreplace(dict(zip(th, tht)))
+    vals = p.values
+    q, dq, ddq = p.robot.q, p.robot.dq, p.robot.ddq
+    for tk in (0.0, 0.7, 1.3):
+        st = {t: tk}
+        qn, dqn, ddqn = qt.subs(st), qt.diff(t).subs(st), qt.diff(t, 2).subs(st)
+        sq = {**dict(zip(q, qn)), **dict(zip(dq, dqn)), **dict(zip(ddq, ddqn)), **vals}
+        tau_q = (dm.B * sp.Matrix(ddqn) + dm.c + dm.g).subs(sq)
+        thn, dthn, ddthn = tht.subs(st), tht.diff(t).subs(st), tht.diff(t, 2).subs(st)
+        sth = {**dict(zip(th, thn)), **dict(zip(dth, dthn)), **vals}
+        tau_th = (r["B_new"].value * ddthn + r["c_new"].value + r["g_new"].value).subs(sth)
+        lhs = np.array((Jp.subs(dict(zip(th, thn))).T * tau_q).evalf(), dtype=float)
+        assert np.allclose(np.array(tau_th.evalf(), dtype=float), lhs, atol=1e-9)
+
+
+@pytest.mark.parametrize("task", ["[(q2 + 0.3)*cos(q1), (q2 + 0.3)*sin(q1)]", "(q2 + 0.3)*sin(q1)"])
+def test_cartesian_inertia_is_the_task_space_kinetic_energy(task):
+    """M_p = (J B⁻¹ Jᵀ)⁻¹ at a state (square and 1-row tasks); for a square J the symbolic M_p agrees and
+    ½ṙᵀM_pṙ = ½q̇ᵀBq̇; M_p_inv_at is its inverse."""
+    text = RP.replace("find: [eigenvalues, inverse_dynamics, coordinates, feasibility]", "find: [cartesian_inertia]")
+    text += f"    task: {task}\n    state: {{q1: 0.3, q2: 0.8}}\n"
+    p, r = results(text)
+    dm = derive(p.robot)
+    q1, q2 = p.robot.q
+    st = {q1: sp.Rational(3, 10), q2: sp.Rational(4, 5), **p.values}
+    fx = sp.sympify(task.replace("^", "**"), locals={"q1": q1, "q2": q2})
+    f = sp.Matrix(fx if isinstance(fx, (list, tuple)) else [fx])
+    J = np.array(f.jacobian([q1, q2]).subs(st).evalf(), dtype=float)
+    B = np.array(dm.B.subs(st).evalf(), dtype=float)
+    Mp = np.array(r["M_p_at"].value.evalf(), dtype=float)
+    assert np.allclose(Mp, np.linalg.inv(J @ np.linalg.inv(B) @ J.T))
+    assert np.allclose(np.array(r["M_p_inv_at"].value.evalf(), dtype=float) @ Mp, np.eye(Mp.shape[0]))
+    assert np.allclose(sorted(np.array(r["eig_M_p_at"].value.evalf(), dtype=float).ravel()), sorted(lam(Mp)))
+    if J.shape[0] == 2:
+        assert np.allclose(np.array(r["M_p"].value.subs(st).evalf(), dtype=float), Mp)
+        v = np.array([0.7, -1.1])
+        rd = J @ v
+        assert np.isclose(rd @ Mp @ rd, v @ B @ v)
+    else:
+        assert "M_p" not in r
+
+
 def test_fault_torque_imposes_the_acceleration():
     """With τ_f at joint 1, the forward dynamics of B q̈ + c + g = u − e₁ τ_f give q̈₁ = −λ q̇₁ (planar RP)."""
     text = PRP.replace("[alpha, forward_dynamics]", "[fault]").replace(

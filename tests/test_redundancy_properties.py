@@ -230,6 +230,8 @@ def test_acceleration_level_matches_finite_differences():
             return jac4(qt) @ (qd + qdd * t)
 
         assert np.allclose((pdot(h) - pdot(-h)) / (2 * h), rdd, atol=1e-6)  # d/dt (J q̇) = r̈
+    Jd = np.array(sp.Matrix(res["Jdot_at"].value).evalf().tolist(), dtype=float)
+    assert np.allclose(Jd, (jac4(q + qd * 1e-6) - jac4(q - qd * 1e-6)) / 2e-6, atol=1e-6)  # J̇ along q̇
     qn = np.array(sp.Matrix(res["qddot"].value).evalf().tolist(), dtype=float).ravel()
     qp = np.array(sp.Matrix(res["qddot_ps"].value).evalf().tolist(), dtype=float).ravel()
     J = jac4(q)
@@ -373,6 +375,57 @@ def test_sns_property_check_accepts_feasible_solutions():
     assert alt.correct and alt.fraction == 0.5
     assert not check_sns(p, res, "qddot_sns", [-25 / 3, -25 / 6, 0, 25 / 6], None, None).correct  # PS: q̈4 > 2
     assert not check_sns(p, res, "qddot_sns", [-4, -2, 0, 2], None, None).correct  # scaled: task not realized
+
+
+def test_sns_reduced_problem_results_and_constant_jacobian_without_at():
+    """A constant 2x4 Jacobian (no robot, no at:): every SNS iteration with saturated joints S exposes J_{-S},
+    the residual task x - J_S v_S, its pseudoinverse and the active components, consistent with the iterate."""
+    J = np.array([[1.0, 0.5, -0.3, 0.2], [0.1, 1.0, 0.4, -0.6]])
+    x = np.array([2.0, 1.5])
+    p = load_problem_text("""
+id: sns-const
+title: constant Jacobian
+asks:
+  - kind: redundancy
+    jacobian: [[1, 0.5, -0.3, 0.2], [0.1, 1, 0.4, -0.6]]
+    velocity: [2, 1.5]
+    bounds: [1, 1, 1, 1]
+    methods: [pseudoinverse, sns]
+""")
+    res = all_results(solve_problem(p))
+    num = lambda k: np.array(sp.Matrix(res[k].value).evalf().tolist(), dtype=float)  # noqa: E731
+    its = int(res["sns_iterations"].value)
+    assert its >= 2 and "J_sns_1" not in res
+    for k in range(2, its + 1):
+        v = num(f"qdot_sns_{k}").ravel()
+        Jr, xk = num(f"J_sns_{k}"), num(f"task_sns_{k}").ravel()
+        va = num(f"qdot_sns_{k}_active").ravel()
+        sat = [i for i in range(4) if not any(np.allclose(Jr[:, c], J[:, i]) for c in range(Jr.shape[1]))]
+        assert Jr.shape[1] == 4 - len(sat) and 1 <= len(sat) <= k - 1
+        assert np.allclose(xk, x * float(res["sns_scale"].value if k == its else 1) - J[:, sat] @ v[sat])
+        assert np.allclose(num(f"J_sns_{k}_pinv"), np.linalg.pinv(Jr))
+        assert np.allclose(va, np.delete(v, sat)) and np.allclose(Jr @ va, xk)
+    v = num("qdot_sns").ravel()
+    assert np.all(np.abs(v) <= 1 + 1e-9) and float(res["sns_scale"].value) < 1  # infeasible: scaled
+
+
+@pytest.mark.parametrize("exact", [True, False])
+def test_sns_rank_deficient_task_in_range_is_not_scaled(exact):
+    """J of rank 1 < m = 2 with the task in its range: removing a column keeps the rank, so SNS goes on
+    saturating and realizes the task in full when a feasible solution exists (an LP confirms one exists)."""
+    la = E if exact else F
+    Jn = np.array([[1.0, 0.5, 2.0, -1.0], [2.0, 1.0, 4.0, -2.0]])
+    J = sp.Matrix([[1, sp.Rational(1, 2), 2, -1], [2, 1, 4, -2]]) if exact else Jn
+    x = sp.Matrix([5, 10]) if exact else np.array([[5.0], [10.0]])
+    hi = [2, 2, 1, sp.Rational(1, 2)] if exact else [2.0, 2.0, 1.0, 0.5]
+    lo = [-h for h in hi]
+    lp = linprog(np.zeros(4), A_eq=Jn, b_eq=[5, 10], bounds=[(-float(h), float(h)) for h in hi])
+    assert lp.status == 0
+    res = rs.sns(la, la.mat(J), la.mat(x), lo, hi)
+    v = np.array(sp.Matrix(la.sym(res.qdot)).evalf().tolist(), dtype=float).ravel()
+    assert float(res.s) == 1 and res.feasible
+    assert np.allclose(Jn @ v, [5, 10]) and np.all(np.abs(v) <= np.array(hi, dtype=float) + 1e-9)
+    assert len(res.steps) > 2
 
 
 def test_motion_reaches_the_algorithmic_singularity_of_a_4r():

@@ -271,9 +271,10 @@ def affine_bound(A: sp.Matrix, coord: sp.Symbol, others: set[sp.Symbol]) -> tupl
 
 
 def change_coordinates(B: sp.Matrix, g: sp.Matrix, q: list[sp.Symbol], T: sp.Matrix, th: list[sp.Symbol],
-                       dth: list[sp.Symbol]) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
-    """q = T θ: (B_θ, c_θ, g_θ) with B_θ = Tᵀ B(Tθ) T, g_θ = Tᵀ g(Tθ), c_θ from the Christoffel symbols of B_θ."""
-    sub = dict(zip(q, list(T * sp.Matrix(th))))
+                       dth: list[sp.Symbol], phi: sp.Matrix | None = None) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+    """q = T θ (or q = φ(θ) with T = ∂φ/∂θ): (B_θ, c_θ, g_θ) with B_θ = Tᵀ B(q(θ)) T, g_θ = Tᵀ g(q(θ)), c_θ from the
+    Christoffel symbols of B_θ (q̇ = T θ̇: the kinetic energy is ½θ̇ᵀTᵀBTθ̇)."""
+    sub = dict(zip(q, list(phi if phi is not None else T * sp.Matrix(th))))
     Bt = tidy_matrix(T.T * B.xreplace(sub) * T)
     gt = tidy_matrix(T.T * g.xreplace(sub))
     ct = coriolis(christoffel(Bt, th), dth)
@@ -303,8 +304,11 @@ class DynamicPropertiesAsk(Strict):
     kind: Literal["dynamic_properties"]
     title: str | None = Field(None, description="heading of this part in the report")
     find: list[Literal["eigenvalues", "alpha", "factorizations", "momentum", "inverse_dynamics", "coordinates",
-                       "feasibility", "power", "forward_dynamics", "fault", "torque_limits"]] = Field(
+                       "feasibility", "power", "forward_dynamics", "fault", "torque_limits", "balancing",
+                       "cartesian_inertia"]] = Field(
         description="which properties")
+    task: ExprT | None = Field(None, description="cartesian_inertia: the task r = f(q) (m ≤ n expressions)")
+    unknowns: list[str] = Field([], description="balancing: the parameters to choose so that g(q) ≡ 0")
     ranges: dict[str, tuple[float, float]] = Field(
         {}, description="range per coordinate for the searches over q (needed for prismatic ones)")
     factorizations: list[GivenFactorization] = Field([], description="factorizations S to check")
@@ -313,6 +317,8 @@ class DynamicPropertiesAsk(Strict):
     cases: list[dict[str, str | int | float]] = Field(
         [], description="inverse_dynamics, torque_limits: parameter values substituted (u_d_case<k>, tau_lower_case<k>, ...), e.g. [{q2b: pi/2}]")
     transform: ExprT | None = Field(None, description="coordinates: the n x n matrix T with q = T θ")
+    map: ExprT | None = Field(None, description="coordinates: q = φ(θ), n expressions in the new coordinates "
+                                                "(a nonlinear change, e.g. q = f⁻¹(p))")
     new_coordinates: list[str] | None = Field(None, description="names of θ (default th1..thn); "
                                                                   "velocities d<name>")
     candidates: list[Candidate] = Field([], description="feasibility: other (B, g) to judge, results prefixed "
@@ -419,12 +425,15 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
         elif what == "inverse_dynamics":
             _inverse_dynamics(problem, options, ctx, sol, dm, robot)
         elif what == "coordinates":
-            if options.transform is None:
-                raise UserError("coordinates needs transform: (q = T θ)", _place(problem, ctx, "find"),
-                                "add transform: [[1, 0], [1, 1]]")
-            T = sp.Matrix(ctx.expr("transform"))
-            if T.shape != (n, n) or T.det() == 0:
-                raise UserError(f"transform must be an invertible {n}x{n} matrix", _place(problem, ctx, "transform"))
+            if (options.transform is None) == (options.map is None):
+                raise UserError("coordinates needs transform: (q = T θ) or map: (q = φ(θ))",
+                                _place(problem, ctx, "find"), "add transform: [[1, 0], [1, 1]]")
+            T = None
+            if options.transform is not None:
+                T = sp.Matrix(ctx.expr("transform"))
+                if T.shape != (n, n) or T.det() == 0:
+                    raise UserError(f"transform must be an invertible {n}x{n} matrix",
+                                    _place(problem, ctx, "transform"))
             names = options.new_coordinates or [f"th{i + 1}" for i in range(n)]
             if len(names) != n:
                 raise UserError(f"{len(names)} names for {n} coordinates", _place(problem, ctx, "new_coordinates"))
@@ -438,11 +447,28 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
                 base = latex_of(s_.name).replace("th_", "\\theta_")
                 problem.latex_names.setdefault(s_, base)
                 problem.latex_names.setdefault(ds_, f"\\dot{{{base}}}")
-            Bt, ct, gt = change_coordinates(dm.B, dm.g, q, T, th, dth)
+            phi = None
+            if T is None:
+                raw = problem.parse_at(ctx.path + ("map",), {**problem.names, **{x.name: x for x in th}})
+                if not isinstance(raw, list) or len(raw) != n or any(isinstance(x, list) for x in raw):
+                    raise UserError(f"map must list {n} expressions q_i = φ_i(θ)", _place(problem, ctx, "map"))
+                phi = sp.Matrix(raw)
+                extra = phi.free_symbols & set(q)
+                if extra:
+                    raise UserError("map must be written in the new coordinates, not in "
+                                    + ", ".join(sorted(x.name for x in extra)), _place(problem, ctx, "map"))
+                T = phi.jacobian(th)
+                if is_zero(sp.simplify(T.det())):
+                    raise UserError("the map q = φ(θ) is singular (its Jacobian has zero determinant)",
+                                    _place(problem, ctx, "map"))
+            Bt, ct, gt = change_coordinates(dm.B, dm.g, q, T, th, dth, phi)
             sol.add("B_new", Bt, "matrix", label="B_\\theta")
             sol.add("c_new", ct, "vector", label="c_\\theta")
             sol.add("g_new", gt, "vector", label="g_\\theta")
-            sol.step("coordinates", T=T, th=th, q=q, Bt=Bt, ct=ct, gt=gt, Tinv=T.inv())
+            if phi is not None:
+                sol.add("J_map", T, "matrix", label="\\partial\\varphi/\\partial\\theta")
+            sol.step("coordinates", T=T, th=th, q=q, Bt=Bt, ct=ct, gt=gt, phi=phi,
+                     Tinv=T.inv() if phi is None else None)
         elif what == "feasibility":
             _feasibility(sol, dm.B, dm.g, robot, revolute)
             for k, cand in enumerate(options.candidates):
@@ -468,7 +494,97 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             _fault(problem, options, ctx, sol, dm, robot)
         elif what == "torque_limits":
             _torque_limits(problem, options, ctx, sol, dm, robot)
+        elif what == "balancing":
+            _balancing(problem, options, ctx, sol, dm, robot)
+        elif what == "cartesian_inertia":
+            _cartesian_inertia(problem, options, ctx, sol, dm, robot)
     return sol
+
+
+def _cartesian_inertia(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """M_p = (J B⁻¹ Jᵀ)⁻¹ (= J⁻ᵀ B J⁻¹ for a square J): symbolic for a square J, and at `state` (q values) with its
+    eigenvalues and inverse (p̈ = M_p⁻¹ F from rest without gravity)."""
+    if options.task is None:
+        raise UserError("cartesian_inertia needs task: [f1(q), ...]", _place(problem, ctx, "find"),
+                        "add task: [l1*cos(q1) + ..., ...]")
+    val = ctx.expr("task")
+    f = sp.Matrix(val if isinstance(val, list) else [val])
+    q = list(robot.q)
+    J = f.jacobian(q)
+    m, n = J.shape
+    if m > n:
+        raise UserError(f"the task has {m} components for {n} joints", _place(problem, ctx, "task"))
+    sol.add("J_cart", J.applyfunc(tidy), "matrix", label="J(q)")
+    Mp = None
+    if m == n and sp.count_ops(J) + sp.count_ops(dm.B) <= 400:
+        Ji = J.inv()
+        Mp = tidy_matrix((Ji.T * dm.B * Ji).applyfunc(sp.simplify))
+        sol.add("M_p", Mp, "matrix", label="M_p(q) = J^{-T} B J^{-1}")
+    state = _read_state(problem, options, ctx, robot) if options.state else {}
+    at = None
+    if state and all(x in state for x in q):
+        sub = {**state, **problem.values}
+        Ja, Ba = J.xreplace(sub), dm.B.xreplace(sub)
+        if Ja.rank() < m:
+            raise UserError("the task Jacobian is singular at this state: no Cartesian inertia",
+                            _place(problem, ctx, "state"))
+        Mpa = (Ja * Ba.inv() * Ja.T).inv().applyfunc(sp.nsimplify if all(x.is_Rational for x in Ja) and all(
+            x.is_Rational for x in Ba) else sp.simplify)
+        Mpa = Mpa.applyfunc(lambda x: sp.nsimplify(x) if x.is_Float and sp.nsimplify(x).is_Rational else x)
+        eig = sorted((sp.nsimplify(e) if e.is_number else e for e in Mpa.eigenvals(multiple=True)),
+                     key=lambda e: -float(sp.N(e)))
+        at = {"J": Ja, "B": Ba, "Mp": Mpa, "eig": eig, "inv": Mpa.inv()}
+        sol.add("M_p_at", Mpa, "matrix", label="M_p\\big|_{*}")
+        sol.add("eig_M_p_at", sp.Matrix(eig), "vector", label="\\lambda_i(M_p)\\big|_{*}")
+        sol.add("M_p_inv_at", at["inv"], "matrix", label="M_p^{-1}\\big|_{*}")
+    sol.step("cartesian_inertia", f=f, J=J, Mp=Mp, square=m == n, state=state, at=at)
+
+
+def balancing_conditions(g: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol]) -> list[sp.Expr]:
+    """The conditions (expressions = 0) for g(q) ≡ 0: g expanded in sin q_i, cos q_i (revolute) and q_i
+    (prismatic), every coefficient of the monomials zero. Gravity terms are of degree ≤ 1 in the sine and cosine
+    of each angle, where these monomials are independent functions: the conditions are then also necessary."""
+    gens: list[sp.Expr] = []
+    for x in q:
+        gens += [sp.sin(x), sp.cos(x)] if x in revolute else [x]
+    conds: list[sp.Expr] = []
+    for gi in g:
+        e = sp.expand(sp.expand_trig(gi))
+        if e == 0:
+            continue
+        for c in sp.Poly(e, *gens).coeffs():
+            c = sp.factor(c)
+            if c != 0 and all(not sp.simplify(c - d) == 0 and not sp.simplify(c + d) == 0 for d in conds):
+                conds.append(c)
+    return conds
+
+
+def _balancing(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """Parameters (``unknowns``) making g(q) ≡ 0: solve the coefficient conditions."""
+    if not options.unknowns:
+        raise UserError("balancing needs unknowns: [the parameters to choose]", _place(problem, ctx, "find"),
+                        "add unknowns: [d1, d2]")
+    unk = []
+    for k, name in enumerate(options.unknowns):
+        x = problem.names.get(name)
+        if x is None or x in robot.q or not (dm.g.free_symbols & {x}):
+            raise UserError(f"'{name}' is not a parameter of g(q)", _place(problem, ctx, "unknowns", k),
+                            "name parameters that appear in the gravity term")
+        unk.append(x)
+    revolute = {x for x, j in zip(robot.q, robot.joints) if j == "R"}
+    g = dm.g
+    conds = balancing_conditions(g, list(robot.q), revolute)
+    sols = sp.solve(conds, unk, dict=True) if conds else [{}]
+    # keep the solutions that meet every condition (sympy ignores the equations free of the unknowns)
+    sols = [sl for sl in sols if all(is_zero(sp.simplify(c.xreplace(sl))) for c in conds)]
+    sol.add("balancing_conditions", sp.Matrix(conds) if conds else sp.zeros(1, 1), "vector",
+            label="\\text{conditions } (=0)")
+    sol.add("balanceable", bool(sols), "bool", label="g(q) \\equiv 0 \\text{ possible}")
+    vals = None
+    if sols:
+        vals = sp.Matrix([tidy(sols[0].get(x, x)) for x in unk])
+        sol.add("balancing", vals, "vector", label="(" + ", ".join(sp.latex(x) for x in unk) + ")")
+    sol.step("balancing", g=dm.g, conds=conds, unknowns=unk, sols=sols, vals=vals)
 
 
 def _inverse_dynamics(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]

@@ -289,6 +289,8 @@ class _MSpec:
         return {"name": name, "f": f, "J": J, "r": sp.Matrix(val), "m": m}
 
     def _state(self) -> dict[sp.Symbol, sp.Expr]:
+        if self.o.at is None and all(t["f"] is None and not (t["J"].free_symbols & set(self.q)) for t in self.tasks):
+            return {}  # constant Jacobians (given numerically): no configuration needed
         if self.o.at is None:
             raise self.fail((), "the methods need a configuration", "add at: {q1: ..., q2: ...}")
         by_name = {s.name: s for s in self.q}
@@ -362,6 +364,9 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                 add(tn("Jdot_qdot_sym", k), (Jd_sym * dq).applyfunc(tidy), "vector",
                     label=f"\\dot J_{{{k}}}(q)\\dot q" if multi else "\\dot J(q)\\dot q")
             Jdot = sum((t["J"].diff(x) * spec.qd[i] for i, x in enumerate(spec.q)), sp.zeros(*t["J"].shape))
+            Jdot_at = Jdot.subs(subs)
+            add(tn("Jdot_at", k), Jdot_at.applyfunc(sp.nsimplify) if _is_rational(Jdot_at) else Jdot_at, "matrix",
+                label=f"\\dot J_{{{k}}}" if multi else "\\dot J")
             h = (Jdot * spec.qd).subs(subs)
             h = h.applyfunc(sp.nsimplify) if _is_rational(h) else h
             add(tn("Jdot_qdot", k), h, "vector", label=f"\\dot J_{{{k}}}\\dot q" if multi else "\\dot J \\dot q")
@@ -652,6 +657,8 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             add("sns_iterations", sp.Integer(len(res.steps)), "number", label="\\text{SNS iterations}")
             for st in res.steps:
                 add(f"{v}_sns_{st.it}", la.sym(st.qdot), "vector", label=f"{vl}^{{({st.it})}}")
+                if st.saturated:
+                    _sns_reduced(add, la, JE, xE, st, v, vl)
             rows = [{"it": st.it, "sat": [i + 1 for i in st.saturated], "v": la.sym(st.qdot),
                      "v_num": la.sym(st.qdot).applyfunc(lambda x: x if x.is_Rational else x.evalf(5)),
                      "viol": [i + 1 for i in st.violating],
@@ -661,7 +668,8 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                      "rank": st.rank_JW} for st in res.steps]
             sol.step("m_sns", rows=rows, v=la.sym(res.qdot), s=la.scalar(res.s), lo=lo, hi=hi, acc=acc,
                      lo_m=sp.Matrix([la.scalar(x) for x in lo]), hi_m=sp.Matrix([la.scalar(x) for x in hi]),
-                     feasible=res.feasible, n=n, m=JE.shape[0])
+                     feasible=res.feasible, n=n, m=JE.shape[0],
+                     realized=float(la.norm(JE @ res.qdot - xE * res.s)) <= 1e-9 * max(1.0, float(la.norm(xE))))
             record("sns", "SNS", res.qdot)
     # comparison
     table = []
@@ -944,6 +952,26 @@ def _motion_acc(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict 
                               f"velocities along the motion ({meth}).", sample))
     return {"start": dict(zip(spec.q, [sp.Float(x, 6) for x in q_start])), "end": dict(zip(spec.q, list(qe))),
             "path": None, "reached": reached}
+
+
+def _sns_reduced(add: Any, la: rs.LA, J: Any, x: Any, st: rs.SNSStep, v: str, vl: str) -> None:
+    """The reduced problem of an SNS iteration with saturated joints S: J_{-S} (the columns of the active joints),
+    the residual task x_k = s x − Σ_{j∈S} J_j v_j (s = 1 unless the task is scaled), its solution
+    v_{-S} = J_{-S}^# x_k (the active components of the iterate) and J_{-S}^#."""
+    n = la.shape(J)[1]
+    act = [i for i in range(n) if i not in st.saturated]
+    s = st.scale if (not st.violating and st.scale is not None) else 1
+    vN = la.zeros(n, 1)
+    for i in st.saturated:
+        vN[i, 0] = st.qdot[i, 0]
+    Jr = J[:, act]
+    xk = x * s - J @ vN
+    k = st.it
+    add(f"J_sns_{k}", la.sym(Jr), "matrix", label=f"J_{{-S}}^{{({k})}}")
+    add(f"task_sns_{k}", la.sym(xk), "vector", label=f"x^{{({k})}} = s\\,x - J_S {vl}_S")
+    add(f"J_sns_{k}_pinv", la.sym(la.pinv(Jr)), "matrix", label=f"(J_{{-S}}^{{({k})}})^{{\\#}}")
+    add(f"{v}_sns_{k}_active", la.sym(st.qdot[act, :] if not la.exact else st.qdot.extract(act, [0])), "vector",
+        label=f"{vl}_{{-S}}^{{({k})}}")
 
 
 def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs: dict, acc: bool,  # type: ignore[no-untyped-def]

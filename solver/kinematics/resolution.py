@@ -256,6 +256,7 @@ def sns(la: LA, J: Any, x: Any, lo: Sequence[Any], hi: Sequence[Any], max_iter: 
     s, s_star = one, (sp.Integer(0) if la.exact else 0.0)
     best = (list(Wd), vN, s_star)
     steps: list[SNSStep] = []
+    r0 = la.rank(J)  # a joint can be removed while J_W keeps this rank (m at full row rank)
     for it in range(1, (max_iter or n + 1) + 1):
         JW = J @ la.diag(Wd)
         JWp = la.pinv(JW)
@@ -279,7 +280,7 @@ def sns(la: LA, J: Any, x: Any, lo: Sequence[Any], hi: Sequence[Any], max_iter: 
         vN = vN.copy() if not la.exact else sp.Matrix(vN)
         vN[j, 0] = st.bound
         st.rank_JW = la.rank(J @ la.diag(Wd))
-        if st.rank_JW < m:
+        if st.rank_JW < r0:
             Wd, vN, s = best[0], best[1], min(best[2], one)
             JWp = la.pinv(J @ la.diag(Wd))
             v = vN + JWp @ (s * x - J @ vN)
