@@ -60,7 +60,7 @@ def main() -> None:
         t_clean, m_clean, rows_clean = grade(clean, base / "out-clean")
         t_host, m_host, rows_host = grade(base / "hostile", base / "out-hostile")
         leaked = any(SECRET in p.read_text(errors="replace") for p in (base / "out-hostile").rglob("*") if p.is_file())
-    print(f"| class | submissions | rows | wall [s] | peak memory [MB] |\n|---|---:|---:|---:|---:|")
+    print("| class | submissions | rows | wall [s] | peak memory [MB] |\n|---|---:|---:|---:|---:|")
     print(f"| clean | {args.n} | {rows_clean} | {t_clean:.1f} | {m_clean:.0f} |")
     print(f"| hostile | {len(hostile_names)} | {rows_host} | {t_host:.1f} | {m_host:.0f} |")
     print(f"\nratio hostile/clean: {t_host / t_clean:.2f}; secret leaked: {leaked}")

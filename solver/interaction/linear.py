@@ -14,7 +14,7 @@ the Routh table is positive; the conditions are returned in the canonical form o
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 import sympy as sp

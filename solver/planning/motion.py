@@ -268,7 +268,7 @@ def _check_times(r: Reader, times: list[sp.Expr], T: sp.Expr, first: sp.Expr = s
         if less(prev, tv) is False:
             raise r.fail(("via", j, "t"), f"via-point time {tv} is not after {prev_name} ({prev})",
                          "list the via points in increasing time, strictly between 0 and T")
-        prev, prev_name = tv, f"the previous via point"
+        prev, prev_name = tv, "the previous via point"
     if times and less(times[-1], T) is False:
         raise r.fail(("via", len(times) - 1, "t"), f"via-point time {times[-1]} is not before the end T = {T}",
                      "list the via points in increasing time, strictly between 0 and T")

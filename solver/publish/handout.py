@@ -29,7 +29,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional, Union
 
-import sympy as sp
 from pydantic import Field, ValidationError
 
 from solver.grading.grader import Reference, grading_spec, prepare
