@@ -191,13 +191,35 @@ def _error(entry_name: str, line: int | None, exc: UserError) -> Check:
     return Check(entry_name, line, Verdict(ERROR, str(exc)))
 
 
+def _shadowed(solutions: list) -> dict[str, list[int]]:
+    """Result names produced by two or more asks with different values (ask numbers from 1): the later one wins
+    in ``all_results``, so an expected entry of that name would silently check only the last."""
+    seen: dict[str, tuple[int, object]] = {}
+    out: dict[str, list[int]] = {}
+    for i, sol in enumerate(solutions, 1):
+        for name, res in sol.results.items():
+            if name in seen:
+                first, value = seen[name]
+                try:
+                    same = bool(value == res.value)
+                except Exception:  # noqa: BLE001 - values that cannot be compared count as different
+                    same = False
+                if not same:
+                    out.setdefault(name, [first]).append(i)
+            else:
+                seen[name] = (i, res.value)
+    return out
+
+
 def check_problem(problem: Problem, compare: bool = True) -> Report:
     """Solve ``problem`` and compare every expected value; every entry is checked and every failure reported
     (a missing result or an unreadable value fails that entry only). ``compare=False``: only find the entries
     that cannot be checked (what ``robosolve check`` reports)."""
     rep = Report(problem.id, problem.file)
     entries, errors = expected_entries(problem)
-    results = all_results(solve_problem(problem))
+    solutions = solve_problem(problem)
+    results = all_results(solutions)
+    shadowed = _shadowed(solutions)
     rep.checks += [_error(str(e.place), e.place.line if e.place else None, e) for e in errors]
     names, subs = _global_names(problem)
     for entry in entries:
@@ -205,6 +227,12 @@ def check_problem(problem: Problem, compare: bool = True) -> Report:
             rep.checks.append(_error(entry.key, entry.line, UserError(
                 f"expected.{entry.key}: no result of that name", problem.located.place(entry.path),
                 f"results of this problem: {', '.join(results)}")))
+            continue
+        if entry.key in shadowed:
+            rep.checks.append(_error(entry.key, entry.line, UserError(
+                f"expected.{entry.key}: asks {' and '.join(map(str, shadowed[entry.key]))} both produce a result "
+                f"'{entry.key}' with different values; only the last one would be compared",
+                problem.located.place(entry.path), "give one of these asks `suffix:` (or split the problem)")))
             continue
         try:
             e = parse_entry(problem, entry, names, subs)

@@ -164,3 +164,30 @@ def test_a_value_of_the_wrong_kind_fails_its_entry_only(write):
     rep = check_problem(load_problem(write(spec)))
     by = {c.name: c for c in rep.checks}
     assert not by["christoffel"].verdict.ok and by["g"].verdict.ok
+
+
+def test_a_result_produced_by_two_asks_with_different_values_is_not_checked_silently():
+    """Two asks giving `qdot_ps` for different task velocities: an expected qdot_ps is an error naming both asks
+    (all_results keeps only the later one), while a name produced once is still checked."""
+    from solver.spec import load_problem_text
+    text = """
+id: shadow
+title: two tasks on a 3R
+robot: {joints: [R, R, R]}
+asks:
+  - kind: redundancy
+    task: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3), sin(q1) + sin(q1+q2) + sin(q1+q2+q3)]
+    velocity: [1, 0]
+    at: {q1: 0, q2: pi/2, q3: 0}
+  - kind: redundancy
+    task: [cos(q1) + cos(q1+q2) + cos(q1+q2+q3), sin(q1) + sin(q1+q2) + sin(q1+q2+q3)]
+    velocity: [0, 1]
+    at: {q1: 0, q2: pi/2, q3: 0}
+expected:
+  qdot_ps: {value: "[0, 0, 0]", line: 1}
+"""
+    rep = check_problem(load_problem_text(text), compare=False)
+    (c,) = rep.checks
+    assert not c.verdict.ok and "asks 1 and 2" in c.verdict.detail and "suffix" in c.verdict.detail
+    same = text.replace("velocity: [0, 1]", "velocity: [1, 0]")  # the same value twice: nothing to report
+    assert check_problem(load_problem_text(same), compare=False).checks == []
