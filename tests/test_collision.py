@@ -414,7 +414,7 @@ def test_latex_report_with_the_simulation_figure_compiles(tmp_path):
     sols = solve_problem(p)
     figs = write_figures(sols, tmp_path / "r.tex", "tex")
     assert any("residuals" in f.name for f in figs)
-    panels = [f for s in sols for f in s.figures][0].panels
+    panels = next(f for s in sols for f in s.figures if "residuals" in f.name).panels
     r1, tau1 = panels[0].curves
     assert abs(r1.y[-1]) < 1e-2 and max(tau1.y) == pytest.approx(1.887, rel=2e-2)  # r tracked J_c^T F, then left
     (tmp_path / "r.tex").write_text(render(p, sols, "tex"))
