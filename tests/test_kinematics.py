@@ -2,6 +2,7 @@
 Ṙ Rᵀ, J̇q̇ against d/dt(J) q̇, singular sets where the rank drops, inverse kinematics that reproduces the target,
 null/range bases, sketches, error cases; on robots no exercise uses (a spatial 4R with offsets, a planar 4R,
 a PUMA-like 6R), and the trigonometric factorization and elimination underneath."""
+import math
 import random
 import shutil
 import subprocess
@@ -434,3 +435,24 @@ def test_explicit_robot_needs_a_task():
     with pytest.raises(UserError) as exc:
         solve_problem(load_problem_text(text))
     assert "no DH frames" in str(exc.value)
+
+
+def test_a_task_that_is_not_a_trigonometric_polynomial_is_solved_not_crashed():
+    """A distance (a square root of a function of q) as the task: the Jacobian is its gradient (finite
+    differences) and the singular set is stated as the equations it cannot solve, no internal error."""
+    from solver.spec import load_problem_text
+    p = load_problem_text("""
+id: sq
+title: distance task
+robot: {joints: [R, R]}
+asks:
+  - kind: kinematics
+    task: [sqrt((cos(q1) + cos(q1+q2) - 2)^2 + (sin(q1) + sin(q1+q2))^2)]
+""")
+    res = all_results(solve_problem(p))
+    q1, q2 = p.robot.q
+    f = lambda a, b: math.hypot(math.cos(a) + math.cos(a + b) - 2, math.sin(a) + math.sin(a + b))  # noqa: E731
+    a, b, h = 0.3, 1.1, 1e-6
+    J = res["J"].value.subs({q1: a, q2: b}).evalf()
+    assert abs(J[0, 0] - (f(a + h, b) - f(a - h, b)) / (2 * h)) < 1e-6
+    assert abs(J[0, 1] - (f(a, b + h) - f(a, b - h)) / (2 * h)) < 1e-6

@@ -671,7 +671,10 @@ def _factor_cs(e: sp.Expr, angles: list[sp.Symbol]) -> tuple[sp.Expr, list[tuple
             raise ValueError
         const, facs = sp.factor_list(poly_form)
     except (ValueError, sp.PolynomialError):
-        const, facs = sp.factor_list(e)
+        try:
+            const, facs = sp.factor_list(e)
+        except sp.PolynomialError:  # not a polynomial in anything (a root of a function of q): one factor
+            return sp.Integer(1), [(e, 1)]
         return const, [(tidy(f), k) for f, k in facs]
     back = {c: sp.cos(x) for x, (c, _) in cs.items()}
     back.update({s: sp.sin(x) for x, (_, s) in cs.items()})
