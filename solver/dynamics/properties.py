@@ -610,14 +610,7 @@ def _inverse_dynamics(problem, options, ctx, sol, dm, robot) -> None:  # type: i
         sol.add(f"u_d_at{k + 1}", v, "vector", label=f"u_d(t_{k + 1})")
         rows.append((tk, v, v.xreplace(problem.values).evalf(6) if problem.values else None))
     cases = []
-    for k, case in enumerate(options.cases):
-        sub = {}
-        for name in case:
-            sym = problem.names.get(name)
-            if sym is None or not isinstance(sym, sp.Symbol) or sym in robot.q + robot.dq + robot.ddq:
-                raise UserError(f"'{name}' in cases: is not a parameter", _place(problem, ctx, "cases", k, name),
-                                "use a symbol of the trajectory, declared under symbols:")
-            sub[sym] = problem.parse_at(ctx.path + ("cases", k, name), names)
+    for k, sub in enumerate(_case_subs(problem, ctx, options, robot, names)):
         v = ud.xreplace(sub).applyfunc(tidy)
         sol.add(f"u_d_case{k + 1}", v, "vector", label=f"u_d\\big|_{{{k + 1}}}")
         cases.append((sub, v))
@@ -738,7 +731,8 @@ def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-un
     sol.step("fault", i=i, a=a, H=H, w=w.applyfunc(tidy), tau_f=tau_f, ddq=ddq)
 
 
-def _case_subs(problem, ctx, options, robot) -> list[dict]:  # type: ignore[no-untyped-def]
+def _case_subs(problem, ctx, options, robot, names=None) -> list[dict]:  # type: ignore[no-untyped-def]
+    """The parameter values of each entry of ``cases:`` (``names``: extra symbols, e.g. of a trajectory)."""
     out = []
     for k, case in enumerate(options.cases):
         sub = {}
@@ -747,7 +741,7 @@ def _case_subs(problem, ctx, options, robot) -> list[dict]:  # type: ignore[no-u
             if sym is None or not isinstance(sym, sp.Symbol) or sym in robot.q + robot.dq + robot.ddq:
                 raise UserError(f"'{name}' in cases: is not a parameter", _place(problem, ctx, "cases", k, name),
                                 "use a symbol declared under symbols:")
-            sub[sym] = problem.parse_at(ctx.path + ("cases", k, name))
+            sub[sym] = problem.parse_at(ctx.path + ("cases", k, name), names)
         out.append(sub)
     return out
 
