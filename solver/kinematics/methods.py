@@ -1003,7 +1003,8 @@ def _sketch(sol: Solution, problem, spec: _MSpec, tasks: list, table: list, subs
         if motion["path"]:
             paths = [("path", motion["path"])]
     fig = robot_sketch(problem, confs, task=task, arrows=arrows, paths=paths,
-                       name="sketch" + spec.o.suffix, caption="The robot at the state used, with the task direction"
+                       name="sketch" + spec.o.suffix,
+                       caption="The robot at the state used" + (", with the task direction" if arrows else "")
                        + (" (and at the start of the motion, with the end-effector path)" if motion else ""))
     if fig is not None:
         sol.figures.append(fig)
