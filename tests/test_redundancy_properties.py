@@ -613,3 +613,33 @@ def test_sns_derived_bounds_acceleration_level():
     assert np.all(qn >= np.array([-2, -1, -0.62, -2]) - 1e-9) and np.all(qn <= np.array([2, 1, 1, 1.11]) + 1e-9)
     hi = np.array(res["bounds_upper"].value.evalf().tolist(), dtype=float).ravel()
     assert np.isclose(hi[3], -2)  # joint 4 is 0.01 rad below its limit, moving up: it must decelerate
+
+
+def test_reduced_gradient_realizes_the_task_and_is_the_gradient_along_self_motions():
+    q = np.array([0.4, 0.7, -0.5, 0.9])
+    H = "sin(q2)^2 + cos(q3) + q4^2/2"
+    text = ASK_4R + f"""    at: {_at(q)}
+    velocity: [0.5, -0.2]
+    gradient: {H}
+    step: 0.7
+    methods: [reduced_gradient, null_space]
+"""
+    res = all_results(solve_problem(load_problem_text(text)))
+    num = lambda k: np.array(sp.Matrix(res[k].value).evalf().tolist(), dtype=float)  # noqa: E731
+    J = jac4(q)
+    v = num("qdot_rg").ravel()
+    assert np.allclose(J @ v, [0.5, -0.2])
+    Ja, Jb, rg = num("Ja"), num("Jb"), num("grad_reduced").ravel()
+    assert np.allclose(num("Ja_inv") @ Ja, np.eye(2))
+    # the default J_a is the best-conditioned 2x2 minor (largest smallest singular value)
+    smins = [np.linalg.svd(J[:, [i, j]], compute_uv=False)[-1] for i in range(4) for j in range(i + 1, 4)]
+    assert np.isclose(np.linalg.svd(Ja, compute_uv=False)[-1], max(smins))
+    a = [next(c for c in range(4) if np.allclose(J[:, c], Ja[:, k])) for k in range(2)]
+    b = [c for c in range(4) if c not in a]
+    grad = np.array([0.0, np.sin(2 * q[1]), -np.sin(q[2]), q[3]])
+    for k in range(2):  # a unit change of q_b,k on the self-motion manifold changes H by rg_k (first order)
+        dq = np.zeros(4)
+        dq[b[k]] = 1.0
+        dq[a] = -np.linalg.solve(Ja, Jb[:, k])
+        assert np.isclose(grad @ dq, rg[k])
+    assert np.allclose(v[b], 0.7 * rg)

@@ -531,6 +531,9 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             stp = _exact(sp.sympify(stp)) if exact else float(sp.N(stp))
             vec, gr = rs.reduced_gradient(la, JE, xE, gvec, a_idx, stp)
             add("grad_reduced", la.sym(gr), "vector", label="\\nabla' H")
+            add("Ja", la.sym(Ja), "matrix", label="J_a")
+            add("Ja_inv", la.sym(la.inv(Ja)), "matrix", label="J_a^{-1}")
+            add("Jb", la.sym(JE[:, [j for j in range(spec.n) if j not in a_idx]]), "matrix", label="J_b")
             sol.step("m_rg", a=[spec.q[i] for i in a_idx], b=[x for i, x in enumerate(spec.q) if i not in a_idx],
                      Ja=la.sym(Ja), gr=la.sym(gr), v=la.sym(vec), step=la.scalar(stp), acc=acc,
                      grad=la.sym(gvec))
