@@ -24,6 +24,7 @@ import numpy as np
 import sympy as sp
 from pydantic import BaseModel, Field, model_validator
 
+from solver.math.budget import BudgetExceeded, cpu_budget
 from solver.math.simplify import tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -162,8 +163,18 @@ def cleared(vec: sp.Matrix) -> sp.Matrix:
         lead = sp.Poly(last[-1], *sorted(last[-1].free_symbols, key=str)).LC() if last[-1].free_symbols else last[-1]
         if lead.is_number and lead < 0:
             nums = [-x for x in nums]
-    return sp.Matrix([sp.factor(x) if x.free_symbols and sp.count_ops(sp.factor(x)) < sp.count_ops(x) else x
-                      for x in nums])
+    return sp.Matrix([_shorter_factored(x) if x.free_symbols else x for x in nums])
+
+
+def _shorter_factored(x: sp.Expr, budget: float = 1.0) -> sp.Expr:
+    """x factored when that is shorter; multivariate factoring (Wang's algorithm, random evaluation points) can
+    take minutes on an unlucky draw, so it gets a CPU budget, past which the common factors are pulled out only."""
+    try:
+        with cpu_budget(budget):
+            f = sp.factor(x)
+    except BudgetExceeded:
+        f = sp.factor_terms(x)
+    return f if sp.count_ops(f) < sp.count_ops(x) else x
 
 
 def null_basis(J: sp.Matrix) -> list[sp.Matrix]:
