@@ -112,7 +112,7 @@ def polar_matrix(rho: sp.Expr, theta: sp.Expr, Z: sp.Expr, lam: sp.Expr) -> sp.M
 def dls_inverse(J: sp.Matrix, sigma: sp.Expr) -> sp.Matrix:
     """J^DLS = Jᵀ (σ² I + J Jᵀ)⁻¹."""
     M = sigma ** 2 * sp.eye(J.shape[0]) + J * J.T
-    return (J.T * M.inv()).applyfunc(lambda x: sp.factor(sp.simplify(x)))
+    return (J.T * M.inv()).applyfunc(lambda x: _factored(sp.simplify(x)))
 
 
 def average(mats: list[sp.Matrix]) -> sp.Matrix:
@@ -147,7 +147,7 @@ def content_free(vec: sp.Matrix) -> sp.Matrix:
 def cleared(vec: sp.Matrix) -> sp.Matrix:
     """vec times the lcm of its denominators, divided by the gcd of the numerators, with the last non-zero entry's
     leading coefficient positive (a canonical representative of the direction)."""
-    fr = [sp.fraction(sp.factor(sp.together(x))) for x in vec]
+    fr = [sp.fraction(sp.cancel(sp.together(x))) for x in vec]  # gcds only: no multivariate factoring
     den = sp.Integer(1)
     for _, d in fr:
         den = sp.lcm(den, d)
@@ -166,14 +166,20 @@ def cleared(vec: sp.Matrix) -> sp.Matrix:
     return sp.Matrix([_shorter_factored(x) if x.free_symbols else x for x in nums])
 
 
-def _shorter_factored(x: sp.Expr, budget: float = 1.0) -> sp.Expr:
-    """x factored when that is shorter; multivariate factoring (Wang's algorithm, random evaluation points) can
-    take minutes on an unlucky draw, so it gets a CPU budget, past which the common factors are pulled out only."""
+def _factored(x: sp.Expr, budget: float = 1.0) -> sp.Expr:
+    """sp.factor(x) within a CPU budget: multivariate factoring (Wang's algorithm) can take minutes for some
+    orderings of the generators (they follow the hash seed of the process); past the budget only the common
+    factors are pulled out (factor_terms)."""
     try:
         with cpu_budget(budget):
-            f = sp.factor(x)
+            return sp.factor(x)
     except BudgetExceeded:
-        f = sp.factor_terms(x)
+        return sp.factor_terms(x)
+
+
+def _shorter_factored(x: sp.Expr) -> sp.Expr:
+    """x factored (within the budget) when that is shorter."""
+    f = _factored(x)
     return f if sp.count_ops(f) < sp.count_ops(x) else x
 
 
@@ -373,7 +379,7 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
         if options.damping is not None:
             sig = sp.sympify(ctx.expr("damping"))
             D = dls_inverse(Jt, sig)
-            dD = sp.factor(sp.simplify(D.det()))
+            dD = _factored(sp.simplify(D.det()))
             add("J_t_dls", D, "matrix", label="J_t^{DLS}")
             add("det_J_t_dls", dD, "scalar", label="\\det J_t^{DLS}")
             data.update(dls=D, det_dls=dD, sigma=sig)
