@@ -26,9 +26,9 @@ from solver.math.simplify import tidy
 from solver.math.trigsolve import Solver, Stage, check_families, numeric_function, trig_factors
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
-from solver.spec.errors import UserError
 from solver.spec.expr import shape_of
 from solver.spec.models import Strict
+from solver.spec.problem import AskReader
 
 Scalar = Union[str, int, float]
 ExprT = Union[str, int, float, list[Any]]
@@ -90,7 +90,7 @@ class KinematicsAsk(Strict):
 
 
 # ------------------------------------------------------------------------------------------------ inputs
-class _Spec:
+class _Spec(AskReader):
     """The parsed, validated inputs of one ask."""
 
     def __init__(self, problem, options: KinematicsAsk, ctx) -> None:  # type: ignore[no-untyped-def]
@@ -135,9 +135,6 @@ class _Spec:
                             "give robot: {dh: ...}, or drop geometric:")
         self.geometric = geometric and options.wrt is None
 
-    def fail(self, sub: tuple, message: str, hint: str | None = None) -> UserError:
-        return UserError(message, self.problem.located.place(self.ctx.path + sub), hint)
-
     def _frame(self) -> int:
         f = self.options.frame
         if f is None:
@@ -147,15 +144,6 @@ class _Spec:
         if not 0 <= f <= self.n:
             raise self.fail(("frame",), f"frame must be between 0 and {self.n}, got {f}")
         return f
-
-    def _vector(self, key: str, size: int, what: str) -> sp.Matrix:
-        val = self.ctx.expr(key)
-        if not isinstance(val, list):
-            val = [val]
-        if shape_of(val) != (size,):
-            raise self.fail((key,), f"{what} must have {size} components, got shape {shape_of(val)}",
-                            f"write a list of {size} expressions")
-        return sp.Matrix(val)
 
     def _task(self) -> tuple[str, sp.Matrix]:
         raw = self.options.task

@@ -18,9 +18,9 @@ from pydantic import Field
 from solver.kinematics import resolution as rs
 from solver.registry import PropertyVerdict, property_check
 from solver.results import Curve, Figure, Panel, Solution
-from solver.spec.errors import UserError
 from solver.spec.expr import shape_of
 from solver.spec.models import Strict
+from solver.spec.problem import AskReader
 
 ExprT = Union[str, int, float, list[Any]]
 Scalar = Union[str, int, float]
@@ -82,7 +82,7 @@ def wants_methods(o: Any) -> bool:
 
 
 # ------------------------------------------------------------------------------------------------ parsing
-class _MSpec:
+class _MSpec(AskReader):
     def __init__(self, problem, o, ctx) -> None:  # type: ignore[no-untyped-def]
         self.problem, self.o, self.ctx = problem, o, ctx
         self.options = o
@@ -246,9 +246,6 @@ class _MSpec:
         if self.o.bounds is not None:
             out += ["scaled", "sns"]
         return out
-
-    def fail(self, sub: tuple, message: str, hint: str | None = None) -> UserError:
-        return UserError(message, self.problem.located.place(self.ctx.path + sub), hint)
 
     def _vec(self, key: Any, size: int) -> sp.Matrix:
         path = key if isinstance(key, tuple) else (key,)

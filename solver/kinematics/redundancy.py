@@ -34,9 +34,9 @@ from solver.kinematics.methods import (
 from solver.math.simplify import tidy
 from solver.registry import ask_kind
 from solver.results import Solution
-from solver.spec.errors import UserError
 from solver.spec.expr import shape_of
 from solver.spec.models import Strict
+from solver.spec.problem import AskReader
 
 Scalar = Union[str, int, float]
 ExprT = Union[str, int, float, list[Any]]
@@ -373,7 +373,7 @@ def _numeric_display(M: Any) -> Any:
     return M.evalf(6) if isinstance(M, sp.MatrixBase) else sp.Float(M.evalf(6), 6)
 
 
-class _Spec:
+class _Spec(AskReader):
     """The parsed, validated inputs of one ask."""
 
     def __init__(self, problem, options: RedundancyAsk, ctx) -> None:  # type: ignore[no-untyped-def]
@@ -428,18 +428,6 @@ class _Spec:
             if isinstance(self.step, list) or self.step.free_symbols - set(problem.symbols.values()):
                 raise self.fail(("step",), "step must be a number (or an expression of parameters)")
         self.state = self._state()
-
-    def fail(self, sub: tuple, message: str, hint: str | None = None) -> UserError:
-        return UserError(message, self.problem.located.place(self.ctx.path + sub), hint)
-
-    def _vector(self, key: str, size: int, what: str) -> sp.Matrix:
-        val = self.ctx.expr(key)
-        if not isinstance(val, list):
-            val = [val]
-        if shape_of(val) != (size,):
-            raise self.fail((key,), f"{what} must have {size} components, got shape {shape_of(val)}",
-                            f"write a list of {size} expressions")
-        return sp.Matrix(val)
 
     def _weight(self) -> sp.Matrix:
         raw, n = self.options.weight, self.n

@@ -7,6 +7,8 @@ from typing import Any, Callable
 import sympy as sp
 from pydantic import BaseModel
 
+from solver.spec.errors import UserError
+from solver.spec.expr import shape_of
 from solver.spec.robot import Robot
 from solver.spec.yamlpos import Located, PathT
 
@@ -21,6 +23,26 @@ class AskContext:
     def expr(self, *sub: Any) -> Any:
         """The parsed value at ``asks[i].<sub...>``."""
         return self.parse_at(self.path + tuple(sub))
+
+
+class AskReader:
+    """Base of a solver's parsed inputs (``self.problem``, ``self.ctx``): errors at the ask's spec line, and
+    vectors of a given size read from the ask entry."""
+
+    problem: Problem
+    ctx: AskContext
+
+    def fail(self, sub: tuple, message: str, hint: str | None = None) -> UserError:
+        return UserError(message, self.problem.located.place(self.ctx.path + sub), hint)
+
+    def _vector(self, key: str, size: int, what: str) -> sp.Matrix:
+        val = self.ctx.expr(key)
+        if not isinstance(val, list):
+            val = [val]
+        if shape_of(val) != (size,):
+            raise self.fail((key,), f"{what} must have {size} components, got shape {shape_of(val)}",
+                            f"write a list of {size} expressions")
+        return sp.Matrix(val)
 
 
 @dataclass
