@@ -133,6 +133,7 @@ def work_robosolve(name: str, points: list[dict]) -> dict:
     from solver.registry import load_all
     from solver.spec import load_problem_text
     load_all()  # the library's modules imported (the CLI column counts the imports)
+    import sympy.tensor.tensor  # noqa: F401  sympy imports it at the first matrix sum; the peers' imports have it
     t0 = clock()
     problem = load_problem_text(spec_text(name, describe(name)))
     t1 = clock()

@@ -3,9 +3,12 @@ from __future__ import annotations
 
 import random
 
+import pytest
 import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from sympy.polys.domains import QQ as QQ_
+from sympy.polys.domains import ZZ as ZZ_
 
 from solver.math.fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
 from solver.math.simplify import is_zero, tidy
@@ -85,3 +88,48 @@ def test_constant_offsets_keep_their_phase() -> None:
     assert tidy(sp.cos(q1 + sp.pi / 4)) == sp.cos(q1 + sp.pi / 4)
     assert tidy(3 * sp.sin(q1 - sp.pi / 6)) == 3 * sp.sin(q1 - sp.pi / 6)
     assert tidy(sp.sin(q1) + sp.cos(q1)) == sp.sin(q1) + sp.cos(q1)  # no phase invented where none was written
+
+
+# ------------------------------------------------------------------ factorization by gcds (issue 11)
+def _random_products(dom, seed: int, count: int):  # type: ignore[no-untyped-def]
+    """Products of random small polynomials in 5 generators over ``dom`` (powers, integer or rational content)."""
+    from sympy.polys.rings import ring
+    R, *G = ring("x,y,z,w,u", dom)
+    rng = random.Random(seed)
+
+    def rnd(k: int):  # type: ignore[no-untyped-def]
+        c = (lambda: dom.convert(rng.randint(-3, 3)) / dom.convert(rng.randint(1, 3))) if dom == QQ_ else \
+            (lambda: dom.convert(rng.randint(-3, 3)))
+        return sum((c() * G[rng.randrange(5)] ** rng.randint(0, 2) * G[rng.randrange(5)] ** rng.randint(0, 1)
+                    for _ in range(k)), R.zero)
+
+    for _ in range(count):
+        p = R.one
+        for _ in range(rng.randint(1, 4)):
+            p *= rnd(rng.randint(1, 4)) ** rng.randint(1, 3)
+        yield p * (rng.randint(-6, 6) or 1)
+
+
+
+@pytest.mark.parametrize("dom", [ZZ_, QQ_])
+def test_factor_list_fast_equals_sympys_factorization(dom) -> None:  # type: ignore[no-untyped-def]
+    """Same content and the same factors with multiplicities as ``factor_list`` (order aside), over ZZ and QQ:
+    the QQ case once returned a factor with its content 2 inside (2 d₂ m₂ + 2 l₂ m₃ instead of d₂ m₂ + l₂ m₃)."""
+    from solver.math.fourier import factor_list_fast
+    seen_linear = 0
+    for p in _random_products(dom, 7, 400):
+        ref, got = p.factor_list(), factor_list_fast(p)
+        assert got[0] == ref[0], p
+        assert sorted((str(f), e) for f, e in got[1]) == sorted((str(f), e) for f, e in ref[1]), p
+        seen_linear += any(p.degree(i) == 1 for i in range(p.ring.ngens))
+    assert seen_linear > 50  # the gcd path was exercised, not only sympy's fallback
+
+
+def test_factor_list_fast_on_a_christoffel_coefficient() -> None:
+    """2 d₂ m₂ q̇₁ + d₂ m₂ q̇₂ + 2 l₂ m₃ q̇₁ + l₂ m₃ q̇₂ over QQ = (2 q̇₁ + q̇₂)(d₂ m₂ + l₂ m₃)."""
+    from sympy.polys.rings import ring
+
+    from solver.math.fourier import factor_list_fast
+    R, d2, m2, l2, m3, dq1, dq2 = ring("d2,m2,l2,m3,dq1,dq2", QQ_)
+    c, fl = factor_list_fast(2 * d2 * m2 * dq1 + d2 * m2 * dq2 + 2 * l2 * m3 * dq1 + l2 * m3 * dq2)
+    assert c == 1 and sorted(str(f) for f, _ in fl) == sorted(["2*dq1 + dq2", "d2*m2 + l2*m3"])

@@ -19,7 +19,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import sympy as sp
-from sympy.polys.domains import QQ
+from sympy.polys.domains import QQ, ZZ
 from sympy.polys.rings import PolyElement, PolyRing
 
 Key = tuple[tuple[int, ...], int]  # (k, 0 for cos | 1 for sin)
@@ -214,9 +214,56 @@ def _factor_small(p: PolyElement) -> tuple[PolyElement, list[tuple[PolyElement, 
     if hit is None:
         if len(_FACTORS) > 20000:
             _FACTORS.clear()
-        hit = _FACTORS[q] = q.factor_list()
+        hit = factor_list_fast(q)
+        check = q.ring.ground_new(hit[0])
+        for f, e in hit[1]:
+            check *= f**e
+        if check != q:  # cannot happen (the factors are exact); sympy's factorization if it ever did
+            hit = q.factor_list()
+        _FACTORS[q] = hit
     content, factors = hit
     return content, list(factors)  # a new list: the caller changes signs in place
+
+
+def factor_list_fast(p: PolyElement) -> tuple:
+    """``p.factor_list()`` (content, [(f, e)], each f primitive with a positive leading coefficient), computed
+    by gcds wherever ``p`` is linear in a generator x: p = a x + b = g · (p/g) with g = gcd(a, b), and p/g,
+    primitive and of degree 1 in x, is irreducible; g is factored the same way. The coefficients of a dynamic
+    model are mostly linear in a mass or an inertia, and a gcd costs far less than Wang's factorization, which
+    is used only for the parts of degree ≥ 2 in every generator."""
+    R = p.ring
+    if p.is_ground:
+        return p.LC if p else R.domain.zero, []
+    if R.domain != ZZ:  # over QQ: the factors of the integer polynomial d p, content / d
+        den, pz = p.clear_denoms()
+        c, fl = factor_list_fast(pz.set_ring(R.clone(domain=ZZ)))
+        return R.domain.convert(c) / R.domain.convert(den), [(f.set_ring(R), e) for f, e in fl]
+    content, prim = p.primitive()
+    if prim.LC < 0:
+        content, prim = -content, -prim
+    factors: list[tuple[PolyElement, int]] = []
+    mono = tuple(map(min, zip(*prim.itermonoms())))
+    if any(mono):
+        for i, e in enumerate(mono):
+            if e:
+                factors.append((R.gens[i], e))
+        prim = R.from_dict({tuple(a - b for a, b in zip(m, mono)): c for m, c in prim.iterterms()})
+    while not prim.is_ground:
+        i = next((j for j in range(R.ngens) if prim.degree(j) == 1), None)
+        if i is None:
+            c, rest = prim.factor_list()
+            factors.extend(rest)
+            content *= c
+            break
+        a = R.from_dict({m[:i] + (0,) + m[i + 1:]: c for m, c in prim.iterterms() if m[i] == 1})
+        b = R.from_dict({m: c for m, c in prim.iterterms() if m[i] == 0})
+        g = a.gcd(b)
+        if g.LC < 0:
+            g = -g
+        h = prim.exquo(g)
+        factors.append((h, 1))
+        prim = g
+    return content, factors
 
 
 def _flip(f: PolyElement) -> bool:
