@@ -212,13 +212,18 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
             partial = True
             continue
         eqs = list(dict.fromkeys(sp.expand(x) for x in eqs if sp.expand(x) != 0))
+        su, eqs = _eliminate_inputs(eqs, list(unknown_u))
         still = [a for a in angles if a not in rotating and any(a in x.free_symbols for x in eqs)]
         poly, cs2 = _to_polynomial(eqs, still)
         unknowns = ([x for a in still for x in cs2[a]] + others
-                    + [d for x, d in zip(q, dq) if d not in given_v and d not in stay] + list(unknown_u))
+                    + [d for x, d in zip(q, dq) if d not in given_v and d not in stay])
+        present = set().union(*(x.free_symbols for x in poly)) if poly else set()
+        unknowns = [x for x in unknowns if x in present]  # sympy's solve can miss solutions given absent unknowns
+        if any(not (x.free_symbols & set(unknowns)) for x in poly):
+            continue  # an equation of the parameters alone (generic parameters: it does not hold)
         sols = sp.solve(poly, unknowns, dict=True) if poly else [{}]
         for s in sols:
-            qs = []
+            qs, trig = [], {}
             for x in q:
                 if x in still:
                     c, sn = s.get(cs2[x][0], cs2[x][0]), s.get(cs2[x][1], cs2[x][1])
@@ -226,12 +231,15 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                         qs.append(x)
                     else:
                         qs.append(tidy(sp.atan2(sn, c)) if not (c.is_number and sn.is_number) else sp.atan2(sn, c))
+                        trig |= {sp.cos(x): c, sp.sin(x): sn}
                 else:
                     qs.append(tidy(sp.sympify(s.get(x, x))))
             vs = [tidy(sp.sympify(s.get(d, vel[x].xreplace(stay)))) for x, d in zip(q, dq)]
             if any(vs[q.index(a)] == 0 for a in rotating):
                 continue  # found with that angle at rest
-            us = [tidy(sp.sympify(s.get(w, w))) if w in unknown_u else w for w in u]
+            at = {x: v for x, v in zip(q, qs) if x not in trig and x != v} | {d: v for d, v in zip(dq, vs)}
+            us = [tidy(sp.expand_trig(sp.expand(su.get(w, w), trig=True)).subs(trig).subs(at))
+                  if w in unknown_u else w for w in u]
             allv = qs + vs + us
             if any(x.has(sp.I) for x in allv):
                 continue
@@ -244,6 +252,25 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                 motions.append(m)
     motions.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in list(m.v) + list(m.q)])
     return motions, list(dict.fromkeys(conditions)), angles, partial
+
+
+def _eliminate_inputs(eqs: list[sp.Expr], unknown_u: list[sp.Symbol]) -> tuple[dict, list[sp.Expr]]:
+    """The equations are affine in the unknown inputs: solve independent ones for them (u = u(q, v̄)) and return
+    that solution and the remaining equations with it substituted (constraints on q and v̄ alone)."""
+    if not unknown_u:
+        return {}, eqs
+    lin = [e for e in eqs if e.free_symbols & set(unknown_u)]
+    chosen: list[sp.Expr] = []
+    rank = 0
+    for e in lin:
+        M = sp.Matrix(chosen + [e]).jacobian(unknown_u)
+        r = M.rank(simplify=True)
+        if r > rank:
+            chosen, rank = chosen + [e], r
+    sol = sp.solve(chosen, unknown_u, dict=True) if chosen else [{}]
+    su = sol[0] if sol else {}
+    rest = [sp.numer(sp.together(sp.expand(e.xreplace(su)))) for e in eqs]
+    return su, [sp.expand(e) for e in rest if sp.expand(e) != 0]
 
 
 def vel_sym(x: sp.Symbol, q: list[sp.Symbol], dq: list[sp.Symbol]) -> sp.Symbol:
