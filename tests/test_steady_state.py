@@ -11,6 +11,9 @@ from conftest import PROBLEMS
 from scipy.integrate import solve_ivp
 
 from solver.dynamics.model import derive
+from solver.grading.grader import ItemSpec, grade, prepare
+from solver.grading.submission import Submission
+from solver.math.equivalence import CORRECT, INCORRECT
 from solver.publish.render import render
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem, load_problem_text
@@ -388,3 +391,19 @@ def test_default_equilibria_unchanged():
 def test_spec_errors(ask, msg):
     with pytest.raises(UserError, match=msg):
         run(SYM_PENDULUM + "  - kind: equilibria\n" + ask)
+
+
+def test_grading_steady_state_answers():
+    """The steady results are graded as sets: a student's vector (one steady motion) in any written form is
+    accepted, a wrong speed is not."""
+    r = prepare(load_problem(PROBLEMS / "2016-10-28-ex2.yaml"))
+    r.items = {"steady_velocity": ItemSpec(points=2), "deformations": ItemSpec(points=2)}
+
+    def graded(answers):
+        return {i.name: i for i in grade(r, Submission("t", "t.yaml", answers, {})).items}
+
+    it = graded({"steady_velocity": "[ubar/(3*d), ubar/(d + 2*d), ubar/3/d]",
+                 "deformations": "[[(ubar - d*ubar/(3*d))/k1, ubar/(3*k2)]]"})
+    assert it["steady_velocity"].verdict == CORRECT and it["deformations"].verdict == CORRECT
+    it = graded({"steady_velocity": "[ubar/d, ubar/d, ubar/d]", "deformations": "[ubar/k1, ubar/k2]"})
+    assert it["steady_velocity"].verdict == INCORRECT and it["deformations"].verdict == INCORRECT
