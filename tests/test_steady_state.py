@@ -407,3 +407,35 @@ def test_grading_steady_state_answers():
     assert it["steady_velocity"].verdict == CORRECT and it["deformations"].verdict == CORRECT
     it = graded({"steady_velocity": "[ubar/d, ubar/d, ubar/d]", "deformations": "[ubar/k1, ubar/k2]"})
     assert it["steady_velocity"].verdict == INCORRECT and it["deformations"].verdict == INCORRECT
+
+
+def motions_residual(p, sol, values: dict[str, float], times=(0.0, 0.7, 2.3)) -> float:
+    """max |B q̈ + c + g + F_v q̇ − G ū| over the reported motions (q̄ + v̄ t, v̄, ū) at a few times, numerically."""
+    robot = p.robot
+    dm = derive(robot)
+    num = {p.names[k]: v for k, v in values.items()}
+    worst = 0.0
+    for m in sol.steps[-1].data["motions"]:
+        free = {x: 0.3 for x in m["q"].free_symbols | m["v"].free_symbols if x in robot.q}
+        for t in times:
+            on = {x: (m["q"][i] + m["v"][i] * t).xreplace(free) for i, x in enumerate(robot.q)}
+            on |= {d: m["v"][i].xreplace(free) for i, d in enumerate(robot.dq)} | {a: 0 for a in robot.ddq}
+            r = dm.lhs.xreplace(on) - dm.G * m["u"].xreplace(free) if dm.G is not None else dm.lhs.xreplace(on) - m["u"]
+            worst = max(worst, max(abs(complex(sp.N(x.xreplace(num)))) for x in r))
+    return worst
+
+
+@pytest.mark.parametrize("name,ask,values", [
+    ("2018-01-11-ex2", 2, {"Is": 0.1, "m": 1, "L": 0.5, "fv": 0.2, "g0": 9.81, "Omega": 10}),
+    ("2021-01-12-ex4a", 1, {"m1": 1, "m2": 2, "dc2": 0.4, "I1yy": 0.1, "I2xx": 0.05, "I2yy": 0.2, "I2zz": 0.2,
+                            "f1": 0.3, "f2": 0.2, "g0": 9.81, "Omega": 8}),
+    # I2xx > I2yy + m2 dc2^2 (not a rigid body, but the algebra must hold for either sign of the denominator)
+    ("2021-01-12-ex4a", 1, {"m1": 1, "m2": 2, "dc2": 0.4, "I1yy": 0.1, "I2xx": 0.9, "I2yy": 0.2, "I2zz": 0.2,
+                            "f1": 0.3, "f2": 0.2, "g0": 9.81, "Omega": 8}),
+], ids=["governor", "polar 2R", "polar 2R, a2 < 0"])
+def test_every_reported_motion_satisfies_the_model(name, ask, values):
+    """Each reported (q̄, v̄, ū) makes the model hold along q̄ + v̄ t (the angle names asin/acos pair with their
+    inputs)."""
+    p = load_problem(PROBLEMS / f"{name}.yaml")
+    sols = solve_problem(p)
+    assert motions_residual(p, sols[ask], values) < 1e-9

@@ -181,11 +181,11 @@ def _elastic_sums(c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix, rhs: sp.Matrix, q: 
 
 
 def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol],
-                   given_v: dict[sp.Symbol, sp.Expr], unknown_u: list[sp.Symbol], u: list[sp.Symbol],
+                   given_v: dict[sp.Symbol, sp.Expr], unknown_u: list[sp.Symbol], u: list[sp.Expr],
                    max_rotating: int = 3) -> tuple[list[SteadyMotion], list[sp.Expr], list[sp.Symbol], bool]:
     """Every motion q(t) = q̄ + v̄ t with rows(q, v̄) = rhs (ū) at all t (rows = c + g + F_v q̇ with q̈ = 0, q̇ = v̄
-    written with the symbols dq). given_v fixes components of v̄ (by the dq symbol); unknown_u are inputs found
-    with the motion. Returns (motions, conditions, angles, partial)."""
+    written with the symbols dq). given_v fixes components of v̄ (by the dq symbol); u is ū, where the inputs
+    unknown_u (found with the motion) are their own symbols. Returns (motions, conditions, angles, partial)."""
     t = sp.Dummy("t")
     E = [tidy(sp.expand(r - h).xreplace(given_v)) for r, h in zip(rows, rhs)]
     vel = {x: given_v.get(d, d) for x, d in zip(q, dq)}
@@ -222,7 +222,8 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
         if any(not (x.free_symbols & set(unknowns)) for x in poly):
             continue  # an equation of the parameters alone (generic parameters: it does not hold)
         sols = sp.solve(poly, unknowns, dict=True) if poly else [{}]
-        for s in sols:
+        named = _branches(sols, still, cs2)
+        for k, s in enumerate(sols):
             qs, trig = [], {}
             for x in q:
                 if x in still:
@@ -230,8 +231,11 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                     if (c.free_symbols | sn.free_symbols) & set(cs2[x]):
                         qs.append(x)
                     else:
-                        qs.append(tidy(sp.atan2(sn, c)) if not (c.is_number and sn.is_number) else sp.atan2(sn, c))
-                        trig |= {sp.cos(x): c, sp.sin(x): sn}
+                        qs.append(named.get((k, x)) or (tidy(sp.atan2(sn, c)) if not (c.is_number and sn.is_number)
+                                                        else sp.atan2(sn, c)))
+                        th = named.get((k, x))   # with its own cosine and sine (the branch the name says)
+                        trig |= {sp.cos(x): sp.cos(th), sp.sin(x): sp.sin(th)} if th is not None else \
+                            {sp.cos(x): c, sp.sin(x): sn}
                 else:
                     qs.append(tidy(sp.sympify(s.get(x, x))))
             vs = [tidy(sp.sympify(s.get(d, vel[x].xreplace(stay)))) for x, d in zip(q, dq)]
@@ -239,7 +243,7 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                 continue  # found with that angle at rest
             at = {x: v for x, v in zip(q, qs) if x not in trig and x != v} | {d: v for d, v in zip(dq, vs)}
             us = [tidy(sp.expand_trig(sp.expand(su.get(w, w), trig=True)).subs(trig).subs(at))
-                  if w in unknown_u else w for w in u]
+                  if w in unknown_u else sp.sympify(w) for w in u]
             allv = qs + vs + us
             if any(x.has(sp.I) for x in allv):
                 continue
@@ -252,6 +256,48 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                 motions.append(m)
     motions.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in list(m.v) + list(m.q)])
     return motions, list(dict.fromkeys(conditions)), angles, partial
+
+
+def _has_sqrt(e: sp.Expr) -> bool:
+    return any(p.exp.is_Rational and p.exp.q == 2 for p in sp.sympify(e).atoms(sp.Pow))
+
+
+def _branches(sols: list[dict], angles: list[sp.Symbol], cs: dict) -> dict:
+    """Angles of the solution pairs (c, s), (−c, s) with s free of square roots (θ = asin s and π − asin s) or
+    (c, s), (c, −s) with c free of them (θ = ±acos c): as a set they are the same for every value of the parameters,
+    while atan2(s, c) with c = ±√(…)/D swaps its branches with the sign of D. Returns {(solution, angle): θ}."""
+    out: dict = {}
+    for a in angles:
+        c_, s_ = cs[a]
+        for i, si in enumerate(sols):
+            ci, sni = si.get(c_, c_), si.get(s_, s_)
+            if (i, a) in out or (ci.free_symbols | sni.free_symbols) & {c_, s_}:
+                continue
+            for sin_known in (True, False):
+                known, other = (sni, ci) if sin_known else (ci, sni)
+                if _has_sqrt(known) or not _has_sqrt(other):
+                    continue
+                if not tidy(sp.expand(ci ** 2 + sni ** 2 - 1)) == 0:
+                    continue
+                rest = {k: v for k, v in si.items() if k not in (c_, s_)}
+                for j, sj in enumerate(sols):
+                    if j == i or (j, a) in out or {k: v for k, v in sj.items() if k not in (c_, s_)} != rest:
+                        continue
+                    cj, snj = sj.get(c_, c_), sj.get(s_, s_)
+                    kj, oj = (snj, cj) if sin_known else (cj, snj)
+                    if tidy(kj - known) != 0 or tidy(oj + other) != 0:
+                        continue
+                    if sin_known:
+                        base = tidy(sp.asin(known))
+                        out[(i, a)], out[(j, a)] = base, sp.pi - base
+                    else:
+                        base = tidy(sp.acos(known))
+                        out[(i, a)], out[(j, a)] = base, -base
+                    # the pair is the same set whichever is the + branch; the solutions' other entries are equal
+                    break
+                if (i, a) in out:
+                    break
+    return out
 
 
 def _eliminate_inputs(eqs: list[sp.Expr], unknown_u: list[sp.Symbol]) -> tuple[dict, list[sp.Expr]]:
@@ -351,7 +397,8 @@ def solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type:
     rows = (dm.c + dm.g + Fv * sp.Matrix(dq)).applyfunc(tidy)
     if rest:
         rows = rows.xreplace(v_fix).applyfunc(tidy)
-    motions, conditions, angles, partial = steady_motions(rows, rhs, q, dq, v_fix, unknown, list(robot.inputs))
+    motions, conditions, angles, partial = steady_motions(rows, rhs, q, dq, v_fix, unknown,
+                                                         [ubar[w] for w in robot.inputs])
     K, rigid, sums = (None, [], []) if rest else _elastic_sums(dm.c, dm.g, Fv, rhs, q, dq)
     an = SteadyAnalysis(rows, rhs, motions, conditions, angles, partial, K, rigid, sums)
     dvals = [sp.Matrix([tidy(x.xreplace(dict(zip(q, m.q)))) for x in defs]) for m in motions] if defs else []
