@@ -224,7 +224,7 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
         sols = sp.solve(poly, unknowns, dict=True) if poly else [{}]
         named = _branches(sols, still, cs2)
         for k, s in enumerate(sols):
-            qs, trig = [], {}
+            qs, trig, raw = [], {}, []
             for x in q:
                 if x in still:
                     c, sn = s.get(cs2[x][0], cs2[x][0]), s.get(cs2[x][1], cs2[x][1])
@@ -233,6 +233,7 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                     else:
                         qs.append(named.get((k, x)) or (tidy(sp.atan2(sn, c)) if not (c.is_number and sn.is_number)
                                                         else sp.atan2(sn, c)))
+                        raw += [c, sn]
                         th = named.get((k, x))   # with its own cosine and sine (the branch the name says)
                         trig |= {sp.cos(x): sp.cos(th), sp.sin(x): sp.sin(th)} if th is not None else \
                             {sp.cos(x): c, sp.sin(x): sn}
@@ -245,9 +246,9 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
             us = [tidy(sp.expand_trig(sp.expand(su.get(w, w), trig=True)).subs(trig).subs(at))
                   if w in unknown_u else sp.sympify(w) for w in u]
             allv = qs + vs + us
-            if any(x.has(sp.I) for x in allv):
+            if any(x.has(sp.I) for x in allv + raw):
                 continue
-            for x in allv:
+            for x in allv + raw:
                 for p in x.atoms(sp.Pow):
                     if p.exp == sp.Rational(1, 2) and not p.base.is_nonnegative:
                         conditions.append(sp.GreaterThan(p.base, 0))
@@ -376,7 +377,8 @@ def solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type:
     given_v = _read_velocity(problem, options, ctx, robot)
     G = dm.G if dm.G is not None else sp.eye(n)
     rhs = (G * sp.Matrix([ubar[w] for w in robot.inputs])).applyfunc(tidy)
-    given_u = [(w, ubar[w]) for w in robot.inputs if w not in unknown and ubar[w] != 0]
+    given_u = [(w, ubar[w]) for w in robot.inputs if w not in unknown]   # shown unless every input is 0
+    given_u = given_u if unknown or any(v != 0 for _, v in given_u) else []
     defs = [sp.sympify(x) for x in ctx.expr("deformations")] if options.deformations else []
     sfx = options.suffix
     if options.steady == "rest" and not unknown:
