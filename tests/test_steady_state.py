@@ -439,3 +439,37 @@ def test_every_reported_motion_satisfies_the_model(name, ask, values):
     p = load_problem(PROBLEMS / f"{name}.yaml")
     sols = solve_problem(p)
     assert motions_residual(p, sols[ask], values) < 1e-9
+
+
+H2R = """
+id: h2r
+title: a planar 2R in a horizontal plane under constant torques
+symbols: {m1: m1, m2: m2, d1: d1, d2: d2, l1: l1, I1: I1, I2: I2, f1: f1, f2: f2, u1b: u1b, u2b: u2b}
+robot:
+  joints: [R, R]
+  friction: {viscous: [f1, f2]}
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [l1*cos(q1) + d2*cos(q1 + q2), l1*sin(q1) + d2*sin(q1 + q2)], angle: q1 + q2, inertia: I2}
+asks:
+  - kind: equilibria
+    steady: velocity
+    input: {u1: u1b, u2: u2b}
+"""
+
+
+def test_horizontal_2r_spins_with_the_elbow_held_by_the_centrifugal_force():
+    """No gravity: joint 1 spins at ū1/f1 (q1 is cyclic), the elbow stays where the centrifugal torque
+    m2 l1 d2 sin q2 q̇1² balances ū2 (two angles, q2 and π − q2); q2 cannot rotate (its Coriolis terms would
+    change along the motion)."""
+    p, sols, res = run(H2R)
+    (v,) = res["steady_velocity"].value
+    f1, u1b, u2b, m2, l1, d2 = (S(x) for x in ("f1", "u1b", "u2b", "m2", "l1", "d2"))
+    assert same(v[0], u1b / f1) and v[1] == 0
+    states = res["steady_state"].value
+    assert len(states) == 2
+    for st in states:
+        assert same(m2 * l1 * d2 * sp.sin(st[1]) * (u1b / f1) ** 2, u2b)
+    values = {"m1": 2, "m2": 1, "d1": 0.3, "d2": 0.25, "l1": 0.6, "I1": 0.1, "I2": 0.05, "f1": 0.5, "f2": 0.4,
+              "u1b": 1.5, "u2b": 0.2}
+    assert motions_residual(p, sols[0], values) < 1e-9
