@@ -473,3 +473,33 @@ def test_horizontal_2r_spins_with_the_elbow_held_by_the_centrifugal_force():
     values = {"m1": 2, "m2": 1, "d1": 0.3, "d2": 0.25, "l1": 0.6, "I1": 0.1, "I2": 0.05, "f1": 0.5, "f2": 0.4,
               "u1b": 1.5, "u2b": 0.2}
     assert motions_residual(p, sols[0], values) < 1e-9
+
+
+def test_rest_with_input_and_deformations():
+    """Two masses, the first tied to a wall by k0, a force on the second: at rest both springs carry ū."""
+    text = """
+id: wall
+title: two masses tied to a wall
+symbols: {m1: m1, m2: m2, k0: k0, k1: k1, ubar: ubar}
+robot:
+  joints: [P, P]
+  links:
+    - {mass: m1, com: [q1, 0]}
+    - {mass: m2, com: [q2, 0]}
+  extra:
+    potential: ["1/2*k0*q1^2 + 1/2*k1*(q2 - q1)^2"]
+  input_map: [[0], [1]]
+asks:
+  - kind: equilibria
+    input: {u1: ubar}
+    deformations: [q1, q2 - q1]
+"""
+    p, sols, res = run(text)
+    (qe,) = res["equilibria"].value
+    ub, k0, k1 = S("ubar"), S("k0"), S("k1")
+    assert same(qe[0], ub / k0) and same(qe[1], ub / k0 + ub / k1)
+    (delta,) = res["deformations"].value
+    assert same(delta[0], ub / k0) and same(delta[1], ub / k1)
+    md = render(p, sols, "md")
+    assert "G\\bar u" in md and "deformations" in md
+    assert "\\[" in render(p, sols, "tex", fragment=True)
