@@ -193,13 +193,16 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
     forced = [a for a in angles if given_v.get(vel_sym(a, q, dq), 0) != 0]
     optional = [a for a in angles if a not in forced and vel_sym(a, q, dq) not in given_v]
     partial = len(optional) > max_rotating
-    subsets = [forced + list(extra) for k in range(0 if partial else len(optional) + 1)
-               for extra in combinations(optional, k)] if not partial else [forced]
+    if partial:   # too many angles to try every set: only the rotations the spec gives
+        subsets = [forced]
+    else:
+        subsets = [forced + list(extra) for k in range(len(optional) + 1) for extra in combinations(optional, k)]
     cs = {a: (sp.Symbol(f"c_{a.name}", real=True), sp.Symbol(f"s_{a.name}", real=True)) for a in angles}
     motions: list[SteadyMotion] = []
     conditions: list[sp.Expr] = []
     for rotating in subsets:
-        stay = {vel_sym(a, q, dq): sp.Integer(0) for a in angles if a not in rotating and vel_sym(a, q, dq) not in given_v}
+        stay = {vel_sym(a, q, dq): sp.Integer(0) for a in angles
+                if a not in rotating and vel_sym(a, q, dq) not in given_v}
         others = [x for x in q if x not in angles]
         moving = {x: vel[x].xreplace(stay) for x in others}
         eqs: list[sp.Expr] = []
