@@ -503,3 +503,13 @@ asks:
     md = render(p, sols, "md")
     assert "G\\bar u" in md and "deformations" in md
     assert "\\[" in render(p, sols, "tex", fragment=True)
+
+
+def test_set_of_speeds_compares_without_error():
+    """Set entries that are not angles (speeds, deformations) compare as unequal when they differ (the modulo-2π
+    fallback used to raise on them)."""
+    from solver.math.equivalence import set_equiv
+    ub, d = S("ubar"), S("d")
+    assert set_equiv([sp.Matrix([ub / (3 * d)])], [sp.Matrix([ub / d / 3])]).ok
+    v = set_equiv([sp.Matrix([ub / (3 * d)])], [sp.Matrix([ub / (2 * d)])])
+    assert not v.ok and "not found" in v.detail
