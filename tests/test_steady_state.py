@@ -4,6 +4,9 @@ masses with different frictions (no exercise uses them) against the closed form 
 rest: the velocities converge to v̄ and the deformations to the computed ones), a bead on a spinning rod (a steady
 rotation with the centrifugal force on a spring), a pendulum whose gravity torque changes along the motion (no steady
 velocity, said in the report), equilibria under a constant or unknown input, spec errors."""
+import shutil
+import subprocess
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -513,3 +516,14 @@ def test_set_of_speeds_compares_without_error():
     assert set_equiv([sp.Matrix([ub / (3 * d)])], [sp.Matrix([ub / d / 3])]).ok
     v = set_equiv([sp.Matrix([ub / (3 * d)])], [sp.Matrix([ub / (2 * d)])])
     assert not v.ok and "not found" in v.detail
+
+
+@pytest.mark.skipif(not shutil.which("pdflatex"), reason="pdflatex not installed")
+@pytest.mark.parametrize("text", [PENDULUM.format(u=20), H2R, SYM_PENDULUM + "  - kind: equilibria\n    solve_for: [u1]\n"],
+                         ids=["no steady motion", "spinning 2R", "input solved for"])
+def test_latex_report_compiles(tmp_path, text):
+    p, sols, _ = run(text)
+    (tmp_path / "r.tex").write_text(render(p, sols, "tex"))
+    r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "r.tex"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=180)
+    assert r.returncode == 0, r.stdout[-2000:]
