@@ -249,7 +249,10 @@ def _angle_equal(a: sp.Expr, b: sp.Expr) -> bool:
     if a.is_number and b.is_number:
         k = float(sp.N(a - b)) / (2 * float(sp.pi))
         return abs(k - round(k)) < 1e-9
-    return scalar_equiv(sp.cos(a), sp.cos(b)).ok and scalar_equiv(sp.sin(a), sp.sin(b)).ok
+    try:
+        return scalar_equiv(sp.cos(a), sp.cos(b)).ok and scalar_equiv(sp.sin(a), sp.sin(b)).ok
+    except sp.PolynomialError:  # not an angle (e.g. a speed u/(3 d) in a set of steady velocities): unequal
+        return False
 
 
 def set_equiv(got: list[sp.Matrix], want: list[sp.Matrix], angles: list[int] | None = None) -> Verdict:

@@ -1,0 +1,529 @@
+"""Steady states under a constant input (the `equilibria` ask with `input:`, `steady: velocity`, `velocity:`,
+`solve_for:`, `deformations:`): the three masses of 2016-10-28-ex2 against the printed values, chains of 2 and 4
+masses with different frictions (no exercise uses them) against the closed form and by simulation (solve_ivp from
+rest: the velocities converge to v̄ and the deformations to the computed ones), a bead on a spinning rod (a steady
+rotation with the centrifugal force on a spring), a pendulum whose gravity torque changes along the motion (no steady
+velocity, said in the report), equilibria under a constant or unknown input, spec errors."""
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+import sympy as sp
+from conftest import PROBLEMS
+from scipy.integrate import solve_ivp
+
+from solver.dynamics.model import derive
+from solver.grading.grader import ItemSpec, grade, prepare
+from solver.grading.submission import Submission
+from solver.math.equivalence import CORRECT, INCORRECT
+from solver.publish.render import render
+from solver.solve import all_results, solve_problem
+from solver.spec import load_problem, load_problem_text
+from solver.spec.errors import UserError
+
+
+def run(text):
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    return p, sols, all_results(sols)
+
+
+def S(name):
+    return sp.Symbol(name, positive=True)
+
+
+def plain(e):
+    """The expression with every symbol replaced by the plain one of its name (assumptions aside)."""
+    e = sp.sympify(e)
+    return e.xreplace({x: sp.Symbol(x.name) for x in e.free_symbols})
+
+
+def same(a, b) -> bool:
+    return sp.simplify(plain(a) - plain(b)) == 0
+
+
+def chain(n: int, forces: dict[int, str], ask: str, values: dict | None = None) -> str:
+    """n masses on a line (q_i), springs k_i between i and i+1, viscous friction d_i on each, forces f on masses."""
+    syms = {f"m{i}": f"m{i}" for i in range(1, n + 1)} | {f"d{i}": f"d{i}" for i in range(1, n + 1)}
+    syms |= {f"k{i}": f"k{i}" for i in range(1, n)} | {"ubar": "ubar", "wbar": "wbar"}
+    links = "\n".join(f"    - {{mass: m{i}, com: [q{i}, 0]}}" for i in range(1, n + 1))
+    pot = ", ".join(f'"1/2*k{i}*(q{i} - q{i + 1})^2"' for i in range(1, n))
+    cols = sorted(forces)
+    G = "[" + ", ".join("[" + ", ".join("1" if i == c else "0" for c in cols) + "]" for i in range(1, n + 1)) + "]"
+    vals = f"values: {values}\n" if values else ""
+    return f"""
+id: chain{n}
+title: {n} masses in a chain
+symbols: {{{", ".join(f"{k}: {v}" for k, v in syms.items())}}}
+{vals}robot:
+  joints: [{", ".join(["P"] * n)}]
+  links:
+{links}
+  extra:
+    potential: [{pot}]
+  friction:
+    viscous: [{", ".join(f"d{i}" for i in range(1, n + 1))}]
+  input_map: {G}
+  inputs: [{", ".join(f"f{c}" for c in cols)}]
+asks:
+{ask}"""
+
+
+def chain_closed_form(n: int, forces: dict[int, sp.Expr]) -> tuple[sp.Expr, list[sp.Expr]]:
+    """v̄ = Σ f_i / Σ d_i (the equations summed) and δ_j = q_j − q_{j+1} = Σ_{i≤j} (f_i − d_i v̄) / k_j (the balance of
+    masses 1..j)."""
+    d = [S(f"d{i}") for i in range(1, n + 1)]
+    f = [forces.get(i, 0) for i in range(1, n + 1)]
+    v = sum(f) / sum(d)
+    return v, [sum(f[i] - d[i] * v for i in range(j)) / S(f"k{j}") for j in range(1, n)]
+
+
+STEADY = """  - kind: equilibria
+    steady: velocity
+    input: {{{inputs}}}
+    deformations: [{defs}]
+"""
+
+
+def steady_ask(n: int, inputs: str) -> str:
+    return STEADY.format(inputs=inputs, defs=", ".join(f"q{i} - q{i + 1}" for i in range(1, n)))
+
+
+# --- the exercise ---------------------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def three_masses():
+    p = load_problem(PROBLEMS / "2016-10-28-ex2.yaml")
+    sols = solve_problem(p)
+    return p, sols, all_results(sols)
+
+
+def test_three_masses_printed_speed_and_deformations(three_masses):
+    """Line 2857: q̇1 = q̇2 = q̇3 = ū/(3d); line 2859: δ12 = 2ū/(3k1), δ23 = ū/(3k2)."""
+    _, _, res = three_masses
+    ubar, d, k1, k2 = S("ubar"), S("d"), S("k1"), S("k2")
+    (v,) = res["steady_velocity"].value
+    assert all(same(x, ubar / (3 * d)) for x in v)
+    (delta,) = res["deformations"].value
+    assert same(delta[0], 2 * ubar / (3 * k1)) and same(delta[1], ubar / (3 * k2))
+    assert res["n_steady"].value == 1
+    (qs,) = res["steady_state"].value
+    q3 = sp.Symbol("q3", real=True)
+    assert plain(qs[2]) == plain(q3) and same(qs[0] - qs[1], 2 * ubar / (3 * k1))   # one position arbitrary: along the motion
+
+
+def test_three_masses_motion_satisfies_the_model(three_masses):
+    """Along q = q̄ + v̄ t (q̈ = 0) the model's left-hand side equals G ū at every t."""
+    p, _, res = three_masses
+    robot = p.robot
+    dm = derive(robot)
+    (qs,), (v,) = res["steady_state"].value, res["steady_velocity"].value
+    t = sp.Symbol("t")
+    on = {x: qs[i] + v[i] * t for i, x in enumerate(robot.q)} | {d: v[i] for i, d in enumerate(robot.dq)}
+    on |= {a: 0 for a in robot.ddq}
+    resid = (dm.lhs.xreplace(on) - dm.G * sp.Matrix([p.names["ubar"]])).applyfunc(sp.simplify)
+    assert resid == sp.zeros(3, 1)
+
+
+def test_three_masses_report_explains_the_sum(three_masses):
+    p, sols, _ = three_masses
+    md = render(p, sols, "md")
+    assert "**Steady motions with constant velocity.**" in md
+    assert "K\\bar v = 0" in md and "w^T F_v \\dot q" in md
+    assert "\\frac{\\bar u}{3 d}" in md and "\\frac{2 \\bar u}{3 k_{1}}" in md
+    tex = render(p, sols, "tex", fragment=True)
+    assert "\\textbf{Steady motions with constant velocity.}" in tex and "w^T F_v \\dot q" in tex
+    assert "$$" not in tex and "**" not in tex
+
+
+# --- chains no exercise uses ----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n,forces", [(2, {1: "ubar"}), (4, {1: "ubar"}), (4, {1: "ubar", 3: "wbar"})],
+                         ids=["2 masses", "4 masses", "4 masses, two forces"])
+def test_chain_matches_closed_form(n, forces):
+    text = chain(n, forces, steady_ask(n, ", ".join(f"f{i}: {v}" for i, v in forces.items())))
+    _, _, res = run(text)
+    v_ref, delta_ref = chain_closed_form(n, {i: S(v) for i, v in forces.items()})
+    (v,) = res["steady_velocity"].value
+    assert all(same(x, v_ref) for x in v)
+    (delta,) = res["deformations"].value
+    assert len(delta) == n - 1 and all(same(a, b) for a, b in zip(delta, delta_ref))
+    assert res["n_steady"].value == 1
+
+
+def test_chain_at_rest_with_no_force_gives_the_equilibria():
+    """ū = 0: the steady motions are the equilibria (v̄ = 0, every spring at rest length)."""
+    _, _, res = run(chain(3, {1: "ubar"}, steady_ask(3, "f1: 0")))
+    (v,) = res["steady_velocity"].value
+    assert list(v) == [0, 0, 0]
+    (delta,) = res["deformations"].value
+    assert list(delta) == [0, 0]
+
+
+def test_chain_without_friction_has_no_steady_velocity():
+    """F_v = 0: summing the equations gives 0 = ū (the chain keeps accelerating): no steady motion."""
+    text = chain(2, {1: "ubar"}, steady_ask(2, "f1: ubar")).replace("viscous: [d1, d2]", "viscous: [0, 0]")
+    p, sols, res = run(text)
+    assert res["n_steady"].value == 0 and res["steady_velocity"].value == []
+    assert "**No steady motion with constant velocity** exists under this input" in render(p, sols, "md")
+
+
+def simulate_chain(p, ubar: dict[str, float], T: float) -> np.ndarray:
+    """B q̈ = G ū − c − g − F_v q̇ from rest (q = 0, q̇ = 0), integrated with solve_ivp; the final state."""
+    robot = p.robot
+    dm = derive(robot)
+    num = dict(p.values) | {w: ubar[w.name] for w in robot.inputs}
+    n = robot.n
+    Bf = sp.lambdify([robot.q], dm.B.xreplace(num))
+    rhs = (dm.G * sp.Matrix(robot.inputs) - dm.c - dm.g - dm.Fv * sp.Matrix(robot.dq)).xreplace(num)
+    ff = sp.lambdify([robot.q, robot.dq], rhs)
+
+    def f(_t, x):
+        q, dq = x[:n], x[n:]
+        return np.concatenate([dq, np.linalg.solve(np.array(Bf(q), float), np.array(ff(q, dq), float).ravel())])
+
+    out = solve_ivp(f, (0, T), np.zeros(2 * n), rtol=1e-10, atol=1e-12, method="LSODA")
+    assert out.success
+    return out.y[:, -1]
+
+
+def test_chain_simulation_converges_to_the_steady_state():
+    """4 masses, different frictions, a force on mass 1 and one on mass 3: from rest, the velocities reach v̄ and the
+    spring deformations the computed ones."""
+    values = {"m1": 1, "m2": 2, "m3": 1.5, "m4": 0.5, "d1": 0.5, "d2": 1.0, "d3": 0.8, "d4": 0.3,
+              "k1": 10, "k2": 20, "k3": 15, "ubar": 3, "wbar": -1}
+    text = chain(4, {1: "ubar", 3: "wbar"}, steady_ask(4, "f1: ubar, f3: wbar"),
+                 values="{" + ", ".join(f"{k}: {v}" for k, v in values.items()) + "}")
+    p, _, res = run(text)
+    num = dict(p.values)
+    (v,) = res["steady_velocity"].value
+    (delta,) = res["deformations"].value
+    v = np.array([float(x.xreplace(num)) for x in v])
+    delta = np.array([float(x.xreplace(num)) for x in delta])
+    assert abs(v[0] - 2 / 2.6) < 1e-12   # Σ f / Σ d
+    x = simulate_chain(p, {"f1": 3, "f3": -1}, T=80)
+    q, dq = x[:4], x[4:]
+    assert np.allclose(dq, v, atol=1e-6)
+    assert np.allclose(q[:-1] - q[1:], delta, atol=1e-6)
+
+
+# --- rotations and gravity ------------------------------------------------------------------------------------------
+
+BEAD = """
+id: bead
+title: a bead on a spinning rod, held by a spring
+symbols: {m: m, k: k, r0: r0, I0: I0, fv: fv, Omega: Omega, taubar: taubar}
+robot:
+  joints: [R, P]
+  coordinates: [theta, r]
+  friction: {viscous: [fv, 0]}
+  inputs: [tau]
+  input_map: [[1], [0]]
+  links:
+    - {name: shaft, mass: 0, com: [0, 0, 0], omega: [0, 0, dtheta], inertia: [0, 0, I0]}
+    - {name: bead, mass: m, com: [r*cos(theta), r*sin(theta), 0]}
+  extra:
+    potential: ["1/2*k*(r - r0)^2"]
+asks:
+"""
+
+
+def test_bead_steady_rotation_at_a_given_speed():
+    """θ̇ = Ω given, τ unknown: τ = f_v Ω, and the spring balances the centrifugal force: k (r − r0) = m r Ω²."""
+    _, _, res = run(BEAD + """  - kind: equilibria
+    steady: velocity
+    velocity: {theta: Omega}
+    solve_for: [tau]
+""")
+    m, k, r0, fv, Om = S("m"), S("k"), S("r0"), S("fv"), S("Omega")
+    (u,) = res["steady_input"].value
+    assert same(u[0], fv * Om)
+    (qs,) = res["steady_state"].value
+    assert plain(qs[0]) == sp.Symbol("theta") and same(qs[1], k * r0 / (k - m * Om ** 2))
+    (v,) = res["steady_velocity"].value
+    assert same(v[0], Om) and v[1] == 0
+
+
+def test_bead_steady_speed_under_a_constant_torque_and_simulation():
+    """τ = τ̄ given: Ω = τ̄ / f_v; simulated from rest the shaft reaches that speed and the bead that radius."""
+    p, _, res = run(BEAD.replace("symbols:", "values: {m: 0.5, k: 20, r0: 0.3, I0: 0.2, fv: 0.4, taubar: 1.2}\n"
+                                 "symbols:") + """  - kind: equilibria
+    steady: velocity
+    input: {tau: taubar}
+""")
+    m, k, r0, fv, tb = S("m"), S("k"), S("r0"), S("fv"), S("taubar")
+    (v,) = res["steady_velocity"].value
+    Om = tb / fv
+    assert same(v[0], Om) and v[1] == 0
+    (qs,) = res["steady_state"].value
+    assert same(qs[1], k * r0 / (k - m * Om ** 2))
+    robot = p.robot
+    dm = derive(robot)
+    num = dict(p.values)
+    Bf = sp.lambdify([robot.q], dm.B.xreplace(num))
+    ff = sp.lambdify([robot.q, robot.dq], (dm.G * sp.Matrix([p.names["taubar"]]) - dm.c - dm.g
+                                           - dm.Fv * sp.Matrix(robot.dq)).xreplace(num))
+
+    def f(_t, x):
+        return np.concatenate([x[2:], np.linalg.solve(np.array(Bf(x[:2]), float),
+                                                      np.array(ff(x[:2], x[2:]), float).ravel())])
+
+    # the radial motion has no damping of its own: it is damped through the shaft; start at the rest length
+    out = solve_ivp(f, (0, 400), [0, 0.3, 0, 0], rtol=1e-10, atol=1e-12, method="LSODA")
+    assert out.success
+    Om_num, r_num = float(Om.xreplace(num)), float(qs[1].xreplace(num))
+    assert abs(out.y[2, -1] - Om_num) < 1e-3 * Om_num
+    assert abs(out.y[1, -1] - r_num) < 2e-3 * r_num
+
+
+PENDULUM = """
+id: pend
+title: a pendulum with friction under a constant torque
+symbols: {{d: d}}
+robot:
+  joints: [R]
+  gravity: [0, -9.81, 0]
+  friction: {{viscous: [d]}}
+  links:
+    - {{mass: 1, com: [cos(q1), sin(q1), 0]}}
+asks:
+  - kind: equilibria
+    steady: velocity
+    input: {{u1: {u}}}
+"""
+
+
+def test_gravity_along_the_motion_no_steady_velocity():
+    """ū = 20 > m g0 l = 9.81: gravity's torque changes along any rotation and cannot be balanced at rest: no motion
+    with constant velocity. The report says so; the simulated velocity keeps oscillating."""
+    p, sols, res = run(PENDULUM.format(u=20))
+    assert res["n_steady"].value == 0 and res["steady_state"].value == [] and res["steady_velocity"].value == []
+    md = render(p, sols, "md")
+    assert "**No steady motion with constant velocity** exists under this input" in md
+    assert "\\textbf{No steady motion with constant velocity}" in render(p, sols, "tex", fragment=True)
+    d = 5.0   # the mean speed about ū/d = 4 rad/s, the gravity torque swings it by about ±m g0 l/d
+    out = solve_ivp(lambda t, x: [x[1], 20 - d * x[1] - 9.81 * np.cos(x[0])], (0, 200), [0, 0], rtol=1e-9,
+                    atol=1e-11, max_step=0.05)
+    late = out.y[1, out.t > 150]
+    assert late.min() > 0 and late.max() - late.min() > 1.0   # the speed never settles
+
+
+def test_gravity_balanced_steady_states_are_the_equilibria():
+    """ū = 5 < 9.81: the only steady motions are at rest, cos q̄ = ū / (m g0 l)."""
+    _, _, res = run(PENDULUM.format(u=5))
+    assert res["n_steady"].value == 2
+    assert [list(v) for v in res["steady_velocity"].value] == [[0]]
+    cs = sorted(float(sp.cos(s[0])) for s in res["steady_state"].value)
+    assert np.allclose(cs, [5 / 9.81, 5 / 9.81])
+    ss = sorted(float(sp.sin(s[0])) for s in res["steady_state"].value)
+    assert np.allclose(ss, [-np.sqrt(1 - (5 / 9.81) ** 2), np.sqrt(1 - (5 / 9.81) ** 2)])
+
+
+def test_vertical_mass_constant_gravity_has_a_terminal_speed():
+    """Gravity constant along the motion (a prismatic joint along it) does not prevent a steady velocity: the
+    terminal speed (ū − m g0) / d."""
+    text = """
+id: fall
+title: a mass on a vertical prismatic joint
+symbols: {m: m, d: d, g0: g0, ubar: ubar}
+robot:
+  joints: [P]
+  gravity: [0, -g0, 0]
+  friction: {viscous: [d]}
+  links:
+    - {mass: m, com: [0, q1, 0]}
+asks:
+  - kind: equilibria
+    steady: velocity
+    input: {u1: ubar}
+"""
+    _, _, res = run(text)
+    (v,) = res["steady_velocity"].value
+    assert same(v[0], (S("ubar") - S("m") * S("g0")) / S("d"))
+
+
+# --- equilibria under a constant input ------------------------------------------------------------------------------
+
+SYM_PENDULUM = """
+id: spend
+title: a pendulum held by a constant torque
+symbols: {m: m, l: l, g0: g0, ubar: ubar}
+robot:
+  joints: [R]
+  gravity: [0, -g0, 0]
+  links:
+    - {mass: m, com: [l*cos(q1), l*sin(q1), 0]}
+asks:
+"""
+
+
+def test_equilibria_under_a_constant_input():
+    """steady: rest (the default) with input: g(q) = G ū; the two solutions of m g0 l cos q = ū."""
+    p, sols, res = run(SYM_PENDULUM + "  - kind: equilibria\n    input: {u1: ubar}\n")
+    eqs = res["equilibria"].value
+    assert len(eqs) == 2 and res["n_equilibria"].value == 2
+    m, l, g0, ub = S("m"), S("l"), S("g0"), S("ubar")
+    for e in eqs:
+        assert same(m * g0 * l * sp.cos(e[0]), ub)
+    assert "G\\bar u" in render(p, sols, "md")
+
+
+def test_equilibrium_input_solved_for():
+    """solve_for: [u1] at rest: every q is an equilibrium with u = m g0 l cos q."""
+    _, _, res = run(SYM_PENDULUM + "  - kind: equilibria\n    solve_for: [u1]\n")
+    q1 = sp.Symbol("q1", real=True)
+    assert [[plain(x) for x in e] for e in res["equilibria"].value] == [[sp.Symbol("q1")]]
+    (u,) = res["equilibrium_input"].value
+    assert same(u[0], S("m") * S("g0") * S("l") * sp.cos(q1))
+
+
+def test_default_equilibria_unchanged():
+    """Without the new options the ask is the unforced equilibria g(q) = 0."""
+    _, _, res = run(SYM_PENDULUM + "  - kind: equilibria\n")
+    assert sorted(float(e[0]) for e in res["equilibria"].value) == pytest.approx([-np.pi / 2, np.pi / 2])
+
+
+@pytest.mark.parametrize("ask,msg", [
+    ("    input: {w: 1}\n", "input: w is not an input"),
+    ("    solve_for: [w]\n", "solve_for: w is not an input"),
+    ("    input: {u1: 1}\n    solve_for: [u1]\n", "also given in input"),
+    ("    velocity: {q1: 1}\n", "velocity: needs steady: velocity"),
+    ("    steady: velocity\n    velocity: {x: 1}\n", "velocity: x is not a coordinate"),
+])
+def test_spec_errors(ask, msg):
+    with pytest.raises(UserError, match=msg):
+        run(SYM_PENDULUM + "  - kind: equilibria\n" + ask)
+
+
+def test_grading_steady_state_answers():
+    """The steady results are graded as sets: a student's vector (one steady motion) in any written form is
+    accepted, a wrong speed is not."""
+    r = prepare(load_problem(PROBLEMS / "2016-10-28-ex2.yaml"))
+    r.items = {"steady_velocity": ItemSpec(points=2), "deformations": ItemSpec(points=2)}
+
+    def graded(answers):
+        return {i.name: i for i in grade(r, Submission("t", "t.yaml", answers, {})).items}
+
+    it = graded({"steady_velocity": "[ubar/(3*d), ubar/(d + 2*d), ubar/3/d]",
+                 "deformations": "[[(ubar - d*ubar/(3*d))/k1, ubar/(3*k2)]]"})
+    assert it["steady_velocity"].verdict == CORRECT and it["deformations"].verdict == CORRECT
+    it = graded({"steady_velocity": "[ubar/d, ubar/d, ubar/d]", "deformations": "[ubar/k1, ubar/k2]"})
+    assert it["steady_velocity"].verdict == INCORRECT and it["deformations"].verdict == INCORRECT
+
+
+def motions_residual(p, sol, values: dict[str, float], times=(0.0, 0.7, 2.3)) -> float:
+    """max |B q̈ + c + g + F_v q̇ − G ū| over the reported motions (q̄ + v̄ t, v̄, ū) at a few times, numerically."""
+    robot = p.robot
+    dm = derive(robot)
+    num = {p.names[k]: v for k, v in values.items()}
+    worst = 0.0
+    for m in sol.steps[-1].data["motions"]:
+        free = {x: 0.3 for x in m["q"].free_symbols | m["v"].free_symbols if x in robot.q}
+        for t in times:
+            on = {x: (m["q"][i] + m["v"][i] * t).xreplace(free) for i, x in enumerate(robot.q)}
+            on |= {d: m["v"][i].xreplace(free) for i, d in enumerate(robot.dq)} | {a: 0 for a in robot.ddq}
+            r = dm.lhs.xreplace(on) - dm.G * m["u"].xreplace(free) if dm.G is not None else dm.lhs.xreplace(on) - m["u"]
+            worst = max(worst, max(abs(complex(sp.N(x.xreplace(num)))) for x in r))
+    return worst
+
+
+@pytest.mark.parametrize("name,ask,values", [
+    ("2018-01-11-ex2", 2, {"Is": 0.1, "m": 1, "L": 0.5, "fv": 0.2, "g0": 9.81, "Omega": 10}),
+    ("2021-01-12-ex4a", 1, {"m1": 1, "m2": 2, "dc2": 0.4, "I1yy": 0.1, "I2xx": 0.05, "I2yy": 0.2, "I2zz": 0.2,
+                            "f1": 0.3, "f2": 0.2, "g0": 9.81, "Omega": 8}),
+    # I2xx > I2yy + m2 dc2^2 (not a rigid body, but the algebra must hold for either sign of the denominator)
+    ("2021-01-12-ex4a", 1, {"m1": 1, "m2": 2, "dc2": 0.4, "I1yy": 0.1, "I2xx": 0.9, "I2yy": 0.2, "I2zz": 0.2,
+                            "f1": 0.3, "f2": 0.2, "g0": 9.81, "Omega": 8}),
+], ids=["governor", "polar 2R", "polar 2R, a2 < 0"])
+def test_every_reported_motion_satisfies_the_model(name, ask, values):
+    """Each reported (q̄, v̄, ū) makes the model hold along q̄ + v̄ t (the angle names asin/acos pair with their
+    inputs)."""
+    p = load_problem(PROBLEMS / f"{name}.yaml")
+    sols = solve_problem(p)
+    assert motions_residual(p, sols[ask], values) < 1e-9
+
+
+H2R = """
+id: h2r
+title: a planar 2R in a horizontal plane under constant torques
+symbols: {m1: m1, m2: m2, d1: d1, d2: d2, l1: l1, I1: I1, I2: I2, f1: f1, f2: f2, u1b: u1b, u2b: u2b}
+robot:
+  joints: [R, R]
+  friction: {viscous: [f1, f2]}
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [l1*cos(q1) + d2*cos(q1 + q2), l1*sin(q1) + d2*sin(q1 + q2)], angle: q1 + q2, inertia: I2}
+asks:
+  - kind: equilibria
+    steady: velocity
+    input: {u1: u1b, u2: u2b}
+"""
+
+
+def test_horizontal_2r_spins_with_the_elbow_held_by_the_centrifugal_force():
+    """No gravity: joint 1 spins at ū1/f1 (q1 is cyclic), the elbow stays where the centrifugal torque
+    m2 l1 d2 sin q2 q̇1² balances ū2 (two angles, q2 and π − q2); q2 cannot rotate (its Coriolis terms would
+    change along the motion)."""
+    p, sols, res = run(H2R)
+    (v,) = res["steady_velocity"].value
+    f1, u1b, u2b, m2, l1, d2 = (S(x) for x in ("f1", "u1b", "u2b", "m2", "l1", "d2"))
+    assert same(v[0], u1b / f1) and v[1] == 0
+    states = res["steady_state"].value
+    assert len(states) == 2
+    for st in states:
+        assert same(m2 * l1 * d2 * sp.sin(st[1]) * (u1b / f1) ** 2, u2b)
+    values = {"m1": 2, "m2": 1, "d1": 0.3, "d2": 0.25, "l1": 0.6, "I1": 0.1, "I2": 0.05, "f1": 0.5, "f2": 0.4,
+              "u1b": 1.5, "u2b": 0.2}
+    assert motions_residual(p, sols[0], values) < 1e-9
+
+
+def test_rest_with_input_and_deformations():
+    """Two masses, the first tied to a wall by k0, a force on the second: at rest both springs carry ū."""
+    text = """
+id: wall
+title: two masses tied to a wall
+symbols: {m1: m1, m2: m2, k0: k0, k1: k1, ubar: ubar}
+robot:
+  joints: [P, P]
+  links:
+    - {mass: m1, com: [q1, 0]}
+    - {mass: m2, com: [q2, 0]}
+  extra:
+    potential: ["1/2*k0*q1^2 + 1/2*k1*(q2 - q1)^2"]
+  input_map: [[0], [1]]
+asks:
+  - kind: equilibria
+    input: {u1: ubar}
+    deformations: [q1, q2 - q1]
+"""
+    p, sols, res = run(text)
+    (qe,) = res["equilibria"].value
+    ub, k0, k1 = S("ubar"), S("k0"), S("k1")
+    assert same(qe[0], ub / k0) and same(qe[1], ub / k0 + ub / k1)
+    (delta,) = res["deformations"].value
+    assert same(delta[0], ub / k0) and same(delta[1], ub / k1)
+    md = render(p, sols, "md")
+    assert "G\\bar u" in md and "deformations" in md
+    assert "\\[" in render(p, sols, "tex", fragment=True)
+
+
+def test_set_of_speeds_compares_without_error():
+    """Set entries that are not angles (speeds, deformations) compare as unequal when they differ (the modulo-2π
+    fallback used to raise on them)."""
+    from solver.math.equivalence import set_equiv
+    ub, d = S("ubar"), S("d")
+    assert set_equiv([sp.Matrix([ub / (3 * d)])], [sp.Matrix([ub / d / 3])]).ok
+    v = set_equiv([sp.Matrix([ub / (3 * d)])], [sp.Matrix([ub / (2 * d)])])
+    assert not v.ok and "not found" in v.detail
+
+
+@pytest.mark.skipif(not shutil.which("pdflatex"), reason="pdflatex not installed")
+@pytest.mark.parametrize("text", [PENDULUM.format(u=20), H2R, SYM_PENDULUM + "  - kind: equilibria\n    solve_for: [u1]\n"],
+                         ids=["no steady motion", "spinning 2R", "input solved for"])
+def test_latex_report_compiles(tmp_path, text):
+    p, sols, _ = run(text)
+    (tmp_path / "r.tex").write_text(render(p, sols, "tex"))
+    r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "r.tex"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=180)
+    assert r.returncode == 0, r.stdout[-2000:]
