@@ -549,6 +549,8 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
         sol.add("p_U", sp.Integer(pU), "scalar", label="p_U")
         sol.add("B_U", unknown.B_U, "matrix", label="B_U(q)")
         sol.add("S_U", unknown.S_U, "matrix", label="S_U(q,\\dot q)")
+        if unknown.skew_U is not None:
+            sol.add("skew_U", bool(unknown.skew_U), "bool", label="\\dot B_U - 2S_U \\text{ skew-symmetric}")
     sol.add("dqr", dqr_def, "vector", label="\\dot q_r")
     sol.add("ddqr", ddqr_def, "vector", label="\\ddot q_r")
     sol.add("s", s, "vector", label="s = \\dot q_r - \\dot q")
