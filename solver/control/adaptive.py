@@ -110,14 +110,14 @@ def lyapunov_derivative_check(V: sp.Expr, V_dot: sp.Expr, robot, B: sp.Matrix, s
     return _zero(dV - V_dot)
 
 
-def compact_forms(n: int, idx: list[int], Gam: sp.Matrix, KD: sp.Matrix, Lam: sp.Matrix, Fv: sp.Matrix | None,
+def compact_forms(n: int, idx: list[str], Gam: sp.Matrix, KD: sp.Matrix, Lam: sp.Matrix, Fv: sp.Matrix | None,
                   with_e: bool) -> tuple[sp.Expr, sp.Expr]:
     """V without its ½ sᵀBs term and V̇, in display symbols s_i, e_i, ė_i, ã_j (j in ``idx``: the indices of the
     estimated coefficients), for the report."""
     s = sp.Matrix([sp.Symbol(f"s_{i + 1}") for i in range(n)])
     e = sp.Matrix([sp.Symbol(f"e_{i + 1}") for i in range(n)])
     de = sp.Matrix([sp.Symbol(f"\\dot e_{i + 1}") for i in range(n)])
-    at = sp.Matrix([sp.Symbol(f"\\tilde a_{j}") for j in idx])
+    at = sp.Matrix([sp.Symbol(f"\\tilde a_{{{j}}}") for j in idx])
     V = (at.T * Gam.inv() * at)[0] / 2 if idx else sp.Integer(0)
     if with_e:
         V += (e.T * KD * Lam * e)[0]

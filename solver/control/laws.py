@@ -480,8 +480,10 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
     dqr = [_symbol(problem, "d" + _qname(s.name, "r"), "\\dot " + _sub_tex(tex_of(s), "r")) for s in robot.q]
     ddqr = [_symbol(problem, "dd" + _qname(s.name, "r"), "\\ddot " + _sub_tex(tex_of(s), "r")) for s in robot.q]
     unk = [j for j in range(par.p) if j not in set(known_idx)]
-    # estimates: numbered as the coefficients of the parametrization (a partly adaptive law keeps the index of a_j)
-    ahat = [_symbol(problem, f"ahat{j + 1}", f"\\hat a_{{{j + 1}}}") for j in unk]
+    # estimates: numbered as the coefficients of the parametrization (a partly adaptive law keeps the index of a_j);
+    # those of a part's parametrization carry its suffix (a_g -> ahatg1, ahatg2)
+    tag = (options.parametrization or "").strip("_") if part != "model" else ""
+    ahat = [_symbol(problem, f"ahat{tag}{j + 1}", f"\\hat a_{{{tag + ',' if tag else ''}{j + 1}}}") for j in unk]
     e, de = qd - q, dqd - dq
     dqr_def = (dqd + Lam * e).applyfunc(sp.expand)
     ddqr_def = (ddqd + Lam * de).applyfunc(sp.expand)
@@ -525,7 +527,8 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
         rates |= {x: v for x, v in zip(dqd, ddqd) if isinstance(x, sp.Symbol)}
     forces = G * u_state - (dm.c + dm.g + fr(dq))
     v_ok = ad.lyapunov_derivative_check(V, V_dot, robot, dm.B, s, forces, rates)
-    V_compact, V_dot_compact = ad.compact_forms(n, [j + 1 for j in unk], Gam, KD, Lam, dm.Fv, with_e)
+    idx = [f"{tag + ',' if tag else ''}{j + 1}" for j in unk]
+    V_compact, V_dot_compact = ad.compact_forms(n, idx, Gam, KD, Lam, dm.Fv, with_e)
     record_law(problem, options.suffix, list(q), [[a_, b, c] for a_, b, c in zip(qd, dqd, ddqd)],
                list(qd) if options.qd is not None else None, subs=defs, ahat=ahat, adot=adot.xreplace(defs),
                true_a=list(aU))
@@ -575,7 +578,7 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
                  skew_U=unknown.skew_U, ok=yr_ok, friction=dm.Fv is not None, p=par.p)
     sol.step("law", law="adaptive", KD=KD, u=u, ahat=ahat_v, Ginv=Ginv, friction=dm.Fv is not None,
              partial=partial, model_part=part == "model", kind=kind)
-    sol.step("update", Gam=Gam, adot=adot, p=pU, partial=partial, ahat=ahat_v, idx=[j + 1 for j in unk])
+    sol.step("update", Gam=Gam, adot=adot, p=pU, partial=partial, ahat=ahat_v, idx=idx)
     sol.step("closed_loop", law="adaptive", closed=closed, ok=ok, friction=dm.Fv is not None, skew=dm.skew, n=n,
              partial=partial)
     sol.step("lyapunov", with_e=with_e, V_rest=V_compact, V_dot=V_dot_compact, ok=v_ok, skew=dm.skew,
