@@ -151,6 +151,14 @@ def _gains(problem, options: ControlLawAsk, ctx, key: str, n: int, pos: bool) ->
     return [sp.sympify(v) for v in vals]
 
 
+def _gain_symbol(problem, name: str, tex: str) -> sp.Symbol:  # type: ignore[no-untyped-def]
+    """A positive gain symbol registered in the problem's names."""
+    s = sp.Symbol(_fresh(problem, name), positive=True)
+    problem.names.setdefault(s.name, s)
+    problem.latex_names.setdefault(s, tex)
+    return s
+
+
 def _gamma(problem, options: ControlLawAsk, ctx, p: int) -> sp.Matrix:  # type: ignore[no-untyped-def]
     """Γ: diagonal (default symbols, one expression, a list of p) or a p×p symmetric matrix (positive definite
     when numeric)."""
@@ -471,7 +479,15 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
     lam = _gains(problem, options, ctx, "lam", n, True)
     kd = _gains(problem, options, ctx, "kd", n, True)
     pU = par.p - len(known_idx)
-    Gam = _gamma(problem, options, ctx, pU)
+    unk = [j for j in range(par.p) if j not in set(known_idx)]
+    # estimates: numbered as the coefficients of the parametrization (a partly adaptive law keeps the index of a_j);
+    # those of a part's parametrization carry its suffix (a_g -> ahatg1, ahatg2); default adaptation gains alike
+    tag = (options.parametrization or "").strip("_") if part != "model" else ""
+    if options.gamma is None and partial:
+        Gam = sp.diag(*[_gain_symbol(problem, f"gamma{tag}{j + 1}", f"\\gamma_{{{tag + ',' if tag else ''}{j + 1}}}")
+                        for j in unk])
+    else:
+        Gam = _gamma(problem, options, ctx, pU)
     Lam, KD = sp.diag(*lam), sp.diag(*kd)
 
     def tex_of(s: sp.Symbol) -> str:
@@ -479,10 +495,6 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
 
     dqr = [_symbol(problem, "d" + _qname(s.name, "r"), "\\dot " + _sub_tex(tex_of(s), "r")) for s in robot.q]
     ddqr = [_symbol(problem, "dd" + _qname(s.name, "r"), "\\ddot " + _sub_tex(tex_of(s), "r")) for s in robot.q]
-    unk = [j for j in range(par.p) if j not in set(known_idx)]
-    # estimates: numbered as the coefficients of the parametrization (a partly adaptive law keeps the index of a_j);
-    # those of a part's parametrization carry its suffix (a_g -> ahatg1, ahatg2)
-    tag = (options.parametrization or "").strip("_") if part != "model" else ""
     ahat = [_symbol(problem, f"ahat{tag}{j + 1}", f"\\hat a_{{{tag + ',' if tag else ''}{j + 1}}}") for j in unk]
     e, de = qd - q, dqd - dq
     dqr_def = (dqd + Lam * e).applyfunc(sp.expand)
