@@ -202,7 +202,9 @@ def test_gravity_and_inertia_parametrizations_as_the_estimated_part():
     suffix: _i
 """
     p, _, res = solved(head + "  - kind: control_law\n    law: adaptive\n    parametrization: _g\n    suffix: _G\n"
-                      "  - kind: control_law\n    law: adaptive\n    parametrization: _i\n    suffix: _I\n")
+                      "  - kind: control_law\n    law: adaptive\n    parametrization: _i\n    suffix: _I\n"
+                      "  - kind: control_law\n    law: adaptive\n    parametrization: _i\n"
+                      "    known_coefficients: [m1 + m2]\n    suffix: _IK\n")
     dm, n = derive(p.robot), p.robot.n
     dqr, ddqr = syms(p, "dqr", n), syms(p, "ddqr", n)
     g0, m2, d2 = (p.names[k] for k in ("g0", "m2", "d2"))
@@ -214,7 +216,12 @@ def test_gravity_and_inertia_parametrizations_as_the_estimated_part():
     YU, aU = res["Y_U_I"].value, res["a_adapt_I"].value
     assert all(zero(x) for x in YU * aU - (dm.B * ddqr + dm.S * dqr))
     assert all(zero(x) for x in res["tau_K_I"].value - dm.g)
-    for sfx in ("_G", "_I"):
+    # a part with known coefficients: only the others are estimated, the known ones join tau_K
+    m1, I2 = p.names["m1"], p.names["I2"]
+    assert list(res["a_adapt_IK"].value) == [m2 * d2, I2 + m2 * d2 ** 2]
+    YK = res["Y_U_I"].value[:, 0]
+    assert all(zero(x) for x in res["tau_K_IK"].value - (dm.g + YK * (m1 + m2)))
+    for sfx in ("_G", "_I", "_IK"):
         assert res["closed_loop_check" + sfx].value is True and res["V_check" + sfx].value is True
         assert res["Yr_check" + sfx].value is True
     assert "ahatg1" in p.names and "ahati3" in p.names

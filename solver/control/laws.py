@@ -513,7 +513,7 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
             yr_ok = yr_ok and all(_zero(x) for x in (YK * aK - tauK))
     else:   # the part's regressor reproduces its term of the model (the rest is the known tau_K)
         part_r = dm.g if part == "gravity" else dm.B * ddqr_v + dm.S * dqr_v
-        yr_ok = all(_zero(x) for x in (YU * aU - part_r))
+        yr_ok = all(_zero(x) for x in (Yr * par.a - part_r))
     unknown = ad.unknown_part(YU, aU, robot, ddqr) if partial else None
     s_r = dqr_v - dq                                   # s in the reference symbols
     tau = YU * ahat_v + (YK * aK if part == "model" else tauK) + KD * s_r
@@ -570,7 +570,9 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
     sol.add("ddqr", ddqr_def, "vector", label="\\ddot q_r")
     sol.add("s", s, "vector", label="s = \\dot q_r - \\dot q")
     sol.add("a_hat_dot", adot, "vector", label="\\dot{\\hat a}" + ("_U" if partial else ""))
-    sol.add("Yr_check", bool(yr_ok), "bool", label="Y_r a \\equiv B\\ddot q_r + S\\dot q_r + g")
+    sol.add("Yr_check", bool(yr_ok), "bool",
+            label="Y_r a \\equiv B\\ddot q_r + S\\dot q_r + g" if part == "model" else
+            "Y_U a_U \\equiv g(q)" if part == "gravity" else "Y_U a_U \\equiv B\\ddot q_r + S\\dot q_r")
     sol.add("closed_loop", closed, "vector", label="B(q)\\dot s + S(q,\\dot q)s + K_D s")
     sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")
     sol.add("V", V, "scalar", label="V")
