@@ -5,6 +5,8 @@
                        => B (ë + K_D ė + K_P e) = 0  => ë + K_D ė + K_P e = 0 (B is positive definite)
     pd_gravity:        G u = K_P e − K_D q̇ + g(q)   (constant q_d)
                        => B q̈ + c + (F_v +) K_D q̇ − K_P e = 0, with (q_d, 0) the unique equilibrium
+    adaptive:          G u = Y_r â + K_D s, â̇ = Γ Y_rᵀ s (Slotine-Li); partly adaptive G u = Y_K a_K + Y_U â_U + K_D s,
+                       â̇_U = Γ Y_Uᵀ s; the split and the Lyapunov function V with its checked V̇: control/adaptive.py
 
 Gains are diagonal, K_P = diag(kp1..kpn), K_D = diag(kd1..kdn), symbolic by default (``kp:``/``kd:`` give them);
 the desired trajectory is q_d = (qd1..), q̇_d = (dqd1..), q̈_d = (ddqd1..) (one per coordinate name: q1 -> qd1,
