@@ -5,6 +5,8 @@
                        => B (ë + K_D ė + K_P e) = 0  => ë + K_D ė + K_P e = 0 (B is positive definite)
     pd_gravity:        G u = K_P e − K_D q̇ + g(q)   (constant q_d)
                        => B q̈ + c + (F_v +) K_D q̇ − K_P e = 0, with (q_d, 0) the unique equilibrium
+    adaptive:          G u = Y_r â + K_D s, â̇ = Γ Y_rᵀ s (Slotine-Li); partly adaptive G u = Y_K a_K + Y_U â_U + K_D s,
+                       â̇_U = Γ Y_Uᵀ s; the split and the Lyapunov function V with its checked V̇: control/adaptive.py
 
 Gains are diagonal, K_P = diag(kp1..kpn), K_D = diag(kd1..kdn), symbolic by default (``kp:``/``kd:`` give them);
 the desired trajectory is q_d = (qd1..), q̇_d = (dqd1..), q̈_d = (ddqd1..) (one per coordinate name: q1 -> qd1,
@@ -84,6 +86,20 @@ class ControlLawAsk(Strict):
                                                                       "configuration {q1: .., q2: ..} (at rest)")
     at: Optional[dict[str, ExprT]] = Field(None, description="joint-space laws: values of names (q1, dq1, qd1, dqd1, "
                                                             "ddqd1, parameters) where u is evaluated (u_at)")
+    parametrization: Optional[str] = Field(
+        None, pattern=r"^[A-Za-z0-9_]*$",
+        description="adaptive: the suffix of the linear_parametrization ask whose Y and a the law uses (\"\" for "
+                    "the one without suffix); default the first one of the whole model (part: model). With a "
+                    "parametrization of a part of the model (part: gravity or inertia) only its coefficients are "
+                    "estimated and the rest of the model is compensated with its known value")
+    known_coefficients: Optional[ExprT] = Field(
+        None, description="adaptive: the coefficients of the parametrization (expressions, as written in its "
+                          "coefficients:) whose values are known: compensated exactly (Y_K a_K), not estimated; "
+                          "only the others are updated (a partly adaptive law)")
+    lyapunov: Optional[Literal["slotine_li", "with_e"]] = Field(
+        None, description="adaptive: the Lyapunov function; slotine_li (default): V = 1/2 s^T B s + 1/2 atilde^T "
+                          "Gamma^-1 atilde, dV = -s^T K_D s; with_e: V + e^T K_P e with K_P = K_D Lambda (the form "
+                          "of u = Y ahat + K_P e + K_D de), dV = -de^T K_D de - e^T Lambda K_D Lambda e")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
                         description="appended to every result name (several control asks in one problem)")
 
@@ -135,6 +151,14 @@ def _gains(problem, options: ControlLawAsk, ctx, key: str, n: int, pos: bool) ->
                         problem.located.place(ctx.path + (yaml_key,)),
                         f"write e.g. {yaml_key}: 100 or {yaml_key}: [{', '.join(['100'] * n)}]")
     return [sp.sympify(v) for v in vals]
+
+
+def _gain_symbol(problem, name: str, tex: str) -> sp.Symbol:  # type: ignore[no-untyped-def]
+    """A positive gain symbol registered in the problem's names."""
+    s = sp.Symbol(_fresh(problem, name), positive=True)
+    problem.names.setdefault(s.name, s)
+    problem.latex_names.setdefault(s, tex)
+    return s
 
 
 def _gamma(problem, options: ControlLawAsk, ctx, p: int) -> sp.Matrix:  # type: ignore[no-untyped-def]
@@ -231,11 +255,15 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
                "partial_fbl": {"kp", "kd", "qd", "collocated"}, "elastic": {"gains", "regulation", "qd"},
                "linearization": {"equilibrium"}}
     opt_keys = {"lam": "lambda", "gamma": "gamma", "qd": "qd", "kp": "kp", "kd": "kd", "task": "task", "rd": "rd",
-                "gains": "gains", "equilibrium": "equilibrium", "at": "at"}
-    mine = allowed.get(law, {"kp", "kd", "qd", "regulation", "lam", "gamma"} | ({"at"} if law != "adaptive" else set()))
+                "gains": "gains", "equilibrium": "equilibrium", "at": "at", "parametrization": "parametrization",
+                "known_coefficients": "known_coefficients", "lyapunov": "lyapunov"}
+    allowed["adaptive"] = {"kp", "kd", "qd", "regulation", "lam", "gamma", "parametrization", "known_coefficients",
+                           "lyapunov"}
+    mine = allowed.get(law, {"kp", "kd", "qd", "regulation", "lam", "gamma", "at"})
     for key, yk in opt_keys.items():
         if getattr(options, key) is not None and key not in mine:
-            users = [k for k, v in allowed.items() if key in v] or ["computed_torque", "adaptive"]
+            users = [k for k, v in allowed.items() if key in v and (k, key) != ("adaptive", "kp")] or \
+                ["computed_torque", "adaptive"]
             raise UserError(f"{yk}: is not an option of law: {law} (it is one of law: {', '.join(users)})",
                             problem.located.place(ctx.path + (yk,)), "remove it")
     if law not in JOINT_LAWS:
@@ -356,15 +384,25 @@ def _at(problem, options: ControlLawAsk, ctx, u: sp.Matrix) -> sp.Matrix | None:
 
 
 # ------------------------------------------------------------------------------------------------ adaptive
-def model_parametrization(problem, robot, dm):  # type: ignore[no-untyped-def]
-    """The linear parametrization Y(q, q̇, q̈) a of the model used by the problem: that of its
-    ``linear_parametrization`` ask (part: model) with its ``coefficients:`` if given, else computed the same way."""
+def model_parametrization(problem, robot, dm, suffix: str | None = None, where: tuple = ()):  # type: ignore[no-untyped-def]
+    """The linear parametrization Y a used by the law: that of the ``linear_parametrization`` ask with ``suffix`` (any
+    part), or by default of the first one of the whole model (part: model); with its ``coefficients:`` if given,
+    else computed the same way. Returns (par, ask, part)."""
     from solver.dynamics.parametrization import ParamError, compute_auto, compute_given, model_vector
-    vec = model_vector(dm, robot, "model")
+    lps = [a for a in problem.asks if a.kind == "linear_parametrization"]
+    if suffix is None:
+        ask = next((a for a in lps if getattr(a.options, "part", "model") == "model"), None)
+    else:
+        ask = next((a for a in lps if a.options.suffix == suffix), None)
+        if ask is None:
+            have = ", ".join(repr(a.options.suffix) for a in lps) or "none"
+            raise UserError(f"parametrization: {suffix!r} is not the suffix of a linear_parametrization ask of the "
+                            f"problem (suffixes: {have})", problem.located.place(where),
+                            "add the linear_parametrization ask, or write the suffix of one of them")
+    part = ask.options.part if ask is not None else "model"
+    vec = model_vector(dm, robot, part)
     known = list(problem.known)
     dyn = [s for s in problem.symbols.values() if s not in set(known)]
-    ask = next((a for a in problem.asks if a.kind == "linear_parametrization"
-                and getattr(a.options, "part", "model") == "model"), None)
     coeffs = None
     if ask is not None and ask.options.coefficients is not None:
         val = ask.ctx.expr("coefficients")
@@ -372,10 +410,10 @@ def model_parametrization(problem, robot, dm):  # type: ignore[no-untyped-def]
     try:
         par = compute_given(vec, robot, dyn, coeffs, known) if coeffs is not None else compute_auto(vec, robot, dyn)
     except ParamError as exc:
-        where = ask.ctx.path + ("coefficients",) if coeffs is not None else ()
+        at = ask.ctx.path + ("coefficients",) if coeffs is not None else ()
         raise UserError("adaptive control needs a linear parametrization of the model: " + exc.message,
-                        problem.located.place(where) if where else None, exc.hint) from None
-    return par, ask
+                        problem.located.place(at) if at else None, exc.hint) from None
+    return par, ask, part
 
 
 def reference_regressor(Y: sp.Matrix, robot, dqr: list, ddqr: list) -> sp.Matrix:  # type: ignore[no-untyped-def]
@@ -400,19 +438,58 @@ def reference_regressor(Y: sp.Matrix, robot, dqr: list, ddqr: list) -> sp.Matrix
     return out
 
 
+def _known_indices(problem, options: ControlLawAsk, ctx, a: sp.Matrix) -> list[int]:  # type: ignore[no-untyped-def]
+    """Indices in a of the ``known_coefficients:`` (each must equal one coefficient of the parametrization)."""
+    if options.known_coefficients is None:
+        return []
+    place = problem.located.place(ctx.path + ("known_coefficients",))
+    val = ctx.expr("known_coefficients")
+    vals = val if isinstance(val, list) else [val]
+    out: list[int] = []
+    listed = ", ".join(f"a{i + 1} = {sp.sstr(x)}" for i, x in enumerate(a))
+    for v in vals:
+        if isinstance(v, list):
+            raise UserError("known_coefficients must be a list of expressions", place, "write e.g. [m3, m3*d3]")
+        j = next((j for j in range(a.rows) if _zero(sp.sympify(v) - a[j])), None)
+        if j is None:
+            raise UserError(f"known_coefficients: {sp.sstr(v)} is not a coefficient of the linear parametrization "
+                            f"used by the law ({listed})", place, "write the coefficients as they are in a")
+        if j in out:
+            raise UserError(f"known_coefficients: a{j + 1} = {sp.sstr(a[j])} is listed twice", place)
+        out.append(j)
+    if len(out) == a.rows:
+        raise UserError("every coefficient is known: nothing is estimated", place,
+                        "remove known_coefficients (or use law: lyapunov_tracking, the law with the known model)")
+    return out
+
+
 def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, dqd, ddqd,  # type: ignore[no-untyped-def]
                     regulation: bool) -> Solution:
-    """Slotine-Li: results u, Y_r, a_adapt (the coefficients a), dqr, ddqr, s, a_hat_dot, Yr_check, closed_loop, closed_loop_check."""
+    """Slotine-Li, fully or partly adaptive. Results u, Y_r (whole-model parametrization), a_adapt (the estimated
+    coefficients), dqr, ddqr, s, a_hat_dot, Yr_check, closed_loop, closed_loop_check, V, V_dot, V_check; a partly
+    adaptive law also Y_U, Y_K, a_K (known coefficients), tau_K (the known part), p_U, B_U, S_U."""
+    from solver.control import adaptive as ad
     n = robot.n
     if dm.S is None:
         raise UserError("law: adaptive needs the factorization S(q, dq) (Christoffel symbols), not available with a "
                         "given c(q, dq)", problem.located.place(ctx.path + ("law",)))
     q, dq, ddq = sp.Matrix(robot.q), sp.Matrix(robot.dq), sp.Matrix(robot.ddq)
-    par, pask = model_parametrization(problem, robot, dm)
-    p = par.p
+    par, pask, part = model_parametrization(problem, robot, dm, options.parametrization,
+                                            ctx.path + ("parametrization",))
+    known_idx = _known_indices(problem, options, ctx, par.a)
+    partial = bool(known_idx) or part != "model"
     lam = _gains(problem, options, ctx, "lam", n, True)
     kd = _gains(problem, options, ctx, "kd", n, True)
-    Gam = _gamma(problem, options, ctx, p)
+    pU = par.p - len(known_idx)
+    unk = [j for j in range(par.p) if j not in set(known_idx)]
+    # estimates: numbered as the coefficients of the parametrization (a partly adaptive law keeps the index of a_j);
+    # those of a part's parametrization carry its suffix (a_g -> ahatg1, ahatg2); default adaptation gains alike
+    tag = (options.parametrization or "").strip("_") if part != "model" else ""
+    if options.gamma is None and partial:
+        Gam = sp.diag(*[_gain_symbol(problem, f"gamma{tag}{j + 1}", f"\\gamma_{{{tag + ',' if tag else ''}{j + 1}}}")
+                        for j in unk])
+    else:
+        Gam = _gamma(problem, options, ctx, pU)
     Lam, KD = sp.diag(*lam), sp.diag(*kd)
 
     def tex_of(s: sp.Symbol) -> str:
@@ -420,54 +497,108 @@ def _solve_adaptive(problem, options: ControlLawAsk, ctx, robot, dm, Ginv, qd, d
 
     dqr = [_symbol(problem, "d" + _qname(s.name, "r"), "\\dot " + _sub_tex(tex_of(s), "r")) for s in robot.q]
     ddqr = [_symbol(problem, "dd" + _qname(s.name, "r"), "\\ddot " + _sub_tex(tex_of(s), "r")) for s in robot.q]
-    ahat = [_symbol(problem, f"ahat{i + 1}", f"\\hat a_{{{i + 1}}}") for i in range(p)]
+    ahat = [_symbol(problem, f"ahat{tag}{j + 1}", f"\\hat a_{{{tag + ',' if tag else ''}{j + 1}}}") for j in unk]
     e, de = qd - q, dqd - dq
     dqr_def = (dqd + Lam * e).applyfunc(sp.expand)
     ddqr_def = (ddqd + Lam * de).applyfunc(sp.expand)
     defs = dict(zip(dqr, dqr_def)) | dict(zip(ddqr, ddqr_def))
-    Yr = reference_regressor(par.Y, robot, dqr, ddqr)
-    a = par.a
     fr = (lambda v: dm.Fv * v) if dm.Fv is not None else (lambda v: sp.zeros(n, 1))
     dqr_v, ddqr_v, ahat_v = sp.Matrix(dqr), sp.Matrix(ddqr), sp.Matrix(ahat)
     target = dm.B * ddqr_v + dm.S * dqr_v + dm.g + fr(dqr_v)
-    yr_ok = all(_zero(x) for x in (Yr * a - target))
+    Ypar = ad.christoffel_column(par.Y, robot) if part == "inertia" else par.Y
+    Yr = reference_regressor(Ypar, robot, dqr, ddqr)
+    YU, aU, YK, aK = ad.split_columns(Yr, par.a, known_idx)
+    tauK = (target - YU * aU).applyfunc(lambda x: tidy(sp.expand(x)))
+    if part == "model":
+        yr_ok = all(_zero(x) for x in (Yr * par.a - target))
+        if known_idx:
+            yr_ok = yr_ok and all(_zero(x) for x in (YK * aK - tauK))
+    else:   # the part's regressor reproduces its term of the model (the rest is the known tau_K)
+        part_r = dm.g if part == "gravity" else dm.B * ddqr_v + dm.S * dqr_v
+        yr_ok = all(_zero(x) for x in (Yr * par.a - part_r))
+    unknown = ad.unknown_part(YU, aU, robot, ddqr) if partial else None
     s_r = dqr_v - dq                                   # s in the reference symbols
-    tau = Yr * ahat_v + KD * s_r
+    tau = YU * ahat_v + (YK * aK if part == "model" else tauK) + KD * s_r
     u = (Ginv * tau).applyfunc(tidy) if Ginv is not None else tau.applyfunc(lambda x: tidy(sp.expand(x)))
-    adot = (Gam * Yr.T * s_r).applyfunc(lambda x: tidy(sp.expand(x)))
-    # closed loop with ahat = a: B sdot + S s (+ F_v s) + K_D s = 0, s = de + Lambda e, sdot = ddq_r - ddq
+    adot = (Gam * YU.T * s_r).applyfunc(lambda x: tidy(sp.expand(x)))
+    # closed loop: B sdot + S s (+ F_v s) + K_D s = Y_U (a_U - ahat_U), s = de + Lambda e, sdot = ddq_r - ddq
     s = (de + Lam * e).applyfunc(sp.expand)
     sdot = ddqr_def - ddq
     closed = (dm.B * sdot + dm.S * s + fr(s) + KD * s).applyfunc(sp.expand)
     G = dm.G if dm.G is not None else sp.eye(n)
-    u_true = u.xreplace(dict(zip(ahat, a))).xreplace(defs)
-    residual = closed - (G * u_true - (dm.B * ddq + dm.c + dm.g + fr(dq)))
+    u_state = u.xreplace(defs)
+    atil = (aU - ahat_v).applyfunc(sp.expand)
+    model_lhs = dm.B * ddq + dm.c + dm.g + fr(dq)
+    residual = closed - (YU.xreplace(defs) * atil) - (G * u_state - model_lhs)
     ok = yr_ok and all(_zero(x) for x in residual)
+    # Lyapunov function and its derivative along the closed loop
+    with_e = options.lyapunov == "with_e"
+    V = ad.lyapunov_function(dm.B, s, e, aU, ahat, Gam, KD, Lam, with_e)
+    V_dot = ad.lyapunov_rate(s, e, de, KD, Lam, dm.Fv, with_e)
+    rates: dict[sp.Symbol, sp.Expr] = dict(zip(ahat, adot.xreplace(defs)))
+    if not regulation:
+        rates |= {x: v for x, v in zip(qd, dqd) if isinstance(x, sp.Symbol)}
+        rates |= {x: v for x, v in zip(dqd, ddqd) if isinstance(x, sp.Symbol)}
+    forces = G * u_state - (dm.c + dm.g + fr(dq))
+    v_ok = ad.lyapunov_derivative_check(V, V_dot, robot, dm.B, s, forces, rates)
+    idx = [f"{tag + ',' if tag else ''}{j + 1}" for j in unk]
+    V_compact, V_dot_compact = ad.compact_forms(n, idx, Gam, KD, Lam, dm.Fv, with_e)
     record_law(problem, options.suffix, list(q), [[a_, b, c] for a_, b, c in zip(qd, dqd, ddqd)],
                list(qd) if options.qd is not None else None, subs=defs, ahat=ahat, adot=adot.xreplace(defs),
-               true_a=list(a))
-    problem.__dict__["_adaptive" + options.suffix] = {"defs": defs, "ahat": ahat, "Yr": Yr, "Lam": Lam,
-                                                      "qd": list(qd), "dqd": list(dqd)}
-    sol = Solution("control_law", title=options.title or f"Control law: {LAWS['adaptive']}")
+               true_a=list(aU))
+    problem.__dict__["_adaptive" + options.suffix] = {"defs": defs, "ahat": ahat, "Yr": YU, "Lam": Lam,
+                                                      "qd": list(qd), "dqd": list(dqd),
+                                                      "known": (YK * aK if part == "model" else tauK), "G": G,
+                                                      "partial": partial}
+    kind = "partly adaptive" if partial else "Slotine-Li"
+    sol = Solution("control_law", title=options.title or f"Control law: {LAWS['adaptive']}"
+                   + (" with a known part of the model" if partial else ""))
     sol.add("u", u, "vector", label="u")
-    sol.add("Y_r", Yr, "matrix", label="Y(q,\\dot q,\\dot q_r,\\ddot q_r)")
-    sol.add("a_adapt", a, "vector", label="a")
+    if part == "model":
+        sol.add("Y_r", Yr, "matrix", label="Y(q,\\dot q,\\dot q_r,\\ddot q_r)")
+    sol.add("a_adapt", aU, "vector", label="a_U" if partial else "a")
+    if partial:
+        sol.add("Y_U", YU, "matrix", label="Y_U(q,\\dot q,\\dot q_r,\\ddot q_r)")
+        if part == "model":
+            sol.add("Y_K", YK, "matrix", label="Y_K(q,\\dot q,\\dot q_r,\\ddot q_r)")
+            sol.add("a_K", aK, "vector", label="a_K")
+        sol.add("tau_K", tauK, "vector", label="\\tau_K = B\\ddot q_r + S\\dot q_r + g - Y_U a_U")
+        sol.add("p_U", sp.Integer(pU), "scalar", label="p_U")
+        sol.add("B_U", unknown.B_U, "matrix", label="B_U(q)")
+        sol.add("S_U", unknown.S_U, "matrix", label="S_U(q,\\dot q)")
+        if unknown.skew_U is not None:
+            sol.add("skew_U", bool(unknown.skew_U), "bool", label="\\dot B_U - 2S_U \\text{ skew-symmetric}")
     sol.add("dqr", dqr_def, "vector", label="\\dot q_r")
     sol.add("ddqr", ddqr_def, "vector", label="\\ddot q_r")
     sol.add("s", s, "vector", label="s = \\dot q_r - \\dot q")
-    sol.add("a_hat_dot", adot, "vector", label="\\dot{\\hat a}")
-    sol.add("Yr_check", bool(yr_ok), "bool", label="Y_r a \\equiv B\\ddot q_r + S\\dot q_r + g")
+    sol.add("a_hat_dot", adot, "vector", label="\\dot{\\hat a}" + ("_U" if partial else ""))
+    sol.add("Yr_check", bool(yr_ok), "bool",
+            label="Y_r a \\equiv B\\ddot q_r + S\\dot q_r + g" if part == "model" else
+            "Y_U a_U \\equiv g(q)" if part == "gravity" else "Y_U a_U \\equiv B\\ddot q_r + S\\dot q_r")
     sol.add("closed_loop", closed, "vector", label="B(q)\\dot s + S(q,\\dot q)s + K_D s")
     sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")
+    sol.add("V", V, "scalar", label="V")
+    sol.add("V_dot", V_dot, "scalar", label="\\dot V")
+    sol.add("V_check", bool(v_ok), "bool", label="\\dot V \\text{ along the closed loop verified}")
     sol.step("model", B=dm.B, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, n=n, friction=dm.Fv is not None)
     sol.step("reference", qd=qd, dqd=dqd, ddqd=ddqd, regulation=regulation, Lam=Lam, dqr=dqr_v, ddqr=ddqr_v,
              dqr_def=dqr_def, ddqr_def=ddqr_def, s=s, e=e)
-    sol.step("regressor", S=dm.S, skew=dm.skew, Y=Yr, a=a, p=p, given=pask is not None
-             and pask.options.coefficients is not None, ok=yr_ok, friction=dm.Fv is not None,
-             asyms=sp.Matrix([sp.Symbol(f"a_{i + 1}") for i in range(p)]))
-    sol.step("law", law="adaptive", KD=KD, u=u, ahat=ahat_v, Ginv=Ginv, friction=dm.Fv is not None)
-    sol.step("update", Gam=Gam, adot=adot, p=p)
-    sol.step("closed_loop", law="adaptive", closed=closed, ok=ok, friction=dm.Fv is not None, skew=dm.skew, n=n)
+    asyms = sp.Matrix([sp.Symbol(f"a_{j + 1}") for j in range(par.p)])
+    if part == "model":
+        sol.step("regressor", S=dm.S, skew=dm.skew, Y=Yr, a=par.a, p=par.p, given=pask is not None
+                 and pask.options.coefficients is not None, ok=yr_ok, friction=dm.Fv is not None, asyms=asyms)
+    if partial:
+        pick = lambda idx: sp.Matrix([asyms[j] for j in idx]) if idx else sp.zeros(0, 1)  # noqa: E731
+        sol.step("split", part=part, S=dm.S, skew=dm.skew, YU=YU, aU=aU, YK=YK, aK=aK, tauK=tauK, pU=pU,
+                 pK=len(known_idx), aU_syms=pick(unk), aK_syms=pick(known_idx), BU=unknown.B_U, SU=unknown.S_U,
+                 skew_U=unknown.skew_U, ok=yr_ok, friction=dm.Fv is not None, p=par.p)
+    sol.step("law", law="adaptive", KD=KD, u=u, ahat=ahat_v, Ginv=Ginv, friction=dm.Fv is not None,
+             partial=partial, model_part=part == "model", kind=kind)
+    sol.step("update", Gam=Gam, adot=adot, p=pU, partial=partial, ahat=ahat_v, idx=idx)
+    sol.step("closed_loop", law="adaptive", closed=closed, ok=ok, friction=dm.Fv is not None, skew=dm.skew, n=n,
+             partial=partial)
+    sol.step("lyapunov", with_e=with_e, V_rest=V_compact, V_dot=V_dot_compact, ok=v_ok, skew=dm.skew,
+             friction=dm.Fv is not None, partial=partial, KP=KD * Lam)
     return sol
 
 
@@ -521,7 +652,8 @@ def _answer_vector(value, n: int) -> sp.Matrix | PropertyVerdict | None:  # type
 
 
 def check_adaptive(problem, results, sfx: str, value) -> PropertyVerdict | None:  # type: ignore[no-untyped-def]
-    """Adaptive u: right iff u = Y(q, q̇, q̇_r, q̈_r) â + K_e e + K_ė ė with constant K_ė = K_ėᵀ > 0 and
+    """Adaptive u: right iff G u = Y(q, q̇, q̇_r, q̈_r) â + K_e e + K_ė ė (partly adaptive: Y_K a_K + Y_U â_U + ...,
+    the known part on the reference signals) with constant K_ė = K_ėᵀ > 0 and
     M = K_e − K_ė Λ such that M = Mᵀ ≥ 0, MΛ = (MΛ)ᵀ ≥ 0 (M = 0: the Slotine–Li K_D s; otherwise
     V = ½sᵀBs + ½ãᵀΓ⁻¹ã + ½eᵀMe still gives V̇ = −sᵀK_ės − eᵀMΛe ≤ 0). Symbolic gains are sampled at positive
     values."""
@@ -535,11 +667,14 @@ def check_adaptive(problem, results, sfx: str, value) -> PropertyVerdict | None:
         return U
     defs, ahat, Yr, Lam, qd, dqd = (info[k] for k in ("defs", "ahat", "Yr", "Lam", "qd", "dqd"))
     q, dq = list(robot.q), list(robot.dq)
-    d = (U.xreplace(defs) - (Yr * sp.Matrix(ahat)).xreplace(defs)).applyfunc(sp.expand)
+    G = info.get("G", sp.eye(n))
+    known = info.get("known", sp.zeros(n, 1))
+    d = ((G * U).xreplace(defs) - (Yr * sp.Matrix(ahat) + known).xreplace(defs)).applyfunc(sp.expand)
     if any(_nonzero(sp.diff(x, a)) for x in d for a in ahat):
         return PropertyVerdict(False, 0.0, ["the part of u in the estimates â is not Y(q, q̇, q̇_r, q̈_r) â (the "
                                             "model evaluated on the reference velocity and acceleration, with c "
-                                            "factorized as S q̇_r)"], final=False)
+                                            "factorized as S q̇_r)" + (" restricted to the estimated coefficients, "
+                                            "Y_U â_U" if info.get("partial") else "")], final=False)
     Ke = (-d.jacobian(q)).applyfunc(sp.expand)
     Kde = (-d.jacobian(dq)).applyfunc(sp.expand)
     moving = set(q) | set(dq) | set(robot.ddq) | set(ahat)
@@ -547,8 +682,17 @@ def check_adaptive(problem, results, sfx: str, value) -> PropertyVerdict | None:
     de = sp.Matrix(dqd) - sp.Matrix(dq)
     rest = (d - Ke * e - Kde * de).applyfunc(sp.expand)
     if (Ke.free_symbols | Kde.free_symbols) & moving or any(_nonzero(x) for x in rest):
-        return PropertyVerdict(False, 0.0, ["besides Y â, u must be a PD action K_P e + K_D ė (= K_D s) with "
-                                            "constant gains: it is not"], final=False)
+        fb = ["besides Y â, u must be a PD action K_P e + K_D ė (= K_D s) with constant gains: it is not"]
+        if info.get("partial"):
+            fb = ["besides Y_K a_K + Y_U â_U, u must be a PD action K_P e + K_D ė (= K_D s) with constant gains: "
+                  "it is not"]
+            dk = (d + known.xreplace(defs)).applyfunc(sp.expand)
+            lin = dk - (-dk.jacobian(q)) * e - (-dk.jacobian(dq)) * de
+            if not ((dk.jacobian(q).free_symbols | dk.jacobian(dq).free_symbols) & moving) and \
+                    all(_zero(x) for x in lin.applyfunc(sp.expand)):
+                fb.append("the known part of the model, Y_K(q, q̇, q̇_r, q̈_r) a_K (evaluated on the reference "
+                          "velocity and acceleration), is not compensated")
+        return PropertyVerdict(False, 0.0, fb, final=False)
     M = Ke - Kde * Lam
     rng = np.random.default_rng(7)
     syms = sorted((Kde.free_symbols | M.free_symbols | Lam.free_symbols), key=str)
@@ -566,7 +710,9 @@ def check_adaptive(problem, results, sfx: str, value) -> PropertyVerdict | None:
             return PropertyVerdict(False, 0.5, ["u = Y â + K_P e + K_D ė with K_P − K_D Λ not positive "
                                                 "semidefinite: the Lyapunov argument (V̇ = −sᵀK_D s − eᵀ(K_P − "
                                                 "K_D Λ)Λ e) fails; take K_P = K_D Λ (u = Y â + K_D s)"], final=False)
-    note = ("u = Y(q, q̇, q̇_r, q̈_r) â + K_D s (Slotine–Li)" if all(_zero(x) for x in M) else
+    note = ("u = Y_K a_K + Y_U â_U + K_D s (partly adaptive: the known part compensated exactly)"
+            if info.get("partial") and all(_zero(x) for x in M) else
+            "u = Y(q, q̇, q̇_r, q̈_r) â + K_D s (Slotine–Li)" if all(_zero(x) for x in M) else
             "u = Y â + K_P e + K_D ė with K_P − K_D Λ ≥ 0: V = ½sᵀBs + ½ãᵀΓ⁻¹ã + ½eᵀ(K_P − K_D Λ)e has V̇ ≤ 0")
     return PropertyVerdict(True, 1.0, [note + "; with the update â̇ = Γ Yᵀ s the tracking error converges to zero"])
 
