@@ -31,6 +31,7 @@ from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
 from solver.math.simplify import is_zero, tidy, tidy_matrix
+from solver.math.trigpoly import NotTrigPolynomial, TrigAlgebra
 from solver.registry import ask_kind
 from solver.results import Solution
 from solver.spec.errors import UserError
@@ -101,9 +102,19 @@ def _t(m: sp.Matrix, simplify: bool) -> sp.Matrix:
 
 
 def newton_euler(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: bool = True,
-                 q: list[sp.Expr] | None = None, simplify: bool = True, extras: bool = True) -> NEResult:
+                 q: list[sp.Expr] | None = None, simplify: bool = True, extras: bool = True,
+                 links: bool = True) -> NEResult:
     """NE_γ(q, q̇, q̈): the generalized forces u for the given velocities and accelerations (γ: gravity on/off),
-    with every link's ω, ω̇, a, a_c (forward) and f, τ (backward) in its own frame."""
+    with every link's ω, ω̇, a, a_c (forward) and f, τ (backward) in its own frame (written out only with
+    ``links``; without, the LinkStates are empty and only u is given).
+
+    In the canonical trigonometric-polynomial form throughout when the data allow (:func:`_canonical`), each
+    reported quantity written once at the end in the form :func:`tidy` gives; else step by step with ``tidy``
+    (or only expanded, ``simplify=False``)."""
+    if simplify:
+        res = _canonical(robot, dq, ddq, gravity, q, links, extras)
+        if res is not None:
+            return res
     joints = joints_of(robot)
     subs = dict(zip(robot.q, q)) if q is not None else {}
     if subs:
@@ -157,6 +168,121 @@ def newton_euler(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: b
     if extras:
         u += extra_terms(robot, dq, ddq, q)
     return NEResult(states, tidy_matrix(u) if simplify else u, a0)
+
+
+# ------------------------------------------------------------------------------------------ canonical form
+def _canonical(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: bool, q: list[sp.Expr] | None,
+               links: bool, extras: bool) -> NEResult | None:
+    """The recursions of :func:`newton_euler` on :class:`TrigAlgebra` elements (exact, nothing simplified in
+    between); None when the data leave the algebra (floats, parameters in denominators, other offsets)."""
+    n = robot.n
+    subs = dict(zip(robot.q, q)) if q is not None else {}
+    frames = [F[:3, :] for F in robot.frames]
+    coms = [b.com for b in robot.bodies]
+    inertias = [b.inertia for b in robot.bodies]
+    if subs:
+        frames = [F.subs(subs) for F in frames]
+        coms = [c.subs(subs) for c in coms]
+        inertias = [m.subs(subs) for m in inertias]
+    g0 = robot.gravity if (gravity and robot.gravity is not None) else sp.zeros(3, 1)
+    if g0.shape[0] == 2:
+        g0 = g0.col_join(sp.zeros(1, 1))
+    extra = extra_terms(robot, dq, ddq, q) if extras and has_extras(robot) else None
+    masses = [b.mass for b in robot.bodies]
+    try:
+        A = TrigAlgebra.of(frames + coms + inertias + masses + [g0] + list(dq) + list(ddq),
+                           extra=list(robot.q) + list(robot.dq) + list(robot.ddq))
+        conv = A.conv
+        add, mul = A.add, A.mul
+
+        def mv(M: list, v: list) -> list:  # M v
+            return [A.dot(row, v) for row in M]
+
+        def mtv(M: list, v: list) -> list:  # Mᵀ v
+            return [A.dot([M[0][j], M[1][j], M[2][j]], v) for j in range(3)]
+
+        def cross(a: list, b: list) -> list:
+            return [A.sub(mul(a[1], b[2]), mul(a[2], b[1])), A.sub(mul(a[2], b[0]), mul(a[0], b[2])),
+                    A.sub(mul(a[0], b[1]), mul(a[1], b[0]))]
+
+        def vadd(*vs: list) -> list:
+            return [add(*xs) for xs in zip(*vs)]
+
+        def vscale(v: list, c: dict) -> list:
+            return [mul(x, c) for x in v]
+
+        Rs = [[[conv(F[r, c]) for c in range(3)] for r in range(3)] for F in frames]
+        ps = [[conv(F[r, 3]) for r in range(3)] for F in frames]
+        modified = robot.dh_convention == "modified"
+        J = []  # per joint: R = ⁱ⁻¹Rᵢ, ẑ, r, r_c, mass, inertia
+        for i in range(1, n + 1):
+            R0, R1 = Rs[i - 1], Rs[i]
+            R = A.matmul(A.T(R0), R1)
+            z = [{}, {}, conv(sp.Integer(1))] if modified else list(R[2])
+            dp = [A.sub(x, y) for x, y in zip(ps[i], ps[i - 1])]
+            r = mtv(R0, dp) if modified else mtv(R1, dp)
+            rc = mtv(R1, [A.sub(conv(x), y) for x, y in zip(coms[i - 1], ps[i])])
+            J.append((R, z, r, rc, conv(masses[i - 1]), A.matrix(inertias[i - 1])))
+        V, Acc = [conv(x) for x in dq], [conv(x) for x in ddq]
+        a0 = mtv(Rs[0], [A.scale(conv(x), -1) for x in g0])
+        zero = [{}, {}, {}]
+        w, dw, a = zero, zero, a0
+        fwd = []
+        for i, (R, z, r, rc, _, _) in enumerate(J):
+            prismatic = robot.joints[i] == "P"
+            w_prev = mtv(R, w)
+            if prismatic:
+                wi, dwi = w_prev, mtv(R, dw)
+            else:
+                wi = vadd(w_prev, vscale(z, V[i]))
+                dwi = vadd(mtv(R, dw), vscale(z, Acc[i]), vscale(cross(w_prev, z), V[i]))
+            if modified:
+                ai = mtv(R, vadd(a, cross(dw, r), cross(w, cross(w, r))))
+            else:
+                ai = vadd(mtv(R, a), cross(dwi, r), cross(wi, cross(wi, r)))
+            if prismatic:
+                ai = vadd(ai, vscale(z, Acc[i]), vscale(cross(wi, z), A.scale(V[i], 2)))
+            aci = vadd(ai, cross(dwi, rc), cross(wi, cross(wi, rc)))
+            fwd.append([wi, dwi, ai, aci])
+            w, dw, a = wi, dwi, ai
+        f_next, t_next, R_next = zero, zero, None
+        U: list = [None] * n
+        for i in reversed(range(n)):
+            R, z, r, rc, m, I = J[i]
+            wi, dwi, _, aci = fwd[i]
+            if modified:
+                ell, si = (J[i + 1][2] if i + 1 < n else zero), rc
+            else:
+                ell, si = r, vadd(r, rc)
+            Rf = mv(R_next, f_next) if R_next is not None else zero
+            Rt = mv(R_next, t_next) if R_next is not None else zero
+            ma = vscale(aci, m)
+            fi = vadd(Rf, ma)
+            ti = vadd(Rt, cross(ell, Rf), cross(si, ma), mv(I, dwi), cross(wi, mv(I, wi)))
+            U[i] = A.dot(fi if robot.joints[i] == "P" else ti, z)
+            fwd[i] += [fi, ti]
+            f_next, t_next, R_next = fi, ti, R
+        U_links = list(U)
+        if extra is not None:
+            try:
+                U = [add(x, conv(e)) for x, e in zip(U, extra)]
+                extra = None
+            except NotTrigPolynomial:  # e.g. a friction matrix with floats: added in sympy below
+                pass
+    except NotTrigPolynomial:
+        return None
+    vec = lambda v: sp.Matrix([A.expr(x) for x in v])  # noqa: E731
+    u = sp.Matrix([A.expr(x) for x in U])
+    if extra is not None:
+        u = tidy_matrix(u + extra)
+    states = []
+    for i, (wi, dwi, ai, aci, fi, ti) in enumerate(fwd):
+        if links:
+            states.append(LinkState(vec(wi), vec(dwi), vec(ai), vec(aci), vec(fi), vec(ti),
+                                    A.expr(U_links[i])))
+        else:
+            states.append(LinkState(sp.zeros(3, 1), sp.zeros(3, 1), sp.zeros(3, 1), sp.zeros(3, 1)))
+    return NEResult(states, u, vec(a0))
 
 
 def has_extras(robot: Robot) -> bool:
