@@ -29,7 +29,7 @@ from typing import Any, Literal
 import sympy as sp
 from pydantic import Field
 
-from solver.dynamics.model import derive, require_model
+from solver.dynamics.model import LARGE_MODEL, abbreviate, derive, node_count, require_model
 from solver.math.simplify import is_zero, tidy, tidy_matrix
 from solver.math.trigpoly import NotTrigPolynomial, TrigAlgebra
 from solver.registry import ask_kind
@@ -285,6 +285,29 @@ def _canonical(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: boo
     return NEResult(states, u, vec(a0))
 
 
+def abbreviated(res: NEResult, robot: Robot) -> dict | None:
+    """Past LARGE_MODEL nodes in u, the recursion as the Lagrangian model's report writes a large model (SYMORO's
+    customized symbolic model): each sum of parameters a K_j defined once, every ω, ω̇, a, a_c, f, τ, u written
+    with them; {"defs": [(K_j, sum)], "links": [LinkState], "u": u}. None below the size."""
+    if node_count(res.u, LARGE_MODEL) <= LARGE_MODEL:
+        return None
+    keys = ("w", "dw", "a", "ac", "f", "tau")
+    out = abbreviate({**{k: [getattr(s, k) for s in res.links] for k in keys},
+                      "uk": [sp.Matrix([s.u]) for s in res.links], "u": res.u}, set(robot.q + robot.dq + robot.ddq))
+    links = [LinkState(*[out[k][i] for k in keys], out["uk"][i][0]) for i in range(len(res.links))]
+    return {"defs": out["defs"], "links": links, "u": out["u"]}
+
+
+def same_function(x: sp.Matrix, y: sp.Matrix) -> bool:
+    """x ≡ y entry by entry: compared in one trigonometric-polynomial algebra (exact, no expansion), else by
+    :func:`is_zero` of the expanded differences."""
+    try:
+        A = TrigAlgebra.of(list(x) + list(y))
+        return x.shape == y.shape and all(A.conv(a) == A.conv(b) for a, b in zip(x, y))
+    except NotTrigPolynomial:
+        return all(is_zero(sp.expand(d)) for d in (x - y))
+
+
 def has_extras(robot: Robot) -> bool:
     return bool(robot.kinetic_extra or robot.potential_extra or robot.given_B is not None
                 or robot.given_g is not None or robot.given_U is not None or robot.friction is not None)
@@ -373,7 +396,8 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
             sol.add(f"ne_f{i}", s.f, "vector", label=f"{{}}^{i}f_{{{i}}}")
             sol.add(f"ne_tau{i}", s.tau, "vector", label=f"{{}}^{i}\\tau_{{{i}}}")
         sol.add("ne_u", res.u, "vector", label="u")
-        sol.step("model", res=res, gravity=options.gravity, modified=robot.dh_convention == "modified")
+        sol.step("model", res=res, gravity=options.gravity, modified=robot.dh_convention == "modified",
+                 abbr=abbreviated(res, robot))
     routine_out = []
     names = {"gravity": ("ne_g", "g(q) = NE(q, 0, 0)"), "coriolis": ("ne_c", "c(q,\\dot q) = NE_0(q, \\dot q, 0)"),
              "static": ("ne_static", "B(q)\\ddot q + g(q) = NE(q, 0, \\ddot q)"),
@@ -381,17 +405,17 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
              "kinetic_energy": ("ne_T", "T = \\dot q^T NE_0(q, 0, \\tfrac12 \\dot q)")}
     for r in options.routines:
         if r == "gravity":
-            val = newton_euler(robot, zero, zero, True).u
+            val = newton_euler(robot, zero, zero, True, links=False).u
         elif r == "coriolis":
-            val = newton_euler(robot, robot.dq, zero, False).u
+            val = newton_euler(robot, robot.dq, zero, False, links=False).u
         elif r == "static":
-            val = newton_euler(robot, zero, robot.ddq, True).u
+            val = newton_euler(robot, zero, robot.ddq, True, links=False).u
         elif r == "inertia":
-            cols = [newton_euler(robot, zero, [sp.Integer(int(k == j)) for k in range(n)], False).u
+            cols = [newton_euler(robot, zero, [sp.Integer(int(k == j)) for k in range(n)], False, links=False).u
                     for j in range(n)]
             val = sp.Matrix.hstack(*cols)
         else:
-            y = newton_euler(robot, zero, [v / 2 for v in robot.dq], False).u
+            y = newton_euler(robot, zero, [v / 2 for v in robot.dq], False, links=False).u
             val = tidy((sp.Matrix(robot.dq).T * y)[0])
         name, label = names[r]
         sol.add(name, val, label=label.split(" = ")[0])
@@ -407,7 +431,7 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
         qa = _vector_arg(ctx.expr("calls", k, "q"), n, place("q"), "q") if c.q is not None else None
         dqa = _vector_arg(ctx.expr("calls", k, "dq"), n, place("dq"), "dq")
         ddqa = _vector_arg(ctx.expr("calls", k, "ddq"), n, place("ddq"), "ddq")
-        y = newton_euler(robot, dqa, ddqa, c.gravity, q=qa).u
+        y = newton_euler(robot, dqa, ddqa, c.gravity, q=qa, links=False).u
         sol.add(c.name, y, "vector", label=c.name)
         dot = None
         if c.dot_with is not None:
@@ -428,15 +452,14 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
 
         ok = True
         if ne_u is not None:
-            ok = all(is_zero(sp.expand(x)) for x in (ne_u - lag(options.gravity, robot.dq, robot.ddq)))
+            ok = same_function(ne_u, lag(options.gravity, robot.dq, robot.ddq))
         ref = {"gravity": lambda: lag(True, zero, zero), "coriolis": lambda: lag(False, robot.dq, zero),
                "static": lambda: lag(True, zero, robot.ddq),
                "inertia": lambda: sp.Matrix.hstack(*[lag(False, zero, [int(k == j) for k in range(n)])
                                                      for j in range(n)]),
                "kinetic_energy": lambda: sp.Matrix([dm.T])}
         for r, _, val in routine_out:
-            d = (val if isinstance(val, sp.MatrixBase) else sp.Matrix([val])) - ref[r]()
-            ok = ok and all(is_zero(sp.expand(x)) for x in d)
+            ok = ok and same_function(val if isinstance(val, sp.MatrixBase) else sp.Matrix([val]), ref[r]())
         sol.add("ne_equals_lagrange", bool(ok), "bool", label="\\text{NE} = \\text{Lagrange}")
         sol.step("check", ok=ok, dm=dm)
     if options.at and ne_u is not None:
