@@ -132,3 +132,17 @@ def test_large_recursion_report_defines_groupings_once(arm, monkeypatch):
     assert "This computation is large" in md and "Parameter groupings" in md and "K_{1}" in md
     tex = render(problem, sols, "tex")
     assert "Parameter groupings" in tex and "$$" not in tex
+
+
+def test_data_outside_the_algebra_take_the_step_by_step_path():
+    """A float mass and a parameter in a denominator (the arm's first two joints): the canonical path declines, NE
+    still equals Lagrange."""
+    lines = ARM.replace("joints: [R, R, R, R]", "joints: [R, R]").splitlines()
+    text = "\n".join(x for x in lines if not any(f"{k}: d{j}" in x or f"mass: m{j}" in x
+                                                  for j in (3, 4) for k in ("d",)))
+    text = text.replace("{mass: m1,", "{mass: 0.5,").replace("com: [r2x, r2y, r2z]", "com: [r2x/a1, r2y, r2z]")
+    robot = load_problem_text(text).robot
+    assert robot.n == 2
+    assert ne._canonical(robot, robot.dq, robot.ddq, True, None, False, True) is None
+    res = ne.newton_euler(robot, robot.dq, robot.ddq)
+    assert ne.same_function(res.u, derive(robot).lhs)
