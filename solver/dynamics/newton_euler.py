@@ -443,11 +443,13 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
         sol.step("routines", routines=routine_out, calls=calls_out, robot=robot)
     if options.check:
         dm = derive(robot)
-        dm0 = derive(_without_gravity(robot)) if robot.gravity is not None else dm
+        without: list = []  # the model without gravity, derived only when a check needs it
 
         def lag(grav: bool, dq: list, ddq: list) -> sp.Matrix:
             """The Lagrangian left-hand side B q̈ + c + g (+ F_v q̇) with gravity on/off, at (q̇, q̈)."""
-            m = dm if grav else dm0
+            if not grav and not without:
+                without.append(derive(_without_gravity(robot)) if robot.gravity is not None else dm)
+            m = dm if grav else without[0]
             return m.lhs.xreplace({**dict(zip(robot.dq, dq)), **dict(zip(robot.ddq, ddq))})
 
         ok = True
