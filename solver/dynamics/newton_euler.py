@@ -20,6 +20,10 @@ joint i's axis: O_{i−1} standard, O_i modified; ℓᵢ = from that point to th
 (the standard-DH form is the textbook τᵢ = ⁱR_{i+1}τ_{i+1} + (ⁱR_{i+1}f_{i+1}) × r_{i,ci} − fᵢ × (r_{i−1,i} + r_{i,ci})
 + Iᵢω̇ᵢ + ωᵢ × Iᵢωᵢ, rearranged). As a routine, NE_γ(q, q̇, q̈) with gravity switch γ gives g(q) = NE(q, 0, 0),
 c(q, q̇) = NE₀(q, q̇, 0), b_j(q) = NE₀(q, 0, e_j), B q̈ + g = NE(q, 0, q̈), T = q̇ᵀ NE₀(q, 0, q̇/2).
+
+Every quantity is computed as a trigonometric polynomial of :mod:`solver.math.trigpoly` (exact; nothing simplified
+in between) and each reported one is written once at the end, in the form ``tidy`` gives; data outside that
+algebra (floats, parameters in denominators) take the step-by-step path with ``tidy``.
 """
 from __future__ import annotations
 
