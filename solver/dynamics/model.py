@@ -192,7 +192,8 @@ def model_row(dm: DynamicModel, robot: Robot, i: int) -> list[sp.Expr]:
 LARGE_MODEL = 6000  # nodes of B past which the report writes the model with abbreviations (SYMORO-style)
 
 
-def _nodes(m: sp.Matrix, limit: int) -> int:
+def node_count(m: sp.Matrix, limit: int) -> int:
+    """Nodes of the expression trees of ``m``'s entries, counted up to just past ``limit``."""
     count = 0
     for x in m:
         for _ in sp.preorder_traversal(x):
@@ -303,7 +304,7 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
     sol.add("g", dm.g, "vector", label="g(q)")
     sol.add("model", dm.lhs, "vector", label="B(q)\\ddot q + c(q,\\dot q) + g(q)")
     abbr = None
-    if _nodes(dm.B, LARGE_MODEL) > LARGE_MODEL:
+    if node_count(dm.B, LARGE_MODEL) > LARGE_MODEL:
         abbr = abbreviate({"B": dm.B, "C": dm.C, "g": dm.g}, set(robot.q + robot.dq + robot.ddq))
     sol.step("model", dm=dm, show=options.show, robot=robot, view=ModelView(dm, robot), abbr=abbr)
     if options.at:

@@ -20,6 +20,10 @@ joint i's axis: O_{i−1} standard, O_i modified; ℓᵢ = from that point to th
 (the standard-DH form is the textbook τᵢ = ⁱR_{i+1}τ_{i+1} + (ⁱR_{i+1}f_{i+1}) × r_{i,ci} − fᵢ × (r_{i−1,i} + r_{i,ci})
 + Iᵢω̇ᵢ + ωᵢ × Iᵢωᵢ, rearranged). As a routine, NE_γ(q, q̇, q̈) with gravity switch γ gives g(q) = NE(q, 0, 0),
 c(q, q̇) = NE₀(q, q̇, 0), b_j(q) = NE₀(q, 0, e_j), B q̈ + g = NE(q, 0, q̈), T = q̇ᵀ NE₀(q, 0, q̇/2).
+
+Every quantity is computed as a trigonometric polynomial of :mod:`solver.math.trigpoly` (exact; nothing simplified
+in between) and each reported one is written once at the end, in the form ``tidy`` gives; data outside that
+algebra (floats, parameters in denominators) take the step-by-step path with ``tidy``.
 """
 from __future__ import annotations
 
@@ -29,8 +33,9 @@ from typing import Any, Literal
 import sympy as sp
 from pydantic import Field
 
-from solver.dynamics.model import derive, require_model
+from solver.dynamics.model import LARGE_MODEL, abbreviate, derive, node_count, require_model
 from solver.math.simplify import is_zero, tidy, tidy_matrix
+from solver.math.trigpoly import NotTrigPolynomial, TrigAlgebra
 from solver.registry import ask_kind
 from solver.results import Solution
 from solver.spec.errors import UserError
@@ -101,9 +106,19 @@ def _t(m: sp.Matrix, simplify: bool) -> sp.Matrix:
 
 
 def newton_euler(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: bool = True,
-                 q: list[sp.Expr] | None = None, simplify: bool = True, extras: bool = True) -> NEResult:
+                 q: list[sp.Expr] | None = None, simplify: bool = True, extras: bool = True,
+                 links: bool = True) -> NEResult:
     """NE_γ(q, q̇, q̈): the generalized forces u for the given velocities and accelerations (γ: gravity on/off),
-    with every link's ω, ω̇, a, a_c (forward) and f, τ (backward) in its own frame."""
+    with every link's ω, ω̇, a, a_c (forward) and f, τ (backward) in its own frame (written out only with
+    ``links``; without, the LinkStates are empty and only u is given).
+
+    In the canonical trigonometric-polynomial form throughout when the data allow (:func:`_canonical`), each
+    reported quantity written once at the end in the form :func:`tidy` gives; else step by step with ``tidy``
+    (or only expanded, ``simplify=False``)."""
+    if simplify:
+        res = _canonical(robot, dq, ddq, gravity, q, links, extras)
+        if res is not None:
+            return res
     joints = joints_of(robot)
     subs = dict(zip(robot.q, q)) if q is not None else {}
     if subs:
@@ -157,6 +172,144 @@ def newton_euler(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: b
     if extras:
         u += extra_terms(robot, dq, ddq, q)
     return NEResult(states, tidy_matrix(u) if simplify else u, a0)
+
+
+# ------------------------------------------------------------------------------------------ canonical form
+def _canonical(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: bool, q: list[sp.Expr] | None,
+               links: bool, extras: bool) -> NEResult | None:
+    """The recursions of :func:`newton_euler` on :class:`TrigAlgebra` elements (exact, nothing simplified in
+    between); None when the data leave the algebra (floats, parameters in denominators, other offsets)."""
+    n = robot.n
+    subs = dict(zip(robot.q, q)) if q is not None else {}
+    frames = [F[:3, :] for F in robot.frames]
+    coms = [b.com for b in robot.bodies]
+    inertias = [b.inertia for b in robot.bodies]
+    if subs:
+        frames = [F.subs(subs) for F in frames]
+        coms = [c.subs(subs) for c in coms]
+        inertias = [m.subs(subs) for m in inertias]
+    g0 = robot.gravity if (gravity and robot.gravity is not None) else sp.zeros(3, 1)
+    if g0.shape[0] == 2:
+        g0 = g0.col_join(sp.zeros(1, 1))
+    extra = extra_terms(robot, dq, ddq, q) if extras and has_extras(robot) else None
+    masses = [b.mass for b in robot.bodies]
+    try:
+        A = TrigAlgebra.of(frames + coms + inertias + masses + [g0] + list(dq) + list(ddq),
+                           extra=list(robot.q) + list(robot.dq) + list(robot.ddq))
+        conv = A.conv
+        add, mul = A.add, A.mul
+
+        def mv(M: list, v: list) -> list:  # M v
+            return [A.dot(row, v) for row in M]
+
+        def mtv(M: list, v: list) -> list:  # Mᵀ v
+            return [A.dot([M[0][j], M[1][j], M[2][j]], v) for j in range(3)]
+
+        def cross(a: list, b: list) -> list:
+            return [A.sub(mul(a[1], b[2]), mul(a[2], b[1])), A.sub(mul(a[2], b[0]), mul(a[0], b[2])),
+                    A.sub(mul(a[0], b[1]), mul(a[1], b[0]))]
+
+        def vadd(*vs: list) -> list:
+            return [add(*xs) for xs in zip(*vs)]
+
+        def vscale(v: list, c: dict) -> list:
+            return [mul(x, c) for x in v]
+
+        Rs = [[[conv(F[r, c]) for c in range(3)] for r in range(3)] for F in frames]
+        ps = [[conv(F[r, 3]) for r in range(3)] for F in frames]
+        modified = robot.dh_convention == "modified"
+        J = []  # per joint: R = ⁱ⁻¹Rᵢ, ẑ, r, r_c, mass, inertia
+        for i in range(1, n + 1):
+            R0, R1 = Rs[i - 1], Rs[i]
+            R = A.matmul(A.T(R0), R1)
+            z = [{}, {}, conv(sp.Integer(1))] if modified else list(R[2])
+            dp = [A.sub(x, y) for x, y in zip(ps[i], ps[i - 1])]
+            r = mtv(R0, dp) if modified else mtv(R1, dp)
+            rc = mtv(R1, [A.sub(conv(x), y) for x, y in zip(coms[i - 1], ps[i])])
+            J.append((R, z, r, rc, conv(masses[i - 1]), A.matrix(inertias[i - 1])))
+        V, Acc = [conv(x) for x in dq], [conv(x) for x in ddq]
+        a0 = mtv(Rs[0], [A.scale(conv(x), -1) for x in g0])
+        zero = [{}, {}, {}]
+        w, dw, a = zero, zero, a0
+        fwd = []
+        for i, (R, z, r, rc, _, _) in enumerate(J):
+            prismatic = robot.joints[i] == "P"
+            w_prev = mtv(R, w)
+            if prismatic:
+                wi, dwi = w_prev, mtv(R, dw)
+            else:
+                wi = vadd(w_prev, vscale(z, V[i]))
+                dwi = vadd(mtv(R, dw), vscale(z, Acc[i]), vscale(cross(w_prev, z), V[i]))
+            if modified:
+                ai = mtv(R, vadd(a, cross(dw, r), cross(w, cross(w, r))))
+            else:
+                ai = vadd(mtv(R, a), cross(dwi, r), cross(wi, cross(wi, r)))
+            if prismatic:
+                ai = vadd(ai, vscale(z, Acc[i]), vscale(cross(wi, z), A.scale(V[i], 2)))
+            aci = vadd(ai, cross(dwi, rc), cross(wi, cross(wi, rc)))
+            fwd.append([wi, dwi, ai, aci])
+            w, dw, a = wi, dwi, ai
+        f_next, t_next, R_next = zero, zero, None
+        U: list = [None] * n
+        for i in reversed(range(n)):
+            R, z, r, rc, m, I = J[i]
+            wi, dwi, _, aci = fwd[i]
+            if modified:
+                ell, si = (J[i + 1][2] if i + 1 < n else zero), rc
+            else:
+                ell, si = r, vadd(r, rc)
+            Rf = mv(R_next, f_next) if R_next is not None else zero
+            Rt = mv(R_next, t_next) if R_next is not None else zero
+            ma = vscale(aci, m)
+            fi = vadd(Rf, ma)
+            ti = vadd(Rt, cross(ell, Rf), cross(si, ma), mv(I, dwi), cross(wi, mv(I, wi)))
+            U[i] = A.dot(fi if robot.joints[i] == "P" else ti, z)
+            fwd[i] += [fi, ti]
+            f_next, t_next, R_next = fi, ti, R
+        U_links = list(U)
+        if extra is not None:
+            try:
+                U = [add(x, conv(e)) for x, e in zip(U, extra)]
+                extra = None
+            except NotTrigPolynomial:  # e.g. a friction matrix with floats: added in sympy below
+                pass
+    except NotTrigPolynomial:
+        return None
+    vec = lambda v: sp.Matrix([A.expr(x) for x in v])  # noqa: E731
+    u = sp.Matrix([A.expr(x) for x in U])
+    if extra is not None:
+        u = tidy_matrix(u + extra)
+    states = []
+    for i, (wi, dwi, ai, aci, fi, ti) in enumerate(fwd):
+        if links:
+            states.append(LinkState(vec(wi), vec(dwi), vec(ai), vec(aci), vec(fi), vec(ti),
+                                    A.expr(U_links[i])))
+        else:
+            states.append(LinkState(sp.zeros(3, 1), sp.zeros(3, 1), sp.zeros(3, 1), sp.zeros(3, 1)))
+    return NEResult(states, u, vec(a0))
+
+
+def abbreviated(res: NEResult, robot: Robot) -> dict | None:
+    """Past LARGE_MODEL nodes in u, the recursion as the Lagrangian model's report writes a large model (SYMORO's
+    customized symbolic model): each sum of parameters a K_j defined once, every ω, ω̇, a, a_c, f, τ, u written
+    with them; {"defs": [(K_j, sum)], "links": [LinkState], "u": u}. None below the size."""
+    if node_count(res.u, LARGE_MODEL) <= LARGE_MODEL:
+        return None
+    keys = ("w", "dw", "a", "ac", "f", "tau")
+    out = abbreviate({**{k: [getattr(s, k) for s in res.links] for k in keys},
+                      "uk": [sp.Matrix([s.u]) for s in res.links], "u": res.u}, set(robot.q + robot.dq + robot.ddq))
+    links = [LinkState(*[out[k][i] for k in keys], out["uk"][i][0]) for i in range(len(res.links))]
+    return {"defs": out["defs"], "links": links, "u": out["u"]}
+
+
+def same_function(x: sp.Matrix, y: sp.Matrix) -> bool:
+    """x ≡ y entry by entry: compared in one trigonometric-polynomial algebra (exact, no expansion), else by
+    :func:`is_zero` of the expanded differences."""
+    try:
+        A = TrigAlgebra.of(list(x) + list(y))
+        return x.shape == y.shape and all(A.conv(a) == A.conv(b) for a, b in zip(x, y))
+    except NotTrigPolynomial:
+        return all(is_zero(sp.expand(d)) for d in (x - y))
 
 
 def has_extras(robot: Robot) -> bool:
@@ -247,7 +400,8 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
             sol.add(f"ne_f{i}", s.f, "vector", label=f"{{}}^{i}f_{{{i}}}")
             sol.add(f"ne_tau{i}", s.tau, "vector", label=f"{{}}^{i}\\tau_{{{i}}}")
         sol.add("ne_u", res.u, "vector", label="u")
-        sol.step("model", res=res, gravity=options.gravity, modified=robot.dh_convention == "modified")
+        sol.step("model", res=res, gravity=options.gravity, modified=robot.dh_convention == "modified",
+                 abbr=abbreviated(res, robot))
     routine_out = []
     names = {"gravity": ("ne_g", "g(q) = NE(q, 0, 0)"), "coriolis": ("ne_c", "c(q,\\dot q) = NE_0(q, \\dot q, 0)"),
              "static": ("ne_static", "B(q)\\ddot q + g(q) = NE(q, 0, \\ddot q)"),
@@ -255,17 +409,17 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
              "kinetic_energy": ("ne_T", "T = \\dot q^T NE_0(q, 0, \\tfrac12 \\dot q)")}
     for r in options.routines:
         if r == "gravity":
-            val = newton_euler(robot, zero, zero, True).u
+            val = newton_euler(robot, zero, zero, True, links=False).u
         elif r == "coriolis":
-            val = newton_euler(robot, robot.dq, zero, False).u
+            val = newton_euler(robot, robot.dq, zero, False, links=False).u
         elif r == "static":
-            val = newton_euler(robot, zero, robot.ddq, True).u
+            val = newton_euler(robot, zero, robot.ddq, True, links=False).u
         elif r == "inertia":
-            cols = [newton_euler(robot, zero, [sp.Integer(int(k == j)) for k in range(n)], False).u
+            cols = [newton_euler(robot, zero, [sp.Integer(int(k == j)) for k in range(n)], False, links=False).u
                     for j in range(n)]
             val = sp.Matrix.hstack(*cols)
         else:
-            y = newton_euler(robot, zero, [v / 2 for v in robot.dq], False).u
+            y = newton_euler(robot, zero, [v / 2 for v in robot.dq], False, links=False).u
             val = tidy((sp.Matrix(robot.dq).T * y)[0])
         name, label = names[r]
         sol.add(name, val, label=label.split(" = ")[0])
@@ -281,7 +435,7 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
         qa = _vector_arg(ctx.expr("calls", k, "q"), n, place("q"), "q") if c.q is not None else None
         dqa = _vector_arg(ctx.expr("calls", k, "dq"), n, place("dq"), "dq")
         ddqa = _vector_arg(ctx.expr("calls", k, "ddq"), n, place("ddq"), "ddq")
-        y = newton_euler(robot, dqa, ddqa, c.gravity, q=qa).u
+        y = newton_euler(robot, dqa, ddqa, c.gravity, q=qa, links=False).u
         sol.add(c.name, y, "vector", label=c.name)
         dot = None
         if c.dot_with is not None:
@@ -293,24 +447,25 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
         sol.step("routines", routines=routine_out, calls=calls_out, robot=robot)
     if options.check:
         dm = derive(robot)
-        dm0 = derive(_without_gravity(robot)) if robot.gravity is not None else dm
+        without: list = []  # the model without gravity, derived only when a check needs it
 
         def lag(grav: bool, dq: list, ddq: list) -> sp.Matrix:
             """The Lagrangian left-hand side B q̈ + c + g (+ F_v q̇) with gravity on/off, at (q̇, q̈)."""
-            m = dm if grav else dm0
+            if not grav and not without:
+                without.append(derive(_without_gravity(robot)) if robot.gravity is not None else dm)
+            m = dm if grav else without[0]
             return m.lhs.xreplace({**dict(zip(robot.dq, dq)), **dict(zip(robot.ddq, ddq))})
 
         ok = True
         if ne_u is not None:
-            ok = all(is_zero(sp.expand(x)) for x in (ne_u - lag(options.gravity, robot.dq, robot.ddq)))
+            ok = same_function(ne_u, lag(options.gravity, robot.dq, robot.ddq))
         ref = {"gravity": lambda: lag(True, zero, zero), "coriolis": lambda: lag(False, robot.dq, zero),
                "static": lambda: lag(True, zero, robot.ddq),
                "inertia": lambda: sp.Matrix.hstack(*[lag(False, zero, [int(k == j) for k in range(n)])
                                                      for j in range(n)]),
                "kinetic_energy": lambda: sp.Matrix([dm.T])}
         for r, _, val in routine_out:
-            d = (val if isinstance(val, sp.MatrixBase) else sp.Matrix([val])) - ref[r]()
-            ok = ok and all(is_zero(sp.expand(x)) for x in d)
+            ok = ok and same_function(val if isinstance(val, sp.MatrixBase) else sp.Matrix([val]), ref[r]())
         sol.add("ne_equals_lagrange", bool(ok), "bool", label="\\text{NE} = \\text{Lagrange}")
         sol.step("check", ok=ok, dm=dm)
     if options.at and ne_u is not None:

@@ -279,7 +279,21 @@ def _flip(f: PolyElement) -> bool:
     return f[lead] < 0
 
 
+_NICE: dict = {}  # printed forms already computed (the same coefficients recur across a model's entries)
+
+
 def nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
+    """:func:`_nice_poly`, memoized."""
+    key = (p, max_terms)
+    hit = _NICE.get(key)
+    if hit is None:
+        if len(_NICE) > 50000:
+            _NICE.clear()
+        hit = _NICE[key] = _nice_poly(p, max_terms)
+    return hit
+
+
+def _nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
     """``p`` as a teacher writes it: content and monomial factor pulled out, and fully factored when that is
     shorter and ``p`` has at most ``max_terms`` terms: 2 m₂ l₁ d₂ q̇₁ q̇₂ + m₂ l₁ d₂ q̇₂² -> m₂ l₁ d₂ q̇₂ (2 q̇₁ + q̇₂).
     A minus sign is pulled out only when every term is negative."""
