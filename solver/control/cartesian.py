@@ -31,7 +31,6 @@ from solver.control.laws import (
 )
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.methods import NAMED_H, damping_matrix, named_objective
-from solver.kinematics.redundancy import _tidy_rational, symbolic_pinv
 from solver.math.budget import BudgetExceeded, cpu_budget
 from solver.math.simplify import tidy
 from solver.results import Solution
@@ -39,6 +38,7 @@ from solver.spec.expr import shape_of
 from solver.spec.problem import AskReader
 
 PINV_SECONDS = 8.0  # CPU budget of the symbolic pseudoinverse and of the law built on it
+TIDY_SECONDS = 2.0  # CPU budget of the cosmetic simplification of a_0
 
 
 def task_terms(f: sp.Matrix, q: list, dq: list) -> tuple[sp.Matrix, sp.Matrix]:
@@ -67,22 +67,23 @@ def task_acceleration(f: sp.Matrix, J: sp.Matrix, dq: sp.Matrix, KP: sp.Matrix, 
 
 
 def pinv_law(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix | None) -> dict[str, Any]:
-    """J^# = Jᵀ(JJᵀ)⁻¹ = N/D, P = I − J^# J and a = J^#(a_r − J̇ q̇) + P a_0, each entry a numerator over D
-    (trigonometric polynomials stay in their canonical form)."""
+    """J^# = Jᵀ(JJᵀ)⁻¹ = Jᵀ adj(JJᵀ)/D = N/D, D = det(JJᵀ), P = I − J^# J = (D I − N J)/D and
+    a = J^#(a_r − J̇ q̇) + P a_0, every entry a numerator over D. Numerators and D are kept in the canonical
+    trigonometric form (fast; the factoring the redundancy ask applies for display is too slow for an n×n P)."""
     n = J.cols
-    pv, N, D = symbolic_pinv(J, None)
-    num_ps = (N * (ar - Jdq)).applyfunc(lambda x: tidy(sp.expand(x)))
-    PD = (D * sp.eye(n) - N * J).applyfunc(_tidy_rational)     # D (I − J^# J)
-    P = PD.applyfunc(lambda x: _tidy_rational(x / D))
+    A = (J * J.T).applyfunc(tidy)
+    D = tidy(A.det()) if A.rows > 1 else A[0, 0]
+    N = (J.T * (A.adjugate() if A.rows > 1 else sp.Matrix([[1]]))).applyfunc(tidy)
+    num_ps = (N * (ar - Jdq)).applyfunc(tidy)
+    PD = (D * sp.eye(n) - N * J).applyfunc(tidy)     # D (I − J^# J)
     a_null = None
+    num = num_ps
     if a0 is not None:
-        num_null = (PD * a0).applyfunc(lambda x: tidy(sp.expand(x)))
+        num_null = (PD * a0).applyfunc(tidy)
         a_null = num_null.applyfunc(lambda x: x / D)
         num = num_ps + num_null
-    else:
-        num = num_ps
-    return {"J_pinv": pv.J_pinv, "det": D, "P": P, "a_ps": num_ps.applyfunc(lambda x: x / D), "a_null": a_null,
-            "a": num.applyfunc(lambda x: x / D)}
+    return {"J_pinv": N.applyfunc(lambda x: x / D), "det": D, "P": PD.applyfunc(lambda x: x / D),
+            "a_ps": num_ps.applyfunc(lambda x: x / D), "a_null": a_null, "a": num.applyfunc(lambda x: x / D)}
 
 
 class _TaskInputs(AskReader):
@@ -165,7 +166,12 @@ class _TaskInputs(AskReader):
             parts.append(self.step * sp.Matrix([sp.diff(self.H, x) for x in self.q]))
         if not parts:
             return None
-        return sum(parts[1:], parts[0]).applyfunc(tidy)
+        a0 = sum(parts[1:], parts[0])
+        try:
+            with cpu_budget(TIDY_SECONDS):
+                return a0.applyfunc(tidy)
+        except BudgetExceeded:   # e.g. the gradient of the manipulability √det(JJᵀ): kept as derived
+            return a0
 
 
 def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
