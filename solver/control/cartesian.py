@@ -339,20 +339,26 @@ def _at_state(at: dict, values: dict, B: sp.Matrix, nvec: sp.Matrix, G: sp.Matri
             a += (sp.eye(J.cols) - Jp * Jn) * a0n.evalf(15)
     tau = ev(B) * a + ev(nvec)
     un = (ev(Ginv) * tau) if Ginv is not None else tau
-    ok = _vanishes(list(Jn * a + Jdqn - arn))
+    resid = list(Jn * a + Jdqn - arn)
+    floats = any(x.atoms(sp.Float) for x in resid)   # floating point: a tolerance relative to the size of a_r
+    ok = _vanishes(resid, tol=1e-9 if floats else None, scale=list(arn))
     return {"J": Jn, "J_pinv": Jp, "a": a, "u": un.applyfunc(lambda x: x if x.is_Float else sp.simplify(x)), "ok": ok}
 
 
-def _vanishes(exprs: list, digits: int = 40) -> bool:
-    """Every expression is zero at random rational points (``digits`` digits)."""
+def _vanishes(exprs: list, digits: int = 40, tol: float | None = None, scale: list | None = None) -> bool:
+    """Every expression is zero at random rational points of its symbols (``digits`` digits): below 10^(15 −
+    digits), or below ``tol`` (1 + max |scale|) for floating-point data."""
     rng = random.Random(11)
-    syms = sorted(set().union(*(sp.sympify(x).free_symbols for x in exprs)), key=str)
-    for _ in range(3):
+    exprs = [sp.sympify(x) for x in exprs]
+    scale = [sp.sympify(x) for x in (scale or [])]
+    syms = sorted(set().union(*(x.free_symbols for x in exprs + scale)), key=str)
+    for _ in range(3 if syms else 1):
         pt = {s: sp.Rational(rng.randint(2, 19), rng.randint(3, 9)) for s in syms}
-        for x in exprs:
-            val = sp.sympify(x).xreplace(pt).evalf(digits)
-            if abs(complex(val)) > 10 ** (-digits + 15):
-                return False
+        bound = 10 ** (-digits + 15)
+        if tol is not None:
+            bound = tol * (1 + max([abs(complex(x.xreplace(pt).evalf(digits))) for x in scale] or [0]))
+        if any(abs(complex(x.xreplace(pt).evalf(digits))) > bound for x in exprs):
+            return False
     return True
 
 
