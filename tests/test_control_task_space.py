@@ -11,6 +11,7 @@ import pytest
 import sympy as sp
 from scipy.integrate import solve_ivp
 
+from solver.control.laws import check_control_law
 from solver.dynamics.model import derive
 from solver.math.equivalence import scalar_equiv
 from solver.publish.render import render
@@ -303,3 +304,21 @@ def test_null_space_options_need_redundancy():
         solved(S3 + "  - kind: control_law\n    law: cartesian_computed_torque\n" + TASK_S3 + "    damping: 1\n")
     with pytest.raises(UserError, match="is not an option of law: computed_torque"):
         solved(R4 + "  - kind: control_law\n    frame: 0.3\n")
+
+
+def test_grading_accepts_another_null_space_term_and_rejects_a_wrong_law():
+    p, _, res = solved(R4.replace("values: {m: 1, l: 0.5, g0: 9.81}\n", "") + LAW4 + "    damping: 2\n")
+    u = res["u"].value
+    r = p.robot
+    v = check_control_law(p, res, "u", list(u), lambda n: None, None)
+    assert v is not None and v.correct
+    # a different null-space acceleration (-5 dq instead of -2 dq): the task loop is the same, accepted
+    dm = derive(r)
+    P = res["P_null"].value
+    other = u + dm.B * P * (-3 * sp.Matrix(r.dq))
+    v = check_control_law(p, res, "u", list(other), lambda n: None, None)
+    assert v is not None and v.correct and "null-space" in v.feedback[0]
+    # without the J̇ q̇ compensation: rejected
+    wrong = u + dm.B * res["J_pinv"].value * res["Jdot_dq"].value
+    v = check_control_law(p, res, "u", list(wrong), lambda n: None, None)
+    assert v is not None and not v.correct

@@ -374,3 +374,38 @@ def _check(B: sp.Matrix, rhs: sp.Matrix, J: sp.Matrix, Jdq: sp.Matrix, a: sp.Mat
         if any(abs(complex(x)) > 1e-25 for x in res):
             return False
     return True
+
+
+def check_task_law(problem, results, sfx: str, value) -> Any:  # type: ignore[no-untyped-def]
+    """A task-space u is right iff, substituted in the model, it gives J q̈ + J̇ q̇ = a_r (the designed task
+    acceleration): then ë_t + K_D ė_t + K_P e_t = 0. For m < n any null-space term passes (a different a_0 is
+    another valid design, said in the feedback). Checked at random points (40 digits)."""
+    from solver.control.laws import _answer_vector
+    from solver.registry import PropertyVerdict
+    robot = problem.robot
+    n = robot.n
+    U = _answer_vector(value, n)
+    if not isinstance(U, sp.Matrix):
+        return U
+    need = ("r", "J", "Jdot_dq", "a_r")
+    if any(k + sfx not in results for k in need):
+        return None
+    J, Jdq, ar = (sp.Matrix(results[k + sfx].value) for k in ("J", "Jdot_dq", "a_r"))
+    dm = derive(robot)
+    G = dm.G if dm.G is not None else sp.eye(n)
+    Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
+    nvec = dm.c + dm.g + Fv * sp.Matrix(robot.dq)
+    try:
+        ok = _check(dm.B, G * U - nvec, J, Jdq, ar)
+    except (TypeError, ValueError, ZeroDivisionError):
+        return None
+    if not ok:
+        return PropertyVerdict(False, 0.0, ["substituted in the model B q̈ + c + g = u, this u does not give "
+                                            "J q̈ + J̇ q̇ = a_r: the task error does not obey ë + K_D ė + K_P e = 0 "
+                                            "(check J̇ q̇, the inverse or pseudoinverse of J, and c + g)"], final=False)
+    ref = sp.Matrix(results["u" + sfx].value)
+    same = _vanishes(list(U - ref))
+    note = "substituted in the model, u gives J q̈ + J̇ q̇ = a_r: the task error obeys ë + K_D ė + K_P e = 0"
+    if not same and J.rows < n:
+        note += " (with another null-space term than the reference: a different, equally valid self-motion)"
+    return PropertyVerdict(True, 1.0, [note])

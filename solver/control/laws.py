@@ -606,6 +606,9 @@ def check_control_law(problem, results, name, value, other, options) -> Property
     robot = problem.robot
     if ask is not None and ask.options.law == "adaptive" and ref is not None:
         return check_adaptive(problem, results, sfx, value)
+    if ask is not None and ask.options.law == "cartesian_computed_torque" and ref is not None and robot is not None:
+        from solver.control.cartesian import check_task_law
+        return check_task_law(problem, results, sfx, value)
     if ask is None or ref is None or robot is None or ask.options.law != "computed_torque":
         return None
     try:
