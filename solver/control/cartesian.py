@@ -342,7 +342,14 @@ def _at_state(at: dict, values: dict, B: sp.Matrix, nvec: sp.Matrix, G: sp.Matri
     resid = list(Jn * a + Jdqn - arn)
     floats = any(x.atoms(sp.Float) for x in resid)   # floating point: a tolerance relative to the size of a_r
     ok = _vanishes(resid, tol=1e-9 if floats else None, scale=list(arn))
-    return {"J": Jn, "J_pinv": Jp, "a": a, "u": un.applyfunc(lambda x: x if x.is_Float else sp.simplify(x)), "ok": ok}
+    def show(x: sp.Expr) -> sp.Expr:   # numbers with floating-point parts as floats, exact ones simplified
+        if not x.free_symbols and x.atoms(sp.Float):
+            v = sp.N(x, 15)
+            return sp.Integer(0) if v.is_real and abs(v) < 1e-12 else v   # rounding noise of an exact zero
+        return sp.simplify(x)
+
+    return {"J": Jn.applyfunc(show), "J_pinv": Jp.applyfunc(show), "a": a.applyfunc(show), "u": un.applyfunc(show),
+            "ok": ok}
 
 
 def _vanishes(exprs: list, digits: int = 40, tol: float | None = None, scale: list | None = None) -> bool:
