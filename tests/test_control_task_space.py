@@ -245,7 +245,9 @@ asks:
     kp: k
     kd: h
 """
-    p1, _, rot = solved(base + "    frame: [[cos(th), -sin(th)], [sin(th), cos(th)]]\n")
+    p1, sols, rot = solved(base + "    frame: [[cos(th), -sin(th)], [sin(th), cos(th)]]\n")
+    md, tex = render(p1, sols, "md"), render(p1, sols, "tex")
+    assert "isotropic gains" in md and "this law is the unrotated one" in md and "\\paragraph{Remark (isotropic" in tex
     _, _, plain = solved(base)
     assert rot["isotropic"].value
     assert all(scalar_equiv(a, b).ok for a, b in zip(rot["u"].value, plain["u"].value))
@@ -269,8 +271,13 @@ def test_spatial_redundant_4r_law_at_a_state():
     J q̈ + J̇ q̇ = a_r there, and the null-space damping does not change it."""
     at = "    at: {q1: 0.3, q2: 0.5, q3: -0.7, q4: 0.4, dq1: 0.2, dq2: -0.1, dq3: 0.3, dq4: 0.5}\n"
     gains = "    kp: 25\n    kd: 10\n    regulation: true\n    rd: [0.3, 0.2, 0.8]\n"
-    p, _, res = solved(S4 + "  - kind: control_law\n    law: cartesian_computed_torque\n" + TASK_S4 + gains + at
-                       + "    damping: 2\n")
+    p, sols, res = solved(S4 + "  - kind: control_law\n    law: cartesian_computed_torque\n" + TASK_S4 + gains + at
+                          + "    damping: 2\n")
+    if "J_pinv_at" in res:   # the symbolic pseudoinverse was too long: the law is computed at the state
+        J_at = res["J_at"].value
+        assert max(abs(x) for x in J_at * res["J_pinv_at"].value - sp.eye(3)) < 1e-9
+        assert "computed at the given state" in render(p, sols, "md") and "\\paragraph{At the given state}" in \
+            render(p, sols, "tex")
     r = p.robot
     dm = derive(r)
     state = {s: sp.Float(v) for s, v in zip(list(r.q) + list(r.dq), [0.3, 0.5, -0.7, 0.4, 0.2, -0.1, 0.3, 0.5])}
@@ -322,3 +329,13 @@ def test_grading_accepts_another_null_space_term_and_rejects_a_wrong_law():
     wrong = u + dm.B * res["J_pinv"].value * res["Jdot_dq"].value
     v = check_control_law(p, res, "u", list(wrong), lambda n: None, None)
     assert v is not None and not v.correct
+
+
+def test_exact_zero_with_angles_outside_sin_cos():
+    """α(q_fin − q)-like terms beside cos q are compared exactly (q gets an independent value there)."""
+    from solver.math.equivalence import exact_zero
+    x, a = sp.symbols("x a", real=True)
+    assert exact_zero(x * sp.cos(x) ** 2 + x * sp.sin(x) ** 2 - x) is True
+    assert exact_zero(a * (x - 1) * sp.sin(2 * x) - 2 * a * (x - 1) * sp.sin(x) * sp.cos(x)) is True
+    assert exact_zero(x * sp.cos(x) - x) is False
+    assert exact_zero(x * sp.tan(x) * sp.cos(x) / (x + 1) - x * sp.sin(x) / (x + 1)) is True
