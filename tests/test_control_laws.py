@@ -229,8 +229,10 @@ def test_cartesian_regulation_with_numbers_and_errors():
         "    kp: [100, 50]\n    kd: [20, 10]\n    regulation: true\n    rd: [0.5, 0.3]\n"
     p, _, res = solved(text)
     assert res["closed_loop_check"].value
-    with pytest.raises(UserError, match="task must list 2"):
-        solved(R2 + "  - kind: control_law\n    law: cartesian_computed_torque\n    task: [q1]\n")
+    with pytest.raises(UserError, match="task must list 1 to 2"):
+        solved(R2 + "  - kind: control_law\n    law: cartesian_computed_torque\n    task: [q1, q2, q1 + q2]\n")
+    _, _, res1 = solved(R2 + "  - kind: control_law\n    law: cartesian_computed_torque\n    task: [q1 + q2]\n")
+    assert res1["closed_loop_check"].value and res1["J_pinv"].value.shape == (2, 1)   # m < n: the pseudoinverse
     with pytest.raises(UserError, match="needs task"):
         solved(R2 + "  - kind: control_law\n    law: cartesian_computed_torque\n")
 

@@ -1,16 +1,28 @@
-"""Computed torque in the Cartesian (task) space (``control_law`` with ``law: cartesian_computed_torque``).
+"""Feedback linearization in the task space (``control_law`` with ``law: cartesian_computed_torque``).
 
-    r = f(q),  ṙ = J(q) q̇,  r̈ = J(q) q̈ + J̇(q, q̇) q̇          (J square, nonsingular)
-    G u = B(q) J⁻¹(q) (a − J̇ q̇) + c(q, q̇) + g(q) (+ F_v q̇),   a = r̈_d + K_D(ṙ_d − J q̇) + K_P(r_d − f(q))
-    => q̈ = J⁻¹(a − J̇ q̇)  => r̈ = a  => ë_r + K_D ė_r + K_P e_r = 0,   e_r = r_d − r
-(away from the singularities det J = 0).
+    model            B(q) q̈ + c(q, q̇) + g(q) (+ F_v q̇) = τ = G u
+    linearization    τ = B(q) a + c + g (+ F_v q̇)                   =>  q̈ = a
+    task             r = f(q) ∈ R^m (m ≤ n),  ṙ = J(q) q̇,  r̈ = J q̈ + J̇ q̇ = J a + J̇ q̇
+    error frame      e_t = Rᵀ(r_d − r) with a constant rotation R (default I)
+    task accel.      a_t = Rᵀ r̈_d + K_D Rᵀ(ṙ_d − J q̇) + K_P Rᵀ(r_d − f(q)),   a_r = R a_t
+    m = n            a = J⁻¹(a_r − J̇ q̇)                                          (det J ≠ 0)
+    m < n            a = J^#(a_r − J̇ q̇) + (I − J^# J) a_0,   J^# = Jᵀ(J Jᵀ)⁻¹       (J full row rank)
+                     a_0 = null − K_v q̇ + step ∇H(q)                               (the null-space acceleration)
+    =>  J q̈ + J̇ q̇ = a_r  =>  ë_t + K_D ė_t + K_P e_t = 0 (decoupled along the axes of R); J (I − J^# J) a_0 = 0.
+
+With isotropic gains (K = k I) R K Rᵀ = K: the frame changes nothing. J^# is symbolic within a CPU budget; beyond
+it the law is evaluated at the ``at:`` state.
 """
 from __future__ import annotations
+
+import random
+from typing import Any
 
 import sympy as sp
 
 from solver.control.laws import (
     ControlLawAsk,
+    _at_pairs,
     _gains,
     _input_inverse,
     _symbol,
@@ -18,9 +30,15 @@ from solver.control.laws import (
     record_law,
 )
 from solver.dynamics.model import derive, require_model
+from solver.kinematics.methods import NAMED_H, damping_matrix, named_objective
+from solver.math.budget import BudgetExceeded, cpu_budget
 from solver.math.simplify import tidy
 from solver.results import Solution
-from solver.spec.errors import UserError
+from solver.spec.expr import shape_of
+from solver.spec.problem import AskReader
+
+PINV_SECONDS = 8.0  # CPU budget of the symbolic pseudoinverse and of the law built on it
+TIDY_SECONDS = 2.0  # CPU budget of the cosmetic simplification of a_0
 
 
 def task_terms(f: sp.Matrix, q: list, dq: list) -> tuple[sp.Matrix, sp.Matrix]:
@@ -33,78 +51,326 @@ def task_terms(f: sp.Matrix, q: list, dq: list) -> tuple[sp.Matrix, sp.Matrix]:
     return J, (Jdot * v).applyfunc(tidy)
 
 
+def rotation_2d(angle: sp.Expr) -> sp.Matrix:
+    """R(α) = [[cos α, −sin α], [sin α, cos α]]."""
+    return sp.Matrix([[sp.cos(angle), -sp.sin(angle)], [sp.sin(angle), sp.cos(angle)]])
+
+
+def task_acceleration(f: sp.Matrix, J: sp.Matrix, dq: sp.Matrix, KP: sp.Matrix, KD: sp.Matrix, rd: sp.Matrix,
+                      drd: sp.Matrix, ddrd: sp.Matrix, R: sp.Matrix | None) -> tuple[sp.Matrix, sp.Matrix]:
+    """(a_t, a_r): a_t = Rᵀ r̈_d + K_D Rᵀ(ṙ_d − J q̇) + K_P Rᵀ(r_d − f) in the error frame, a_r = R a_t in the base
+    frame (R = I without a frame)."""
+    Rt = R.T if R is not None else sp.eye(f.rows)
+    at = Rt * ddrd + KD * Rt * (drd - J * dq) + KP * Rt * (rd - f)
+    ar = R * at if R is not None else at
+    return at.applyfunc(sp.expand), ar.applyfunc(sp.expand)
+
+
+def pinv_law(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix | None) -> dict[str, Any]:
+    """J^# = Jᵀ(JJᵀ)⁻¹ = Jᵀ adj(JJᵀ)/D = N/D, D = det(JJᵀ), P = I − J^# J = (D I − N J)/D and
+    a = J^#(a_r − J̇ q̇) + P a_0, every entry a numerator over D. Numerators and D are kept in the canonical
+    trigonometric form (fast; the factoring the redundancy ask applies for display is too slow for an n×n P)."""
+    n = J.cols
+    A = (J * J.T).applyfunc(tidy)
+    D = tidy(A.det()) if A.rows > 1 else A[0, 0]
+    N = (J.T * (A.adjugate() if A.rows > 1 else sp.Matrix([[1]]))).applyfunc(tidy)
+    num_ps = (N * (ar - Jdq)).applyfunc(tidy)
+    PD = (D * sp.eye(n) - N * J).applyfunc(tidy)     # D (I − J^# J)
+    a_null = None
+    num = num_ps
+    if a0 is not None:
+        num_null = (PD * a0).applyfunc(tidy)
+        a_null = num_null.applyfunc(lambda x: x / D)
+        num = num_ps + num_null
+    return {"J_pinv": N.applyfunc(lambda x: x / D), "det": D, "P": PD.applyfunc(lambda x: x / D),
+            "a_ps": num_ps.applyfunc(lambda x: x / D), "a_null": a_null, "a": num.applyfunc(lambda x: x / D)}
+
+
+class _TaskInputs(AskReader):
+    """The task, its error frame and the null-space acceleration of one ask."""
+
+    def __init__(self, problem, options: ControlLawAsk, ctx, robot) -> None:  # type: ignore[no-untyped-def]
+        self.problem, self.ctx, self.options = problem, ctx, options
+        n = robot.n
+        self.q, self.dq = list(robot.q), list(robot.dq)
+        if options.task is None:
+            raise self.fail(("law",), "law: cartesian_computed_torque needs task: r = f(q), a list of m <= n "
+                            "expressions", "e.g. task: [l1*cos(q1) + l2*cos(q1 + q2), l1*sin(q1) + l2*sin(q1 + q2)]")
+        val = ctx.expr("task")
+        vals = val if isinstance(val, list) else [val]
+        if not vals or len(vals) > n or any(isinstance(x, list) for x in vals):
+            raise self.fail(("task",), f"task must list 1 to {n} expressions (one per task coordinate; at most one "
+                                       f"per joint), got {len(vals)}", "write task: [f1(q), f2(q)]")
+        self.f = sp.Matrix([sp.sympify(x) for x in vals])
+        self.m = self.f.rows
+        self.R = self._frame() if options.frame is not None else None
+        nulls = [k for k in ("null", "damping", "gradient") if getattr(options, k) is not None]
+        if nulls and self.m == n:
+            raise self.fail((nulls[0],), f"{nulls[0]}: is a null-space acceleration, but the task has m = n = {n} "
+                                         "coordinates (J is square: no null space)", "remove it")
+        if options.step is not None and options.gradient is None:
+            raise self.fail(("step",), "step: is the step along the gradient of gradient: H(q)", "add gradient:")
+        if options.joint_ranges is not None and not (isinstance(options.gradient, str)
+                                                     and options.gradient.strip() == "joint_range"):
+            raise self.fail(("joint_ranges",), "joint_ranges: belongs to gradient: joint_range", "remove it")
+        self.null = self._vector("null", n, "null (the preferred joint acceleration a_0)") \
+            if options.null is not None else None
+        self.Kv = damping_matrix(self, n) if options.damping is not None else None
+        self.H, self.H_name, self.step = None, None, sp.Integer(1)
+        if options.gradient is not None:
+            if isinstance(options.gradient, str) and options.gradient.strip() in NAMED_H:
+                self.H_name = options.gradient.strip()
+                J = self.f.jacobian(self.q)
+                self.H = named_objective(self, self.H_name, J, self.q, options.joint_ranges)
+            else:
+                H = ctx.expr("gradient")
+                if isinstance(H, list):
+                    raise self.fail(("gradient",), "gradient: must be a scalar function H(q)", "write e.g. sin(q2)^2")
+                self.H = sp.sympify(H)
+            if self.H.free_symbols & set(self.dq):
+                raise self.fail(("gradient",), "H(q) must not depend on the joint velocities")
+            if options.step is not None:
+                self.step = sp.sympify(ctx.expr("step"))
+                if isinstance(self.step, list) or self.step.free_symbols & set(self.q + self.dq):
+                    raise self.fail(("step",), "step must be a number or an expression of parameters")
+
+    def _frame(self) -> sp.Matrix:
+        val = self.ctx.expr("frame")
+        shp = shape_of(val)
+        m = self.m
+        if shp == ():
+            if m != 2:
+                raise self.fail(("frame",), f"frame: an angle rotates a 2-D task; this task has {m} coordinates",
+                                f"give the {m}x{m} rotation matrix")
+            R = rotation_2d(sp.sympify(val))
+        elif shp == (m, m):
+            R = sp.Matrix(val)
+        else:
+            raise self.fail(("frame",), f"frame must be an angle (2-D task) or a {m}x{m} rotation matrix, got shape "
+                                        f"{shp}")
+        if R.free_symbols & set(self.q + self.dq):
+            raise self.fail(("frame",), "the frame of the task error must be constant (no q, dq in R)")
+        if not all(_zero(x) for x in (R.T * R - sp.eye(m))):
+            raise self.fail(("frame",), "frame must be a rotation matrix (R^T R = I)",
+                            "e.g. [[cos(alpha), -sin(alpha)], [sin(alpha), cos(alpha)]]")
+        return R
+
+    def a0(self) -> sp.Matrix | None:
+        """a_0 = null − K_v q̇ + step ∇H(q), or None."""
+        parts = []
+        if self.null is not None:
+            parts.append(self.null)
+        if self.Kv is not None:
+            parts.append(-self.Kv * sp.Matrix(self.dq))
+        if self.H is not None:
+            parts.append(self.step * sp.Matrix([sp.diff(self.H, x) for x in self.q]))
+        if not parts:
+            return None
+        a0 = sum(parts[1:], parts[0])
+        try:
+            with cpu_budget(TIDY_SECONDS):
+                return a0.applyfunc(tidy)
+        except BudgetExceeded:   # e.g. the gradient of the manipulability √det(JJᵀ): kept as derived
+            return a0
+
+
 def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """Results: r, J, det_J, Jdot_dq, a_r (the commanded task acceleration), u, closed_loop, closed_loop_check."""
+    """Results: r, J, det_J (m = n), J_inv (m = n), J_pinv, P_null, a0, a_null, null_check (m < n), Jdot_dq,
+    R_frame, e_t, a_t, KP_base, KD_base, isotropic (with frame:), a_r, a, u, u_a, closed_loop, closed_loop_check;
+    with at: u_at (and a_at, J_at, J_pinv_at when the pseudoinverse is numeric)."""
     robot = require_model(problem)
     dm = derive(robot)
     n = robot.n
-    place = problem.located.place(ctx.path + ("task",))
-    if options.task is None:
-        raise UserError("law: cartesian_computed_torque needs task: r = f(q), a list of n expressions", place,
-                        "e.g. task: [l1*cos(q1) + l2*cos(q1 + q2), l1*sin(q1) + l2*sin(q1 + q2)]")
-    val = ctx.expr("task")
-    vals = val if isinstance(val, list) else [val]
-    if len(vals) != n or any(isinstance(x, list) for x in vals):
-        raise UserError(f"task must list {n} expressions (a square Jacobian: one task coordinate per joint)", place)
+    inp = _TaskInputs(problem, options, ctx, robot)
+    f, m, R = inp.f, inp.m, inp.R
     Ginv = _input_inverse(problem, dm, ctx, "cartesian_computed_torque")
     q, dq = list(robot.q), list(robot.dq)
-    f = sp.Matrix([sp.sympify(x) for x in vals])
+    v = sp.Matrix(dq)
     J, Jdq = task_terms(f, q, dq)
-    detJ = sp.factor(sp.simplify(J.det()))
-    if _zero(detJ):
-        raise UserError("the task Jacobian is singular everywhere: the task cannot be controlled", place)
-    kp = _gains(problem, options, ctx, "kp", n, True)
-    kd = _gains(problem, options, ctx, "kd", n, True)
+    square = m == n
+    detJ = None
+    if square:
+        detJ = sp.factor(sp.simplify(J.det()))
+        if _zero(detJ):
+            raise inp.fail(("task",), "the task Jacobian is singular everywhere: the task cannot be controlled")
+    kp = _gains(problem, options, ctx, "kp", m, True)
+    kd = _gains(problem, options, ctx, "kd", m, True)
     KP, KD = sp.diag(*kp), sp.diag(*kd)
     if options.rd is not None:
         if not options.regulation:
-            raise UserError("rd: (a constant desired task value) needs regulation: true",
-                            problem.located.place(ctx.path + ("rd",)), "add regulation: true")
-        rv = ctx.expr("rd")
-        rv = rv if isinstance(rv, list) else [rv]
-        if len(rv) != n:
-            raise UserError(f"rd must list {n} values", problem.located.place(ctx.path + ("rd",)))
-        rd = sp.Matrix([sp.sympify(x) for x in rv])
+            raise inp.fail(("rd",), "rd: (a constant desired task value) needs regulation: true", "add regulation: true")
+        rd = inp._vector("rd", m, "rd (the desired task value)")
     else:
-        rd = sp.Matrix([_symbol(problem, f"rd{i + 1}", f"r_{{d,{i + 1}}}") for i in range(n)])
+        rd = sp.Matrix([_symbol(problem, f"rd{i + 1}", f"r_{{d,{i + 1}}}") for i in range(m)])
     if options.regulation:
-        drd = ddrd = sp.zeros(n, 1)
+        drd = ddrd = sp.zeros(m, 1)
     else:
-        drd = sp.Matrix([_symbol(problem, f"drd{i + 1}", f"\\dot r_{{d,{i + 1}}}") for i in range(n)])
-        ddrd = sp.Matrix([_symbol(problem, f"ddrd{i + 1}", f"\\ddot r_{{d,{i + 1}}}") for i in range(n)])
-    v = sp.Matrix(dq)
-    a = ddrd + KD * (drd - J * v) + KP * (rd - f)
-    Jinv = (J.adjugate() / detJ).applyfunc(tidy)
+        drd = sp.Matrix([_symbol(problem, f"drd{i + 1}", f"\\dot r_{{d,{i + 1}}}") for i in range(m)])
+        ddrd = sp.Matrix([_symbol(problem, f"ddrd{i + 1}", f"\\ddot r_{{d,{i + 1}}}") for i in range(m)])
+    a_t, a_r = task_acceleration(f, J, v, KP, KD, rd, drd, ddrd, R)
     Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
-    tau = dm.B * Jinv * (a - Jdq) + dm.c + dm.g + Fv * v
-    u = ((Ginv * tau) if Ginv is not None else tau).applyfunc(tidy)
-    # exact check: q̈ from the model under u, then J q̈ + J̇ q̇ = a
+    nvec = dm.c + dm.g + Fv * v
     G = dm.G if dm.G is not None else sp.eye(n)
-    rhs = G * u - dm.c - dm.g - Fv * v
-    ok = _check(dm.B, rhs, J, Jdq, a)
-    ddr = sp.Matrix([_symbol(problem, f"ddr{i + 1}", f"\\ddot r_{{{i + 1}}}") for i in range(n)])
-    closed = (ddrd - ddr) + KD * (drd - J * v) + KP * (rd - f)
-    record_law(problem, options.suffix, list(f), [[a_, b, c] for a_, b, c in zip(rd, drd, ddrd)],
-               list(rd) if options.rd is not None else None)
-    sol = Solution("control_law", title=options.title or "Control law: computed torque in the Cartesian space")
+    a0 = inp.a0()
+    if not square and not J.free_symbols & set(q) and J.rank() < m:
+        raise inp.fail(("task",), f"the task Jacobian has rank {J.rank()} < m = {m}: the task cannot be controlled")
+    pairs = _at_pairs(problem, options, ctx)
+    at = dict(pairs) if pairs is not None else None
+    ps: dict[str, Any] | None = None
+    numeric_reason = None
+    Jinv = None
+    if square:
+        Jinv = (J.adjugate() / detJ).applyfunc(tidy)
+        a = (Jinv * (a_r - Jdq)).applyfunc(tidy)
+    else:
+        try:
+            with cpu_budget(PINV_SECONDS):
+                ps = pinv_law(J, Jdq, a_r, a0)
+            a = ps["a"]
+        except BudgetExceeded:
+            numeric_reason = (f"the symbolic pseudoinverse of the {m}x{n} task Jacobian (and the law built on it) "
+                              f"did not finish within {PINV_SECONDS:g} s of CPU time")
+            if at is None or {s for s in q + dq} - set(at):
+                raise inp.fail(("task",), numeric_reason, "give at: a state (q1.., dq1.., and the other symbols) "
+                                                          "where the law is evaluated numerically") from None
+            a = None
+    sol = Solution("control_law", title=options.title or (
+        "Control law: computed torque in the Cartesian space" if square and R is None and a0 is None
+        else "Control law: feedback linearization in the task space"))
     sol.add("r", f, "vector", label="r = f(q)")
     sol.add("J", J, "matrix", label="J(q)")
-    sol.add("det_J", detJ, "scalar", label="\\det J(q)")
+    if square:
+        sol.add("det_J", detJ, "scalar", label="\\det J(q)")
+        sol.add("J_inv", Jinv, "matrix", label="J^{-1}(q)")
     sol.add("Jdot_dq", Jdq, "vector", label="\\dot J(q)\\dot q")
-    sol.add("a_r", a.applyfunc(tidy), "vector", label="a")
-    sol.add("u", u, "vector", label="u")
-    sol.add("closed_loop", closed.applyfunc(sp.expand), "vector", label="\\ddot e_r + K_D\\dot e_r + K_P e_r")
-    sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")
+    if R is not None:
+        e_t = (R.T * (rd - f)).applyfunc(sp.expand)
+        KPb = (R * KP * R.T).applyfunc(lambda x: sp.trigsimp(sp.expand(x)))
+        KDb = (R * KD * R.T).applyfunc(lambda x: sp.trigsimp(sp.expand(x)))
+        iso = all(_zero(x) for x in list(KPb - KP) + list(KDb - KD))
+        sol.add("R_frame", R, "matrix", label="R")
+        sol.add("e_t", e_t, "vector", label="e_t = R^T(r_d - r)")
+        sol.add("a_t", a_t, "vector", label="a_t")
+        sol.add("KP_base", KPb, "matrix", label="R K_P R^T")
+        sol.add("KD_base", KDb, "matrix", label="R K_D R^T")
+        sol.add("isotropic", bool(iso), "bool", label="R K_P R^T = K_P,\\ R K_D R^T = K_D")
+    sol.add("a_r", a_r.applyfunc(tidy), "vector", label="a_r")
+    ddr = sp.Matrix([_symbol(problem, f"ddr{i + 1}", f"\\ddot r_{{{i + 1}}}") for i in range(m)])
+    Rt = R.T if R is not None else sp.eye(m)
+    closed = Rt * (ddrd - ddr) + KD * Rt * (drd - J * v) + KP * Rt * (rd - f)
+    asym = sp.Matrix([_symbol(problem, f"a{i + 1}", f"a_{{{i + 1}}}") for i in range(n)])
+    u_a = dm.B * asym + nvec
+    u_a = ((Ginv * u_a) if Ginv is not None else u_a).applyfunc(tidy)
+    u = ok = null_ok = None
+    if ps is not None:
+        sol.add("J_pinv", ps["J_pinv"], "matrix", label="J^{\\#}(q)")
+        sol.add("P_null", ps["P"], "matrix", label="I - J^{\\#}J")
+        if a0 is not None:
+            sol.add("a0", a0, "vector", label="a_0")
+            sol.add("a_null", ps["a_null"], "vector", label="(I - J^{\\#}J)a_0")
+            null_ok = _vanishes(list(J * ps["a_null"]))
+            sol.add("null_check", bool(null_ok), "bool", label="J(I - J^{\\#}J)a_0 = 0")
+    elif not square and a0 is not None:
+        sol.add("a0", a0, "vector", label="a_0")
+    if a is not None:
+        tau = dm.B * a + nvec
+        u = (Ginv * tau) if Ginv is not None else tau
+        u = u.applyfunc(tidy) if square else u
+        sol.add("a", a, "vector", label="a")
+        sol.add("u", u, "vector", label="u")
+        sol.add("u_a", u_a, "vector", label="u(a)")
+        ok = _check(dm.B, G * u - nvec, J, Jdq, a_r)
+        sol.add("closed_loop", closed.applyfunc(sp.expand), "vector",
+                label="\\ddot e_t + K_D\\dot e_t + K_P e_t" if R is not None else "\\ddot e_r + K_D\\dot e_r + K_P e_r")
+        sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")
+    else:
+        sol.add("u_a", u_a, "vector", label="u(a)")
+    num = None
+    if at is not None:
+        num = _at_state(at, problem.values, dm.B, nvec, G, Ginv, J, Jdq, a_r, a0, u)
+        sol.add("u_at", num["u"], "vector", label="u")
+        if a is None:
+            sol.add("J_at", num["J"], "matrix", label="J\\big|_{*}")
+            sol.add("J_pinv_at", num["J_pinv"], "matrix", label="J^{\\#}\\big|_{*}")
+            sol.add("a_at", num["a"], "vector", label="a\\big|_{*}")
+            sol.add("closed_loop_check", bool(num["ok"]), "bool", label="\\text{closed loop verified at the state}")
+    record_law(problem, options.suffix, list(f), [[a_, b, c] for a_, b, c in zip(rd, drd, ddrd)],
+               list(rd) if options.rd is not None else None)
     sol.step("model", B=dm.B, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, n=n, friction=dm.Fv is not None)
-    sol.step("cartesian", f=f, J=J, detJ=detJ, Jdq=Jdq, KP=KP, KD=KD, rd=rd, drd=drd, ddrd=ddrd,
-             regulation=options.regulation, a=a.applyfunc(tidy), u=u, ok=ok, kp=kp, kd=kd, n=n, Ginv=Ginv,
-             friction=dm.Fv is not None)
+    sol.step("cartesian", f=f, J=J, detJ=detJ, Jdq=Jdq, KP=KP, KD=KD, rd=rd, drd=drd, ddrd=ddrd, m=m, n=n,
+             regulation=options.regulation, a=a_r.applyfunc(tidy), a_t=a_t, R=R, u=u, ok=ok, kp=kp, kd=kd,
+             Ginv=Ginv, friction=dm.Fv is not None, square=square, Jinv=Jinv, ps=ps, a0=a0, null_ok=null_ok,
+             H=inp.H, H_name=inp.H_name, step=inp.step, Kv=inp.Kv, null=inp.null, qacc=a,
+             isotropic=sol.results["isotropic"].value if R is not None else None,
+             KPb=sol.results["KP_base"].value if R is not None else None,
+             KDb=sol.results["KD_base"].value if R is not None else None,
+             numeric_reason=numeric_reason, at=pairs, num=num)
     return sol
+
+
+def _at_state(at: dict, values: dict, B: sp.Matrix, nvec: sp.Matrix, G: sp.Matrix, Ginv: sp.Matrix | None,
+              J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix | None,
+              u: sp.Matrix | None) -> dict[str, Any]:
+    """The law at a state: u substituted when it is symbolic; otherwise J^# (exact when small, else floats), a and u
+    computed there, and J a + J̇ q̇ = a_r checked."""
+    subs = {**values, **at}
+
+    def ev(M: sp.Matrix) -> sp.Matrix:
+        return M.xreplace(at).xreplace(subs).applyfunc(lambda x: tidy(x) if x.free_symbols else sp.nsimplify(x)
+                                                        if x.is_Float else sp.simplify(x))
+
+    if u is not None:
+        try:
+            with cpu_budget(PINV_SECONDS):
+                return {"u": u.xreplace(at).applyfunc(lambda x: tidy(sp.simplify(x)))}
+        except BudgetExceeded:
+            return {"u": u.xreplace(subs).evalf(15)}
+    Jn, Jdqn, arn = ev(J), ev(Jdq), ev(ar)
+    a0n = ev(a0) if a0 is not None else None
+    try:
+        with cpu_budget(PINV_SECONDS):
+            r = pinv_law(Jn, Jdqn, arn, a0n)
+            Jp, a = r["J_pinv"], r["a"].applyfunc(sp.simplify)
+    except BudgetExceeded:
+        Jn, Jdqn, arn = Jn.evalf(15), Jdqn.evalf(15), arn.evalf(15)
+        Jp = Jn.T * (Jn * Jn.T).inv()
+        a = Jp * (arn - Jdqn)
+        if a0n is not None:
+            a += (sp.eye(J.cols) - Jp * Jn) * a0n.evalf(15)
+    tau = ev(B) * a + ev(nvec)
+    un = (ev(Ginv) * tau) if Ginv is not None else tau
+    resid = list(Jn * a + Jdqn - arn)
+    floats = any(x.atoms(sp.Float) for x in resid)   # floating point: a tolerance relative to the size of a_r
+    ok = _vanishes(resid, tol=1e-9 if floats else None, scale=list(arn))
+    def show(x: sp.Expr) -> sp.Expr:   # numbers with floating-point parts as floats, exact ones simplified
+        if not x.free_symbols and x.atoms(sp.Float):
+            v = sp.N(x, 15)
+            return sp.Integer(0) if v.is_real and abs(v) < 1e-12 else v   # rounding noise of an exact zero
+        return sp.simplify(x)
+
+    return {"J": Jn.applyfunc(show), "J_pinv": Jp.applyfunc(show), "a": a.applyfunc(show), "u": un.applyfunc(show),
+            "ok": ok}
+
+
+def _vanishes(exprs: list, digits: int = 40, tol: float | None = None, scale: list | None = None) -> bool:
+    """Every expression is zero at random rational points of its symbols (``digits`` digits): below 10^(15 −
+    digits), or below ``tol`` (1 + max |scale|) for floating-point data."""
+    rng = random.Random(11)
+    exprs = [sp.sympify(x) for x in exprs]
+    scale = [sp.sympify(x) for x in (scale or [])]
+    syms = sorted(set().union(*(x.free_symbols for x in exprs + scale)), key=str)
+    for _ in range(3 if syms else 1):
+        pt = {s: sp.Rational(rng.randint(2, 19), rng.randint(3, 9)) for s in syms}
+        bound = 10 ** (-digits + 15)
+        if tol is not None:
+            bound = tol * (1 + max([abs(complex(x.xreplace(pt).evalf(digits))) for x in scale] or [0]))
+        if any(abs(complex(x.xreplace(pt).evalf(digits))) > bound for x in exprs):
+            return False
+    return True
 
 
 def _check(B: sp.Matrix, rhs: sp.Matrix, J: sp.Matrix, Jdq: sp.Matrix, a: sp.Matrix) -> bool:
     """J q̈ + J̇ q̇ = a with q̈ = B⁻¹ rhs from the model, at random rational points (40 digits)."""
-    import random
     rng = random.Random(5)
     syms = sorted(set().union(*(x.free_symbols for x in list(B) + list(rhs) + list(a))), key=str)
     for _ in range(3):
@@ -115,3 +381,38 @@ def _check(B: sp.Matrix, rhs: sp.Matrix, J: sp.Matrix, Jdq: sp.Matrix, a: sp.Mat
         if any(abs(complex(x)) > 1e-25 for x in res):
             return False
     return True
+
+
+def check_task_law(problem, results, sfx: str, value) -> Any:  # type: ignore[no-untyped-def]
+    """A task-space u is right iff, substituted in the model, it gives J q̈ + J̇ q̇ = a_r (the designed task
+    acceleration): then ë_t + K_D ė_t + K_P e_t = 0. For m < n any null-space term passes (a different a_0 is
+    another valid design, said in the feedback). Checked at random points (40 digits)."""
+    from solver.control.laws import _answer_vector
+    from solver.registry import PropertyVerdict
+    robot = problem.robot
+    n = robot.n
+    U = _answer_vector(value, n)
+    if not isinstance(U, sp.Matrix):
+        return U
+    need = ("r", "J", "Jdot_dq", "a_r")
+    if any(k + sfx not in results for k in need):
+        return None
+    J, Jdq, ar = (sp.Matrix(results[k + sfx].value) for k in ("J", "Jdot_dq", "a_r"))
+    dm = derive(robot)
+    G = dm.G if dm.G is not None else sp.eye(n)
+    Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
+    nvec = dm.c + dm.g + Fv * sp.Matrix(robot.dq)
+    try:
+        ok = _check(dm.B, G * U - nvec, J, Jdq, ar)
+    except (TypeError, ValueError, ZeroDivisionError):
+        return None
+    if not ok:
+        return PropertyVerdict(False, 0.0, ["substituted in the model B q̈ + c + g = u, this u does not give "
+                                            "J q̈ + J̇ q̇ = a_r: the task error does not obey ë + K_D ė + K_P e = 0 "
+                                            "(check J̇ q̇, the inverse or pseudoinverse of J, and c + g)"], final=False)
+    ref = sp.Matrix(results["u" + sfx].value)
+    same = _vanishes(list(U - ref))
+    note = "substituted in the model, u gives J q̈ + J̇ q̇ = a_r: the task error obeys ë + K_D ė + K_P e = 0"
+    if not same and J.rows < n:
+        note += " (with another null-space term than the reference: a different, equally valid self-motion)"
+    return PropertyVerdict(True, 1.0, [note])

@@ -52,8 +52,9 @@ class ControlLawAsk(Strict):
                                        "pd_gravity: u = K_P e - K_D dq + g(q) (constant q_d); "
                                        "pd_constant: u = K_P e - K_D dq + g(q_d) (constant q_d); "
                                        "lyapunov_tracking: u = B(q) ddq_d + S(q, dq) dq_d + g + K_D de + K_P e; "
-                                       "cartesian_computed_torque: u = B J^-1 (ddr_d + K_D(dr_d - J dq) + "
-                                       "K_P(r_d - r) - dJ dq) + c + g, r = task(q); "
+                                       "cartesian_computed_torque: u = B a + c + g, a = J^-1 (a_r - dJ dq), "
+                                       "a_r = ddr_d + K_D(dr_d - J dq) + K_P(r_d - r), r = task(q); for m < n "
+                                       "a = J^# (a_r - dJ dq) + (I - J^# J) a_0; frame: R rotates the error; "
                                        "elastic: feedback linearization of the reduced model of elastic joints "
                                        "(link output, 4th order, jerk and snap); "
                                        "partial_fbl: collocated (actuated coordinates) or non-collocated (passive "
@@ -72,8 +73,23 @@ class ControlLawAsk(Strict):
     gamma: Optional[ExprT] = Field(None, description="adaptive: Gamma, one expression, a list of p (diagonal of "
                                                      "the adaptation gain) or a p x p symmetric positive definite "
                                                      "matrix; default gamma1..gammap")
-    task: Optional[ExprT] = Field(None, description="cartesian_computed_torque: the task r = f(q) (a list of n "
-                                                    "expressions; square J = df/dq)")
+    task: Optional[ExprT] = Field(None, description="cartesian_computed_torque: the task r = f(q) (a list of m <= n "
+                                                    "expressions; J = df/dq, inverted (m = n) or pseudoinverted)")
+    frame: Optional[ExprT] = Field(None, description="cartesian_computed_torque: a constant rotation R (m x m, or an "
+                                                     "angle for a 2-D task) of the frame of the task error: "
+                                                     "e_t = R^T (r_d - r), a = J^-1 (R a_t - dJ dq)")
+    null: Optional[ExprT] = Field(None, description="cartesian_computed_torque, m < n: the preferred joint "
+                                                    "acceleration a_0 (n expressions) projected in the null space "
+                                                    "of J (quote the key: \"null\":)")
+    damping: Optional[ExprT] = Field(None, description="cartesian_computed_torque, m < n: K_v (scalar, n diagonal "
+                                                       "entries or n x n): -K_v dq is added to a_0")
+    gradient: Optional[Union[str, int, float]] = Field(
+        None, description="cartesian_computed_torque, m < n: H(q) (or manipulability, joint_range as in the "
+                          "redundancy ask): step * grad H is added to a_0")
+    step: Optional[Union[str, int, float]] = Field(None, description="the step along grad H (negative: the "
+                                                                     "anti-gradient); default 1")
+    joint_ranges: Optional[dict[str, tuple[Union[str, int, float], Union[str, int, float]]]] = Field(
+        None, description="{q1: [min, max], ...} for gradient: joint_range")
     rd: Optional[ExprT] = Field(None, description="cartesian_computed_torque: a constant desired task value r_d "
                                                   "(needs regulation: true); default symbols rd1.., drd1.., ddrd1..")
     collocated: bool = Field(True, description="partial_fbl: true linearizes the actuated coordinates "
@@ -251,12 +267,14 @@ def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type
 def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: u, closed_loop, closed_loop_check; pd_gravity, pd_constant also equilibrium_check."""
     law = options.law
-    allowed = {"cartesian_computed_torque": {"kp", "kd", "task", "rd", "regulation"},
+    allowed = {"cartesian_computed_torque": {"kp", "kd", "task", "rd", "regulation", "frame", "null", "damping",
+                                             "gradient", "step", "joint_ranges", "at"},
                "partial_fbl": {"kp", "kd", "qd", "collocated"}, "elastic": {"gains", "regulation", "qd"},
                "linearization": {"equilibrium"}}
     opt_keys = {"lam": "lambda", "gamma": "gamma", "qd": "qd", "kp": "kp", "kd": "kd", "task": "task", "rd": "rd",
                 "gains": "gains", "equilibrium": "equilibrium", "at": "at", "parametrization": "parametrization",
-                "known_coefficients": "known_coefficients", "lyapunov": "lyapunov"}
+                "known_coefficients": "known_coefficients", "lyapunov": "lyapunov", "frame": "frame", "null": "null",
+                "damping": "damping", "gradient": "gradient", "step": "step", "joint_ranges": "joint_ranges"}
     allowed["adaptive"] = {"kp", "kd", "qd", "regulation", "lam", "gamma", "parametrization", "known_coefficients",
                            "lyapunov"}
     mine = allowed.get(law, {"kp", "kd", "qd", "regulation", "lam", "gamma", "at"})
@@ -734,6 +752,9 @@ def check_control_law(problem, results, name, value, other, options) -> Property
     robot = problem.robot
     if ask is not None and ask.options.law == "adaptive" and ref is not None:
         return check_adaptive(problem, results, sfx, value)
+    if ask is not None and ask.options.law == "cartesian_computed_torque" and ref is not None and robot is not None:
+        from solver.control.cartesian import check_task_law
+        return check_task_law(problem, results, sfx, value)
     if ask is None or ref is None or robot is None or ask.options.law != "computed_torque":
         return None
     try:

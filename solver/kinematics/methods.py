@@ -82,6 +82,33 @@ def wants_methods(o: Any) -> bool:
 
 
 # ------------------------------------------------------------------------------------------------ parsing
+def damping_matrix(reader: AskReader, n: int, key: str = "damping") -> sp.Matrix:
+    """K_d of q̈₀ = −K_d q̇ from ``damping:``: a scalar (K_d = k I), n diagonal entries or an n×n matrix."""
+    v = reader.ctx.expr(key)
+    shp = shape_of(v)
+    K = (v * sp.eye(n) if shp == () else sp.diag(*v) if shp == (n,) else sp.Matrix(v) if shp == (n, n) else None)
+    if K is None:
+        raise reader.fail((key,), f"{key} must be a scalar, {n} diagonal entries or {n}x{n}")
+    return K
+
+
+def named_objective(reader: AskReader, name: str, J: sp.Matrix, q: list, ranges: dict | None) -> sp.Expr:
+    """A named H(q) of ``gradient:``: manipulability √det(JJᵀ) of the (stacked) task Jacobian J (parameter values
+    substituted); joint_range −1/(2n) Σ ((q_i − q̄_i)/(q_M,i − q_m,i))² from ``joint_ranges:``."""
+    if name == "manipulability":
+        JE = J.subs(reader.problem.values)
+        return sp.sqrt((JE * JE.T).det())
+    if not ranges:
+        raise reader.fail(("gradient",), "gradient: joint_range needs joint_ranges: {q1: [min, max], ...}")
+    terms = []
+    for x in q:
+        if x.name not in ranges:
+            raise reader.fail(("joint_ranges",), f"joint_ranges: misses {x.name}")
+        lo, hi = (reader.ctx.expr("joint_ranges", x.name, k) for k in (0, 1))
+        terms.append(((x - (lo + hi) / 2) / (hi - lo)) ** 2)
+    return -sp.Add(*terms) / (2 * len(q))
+
+
 class _MSpec(AskReader):
     def __init__(self, problem, o, ctx) -> None:  # type: ignore[no-untyped-def]
         self.problem, self.o, self.ctx = problem, o, ctx
@@ -118,14 +145,7 @@ class _MSpec(AskReader):
             self.mu = ctx.expr("mu")
         if "dls" in self.methods and self.mu is None and self.mu_auto is None:
             raise self.fail(("methods",), "the dls method needs mu: (the damping factor μ)")
-        self.Kd = None
-        if o.damping is not None:
-            v = ctx.expr("damping")
-            shp = shape_of(v)
-            self.Kd = (v * sp.eye(self.n) if shp == () else sp.diag(*v) if shp == (self.n,)
-                       else sp.Matrix(v) if shp == (self.n, self.n) else None)
-            if self.Kd is None:
-                raise self.fail(("damping",), f"damping must be a scalar, {self.n} diagonal entries or {self.n}x{self.n}")
+        self.Kd = damping_matrix(self, self.n) if o.damping is not None else None
         self.q0 = None
         for key in ("null", "qdot0"):
             if getattr(o, key) is not None:
@@ -218,20 +238,8 @@ class _MSpec(AskReader):
         return lo, hi
 
     def _named_H(self, name: str) -> sp.Expr:
-        """manipulability √det(JJᵀ) of the stacked tasks; joint_range −1/(2n) Σ ((q_i − q̄_i)/(q_M,i − q_m,i))²."""
-        if name == "manipulability":
-            JE = sp.Matrix.vstack(*[t["J"] for t in self.tasks]).subs(self.problem.values)
-            return sp.sqrt((JE * JE.T).det())
-        rng = self.o.joint_ranges
-        if not rng:
-            raise self.fail(("gradient",), "gradient: joint_range needs joint_ranges: {q1: [min, max], ...}")
-        terms = []
-        for x in self.q:
-            if x.name not in rng:
-                raise self.fail(("joint_ranges",), f"joint_ranges: misses {x.name}")
-            lo, hi = (self.ctx.expr("joint_ranges", x.name, k) for k in (0, 1))
-            terms.append(((x - (lo + hi) / 2) / (hi - lo)) ** 2)
-        return -sp.Add(*terms) / (2 * len(self.q))
+        return named_objective(self, name, sp.Matrix.vstack(*[t["J"] for t in self.tasks]), self.q,
+                               self.o.joint_ranges)
 
     def _default_methods(self) -> list[str]:
         out = ["pseudoinverse"] if len(self.tasks) == 1 else ["extended", "priority"]

@@ -6,8 +6,11 @@ Scalars, in order:
    random rational t = tan(x/2), so that cos x = (1 - t²)/(1 + t²) and sin x = 2t/(1 + t²) are rational and trig
    identities hold exactly; d is evaluated in exact rational arithmetic (sin/cos of k·x through (cos + i sin)^k).
    A non-zero value proves a ≢ b; zero at several independent points means a ≡ b (Schwartz-Zippel: a non-zero
-   rational function vanishes at a random point of a large grid with negligible probability);
-2. where (1) does not apply (radicals, exp, angles that also appear outside sin/cos, other constants): the
+   rational function vanishes at a random point of a large grid with negligible probability). An angle that also
+   appears outside sin/cos (α(q₃ − q₃,fin) beside cos q₃) gets there an independent random value: x is
+   transcendental over the trigonometric functions of x (a periodic function's algebraic conjugates of x would
+   include every x + 2πk), so an identity in (x, cos x, sin x) holds for independent values and the test stays exact;
+2. where (1) does not apply (radicals, exp, other constants): the
    canonical Fourier form of :mod:`solver.math.simplify`, then 30-digit evaluation at random points;
 3. otherwise ``undecided``, never a guess.
 
@@ -174,16 +177,31 @@ def _random_rational(rng: random.Random, positive: bool) -> Fraction:
     return v if positive or rng.random() < 0.5 else -v
 
 
+def _bare_symbols(expr: sp.Expr) -> set[sp.Symbol]:
+    """Symbols of ``expr`` that occur outside the arguments of sin, cos, tan, cot."""
+    if expr.is_Symbol:
+        return {expr}
+    if isinstance(expr, (sp.sin, sp.cos, sp.tan, sp.cot)):
+        return set()
+    out: set[sp.Symbol] = set()
+    for a in expr.args:
+        out |= _bare_symbols(a)
+    return out
+
+
 def exact_zero(expr: sp.Expr, trials: int = 3, seed: int | None = None) -> bool | None:
     """Randomized exact zero test (see module doc): True (zero at every point), False (a point where it is
     provably non-zero), None (not evaluable in rational arithmetic)."""
     angles = _by_name(set(angle_symbols(expr)))
     params = _by_name(expr.free_symbols - set(angles))
+    bare = _by_name(_bare_symbols(expr) & set(angles))   # angles also outside sin/cos: independent values
     rng = random.Random(SEED if seed is None else seed)
     done = 0
     for _ in range(trials * 3):
-        point = RationalPoint({s: _random_rational(rng, bool(s.is_positive or s.is_nonnegative)) for s in params},
-                              {x: _random_rational(rng, False) for x in angles})
+        values = {s: _random_rational(rng, bool(s.is_positive or s.is_nonnegative)) for s in params}
+        trig = {x: _random_rational(rng, False) for x in angles}
+        values.update({x: _random_rational(rng, False) for x in bare})
+        point = RationalPoint(values, trig)
         try:
             v = point.value(expr)
         except ZeroDivisionError:

@@ -19,6 +19,7 @@ from functools import lru_cache
 import sympy as sp
 
 from solver.math.fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
+from solver.math.budget import BudgetExceeded
 
 _TRIG = (sp.sin, sp.cos)
 
@@ -241,6 +242,8 @@ def tidy(expr: sp.Expr) -> sp.Expr:
             pass
     try:
         return sp.trigsimp(sp.simplify(expr))
+    except BudgetExceeded:  # a caller's CPU budget ran out: let it know
+        raise
     except Exception:  # pragma: no cover - sympy internals
         return expr
 

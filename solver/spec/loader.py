@@ -167,6 +167,8 @@ class SpecLoader:
                 close = difflib.get_close_matches(str(path[-1]), fields, n=1) if fields else []
                 hint = f"did you mean '{close[0]}'?" if close else (
                     f"allowed fields: {', '.join(fields)}" if fields else "remove it")
+                if path[-1] is None or str(path[-1]) == "None":
+                    hint = 'a bare null: is YAML\'s empty key: quote it, "null": [...]'
             more = f" (and {len(errors) - 1} more problem(s))" if len(errors) > 1 else ""
             raise self.fail(path, msg + more, hint) from None
         why = text_math_problem(spec.statement)
