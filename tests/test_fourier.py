@@ -133,3 +133,23 @@ def test_factor_list_fast_on_a_christoffel_coefficient() -> None:
     R, d2, m2, l2, m3, dq1, dq2 = ring("d2,m2,l2,m3,dq1,dq2", QQ_)
     c, fl = factor_list_fast(2 * d2 * m2 * dq1 + d2 * m2 * dq2 + 2 * l2 * m3 * dq1 + l2 * m3 * dq2)
     assert c == 1 and sorted(str(f) for f, _ in fl) == sorted(["2*dq1 + dq2", "d2*m2 + l2*m3"])
+
+
+def test_factor_list_expr_equals_sympys_on_expressions() -> None:
+    """sympy's factor_list of polynomial expressions (symbols with assumptions, sin/cos generators, rational
+    coefficients): the same coefficient and factors, signs normalized the same way."""
+    from solver.math.fourier import factor_list_expr
+    syms = list(sp.symbols("k_d k_f m k_i x a2 b Omega")) + list(sp.symbols("M K", positive=True))
+    gens = syms + [sp.cos(syms[0]), sp.sin(syms[4])]
+    rng = random.Random(5)
+
+    def rnd() -> sp.Expr:
+        return sum(sp.Rational(rng.randint(-3, 3), rng.randint(1, 2)) * rng.choice(gens) ** rng.randint(0, 2)
+                   * rng.choice(gens) for _ in range(rng.randint(1, 4)))
+
+    for _ in range(150):
+        e = sp.expand(sp.Mul(*[rnd() ** rng.randint(1, 2) for _ in range(rng.randint(1, 3))]))
+        ref, got = sp.factor_list(e), factor_list_expr(e)
+        assert got[0] == ref[0] and sorted(map(str, got[1])) == sorted(map(str, ref[1])), e
+    for c in (sp.sqrt(2), sp.pi, sp.sqrt(2) * sp.pi):  # numbers that sring would take as generators
+        assert factor_list_expr(c * a + c * b) == sp.factor_list(c * a + c * b)

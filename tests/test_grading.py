@@ -264,3 +264,14 @@ def test_linear_parametrization_by_property():
     assert "must not contain dynamic parameters" in items(grade(r, sub(cheat)))["Y"].feedback[0]
     wrong = dict(printed, a="[I1 + I2 + m1*d1^2 + m2*l1^2, m2, m1*d1 - m2*l1]")
     assert "differs from the dynamic model in equation(s) 1" in items(grade(r, sub(wrong)))["a"].feedback[0]
+
+
+def test_same_polynomial_is_exact_both_ways() -> None:
+    """The rational-point shortcut of reduce_conditions only proves inequality; equality still by expansion."""
+    import sympy as sp
+
+    from solver.math.equivalence import _same_polynomial
+    x, y, k = sp.symbols("x y k")
+    assert _same_polynomial((x + y) ** 2, x**2 + 2 * x * y + y**2)
+    assert not _same_polynomial((x + y) ** 2, x**2 + y**2)
+    assert not _same_polynomial(k / (x - y), k / (x + y))

@@ -20,6 +20,7 @@ import numpy as np
 import sympy as sp
 
 from solver.math.equivalence import reduce_conditions
+from solver.math.fourier import factor_list_expr
 from solver.math.simplify import tidy
 
 S = sp.Symbol("s")  # the Laplace variable (the problem's own `s` replaces it when declared)
@@ -141,7 +142,7 @@ def s_factors(p: sp.Expr, s: sp.Symbol, max_ops: int = 3000) -> list[tuple[sp.Ex
         return [(collect_s(p, s), 1)]
     num, _ = sp.fraction(sp.together(p))
     try:
-        _, fl = sp.factor_list(sp.expand(num))
+        _, fl = factor_list_expr(sp.expand(num))
     except sp.PolynomialError:
         return [(collect_s(p, s), 1)]
     out = [(collect_s(f, s), k) for f, k in fl if f.has(s)]

@@ -26,7 +26,7 @@ from typing import Any
 
 import sympy as sp
 
-from solver.math.fourier import NotTrigPolynomial, split_angle
+from solver.math.fourier import NotTrigPolynomial, factor_list_expr, split_angle
 from solver.math.simplify import angle_symbols, is_zero
 
 CORRECT, INCORRECT, UNDECIDED = "correct", "incorrect", "undecided"
@@ -61,7 +61,7 @@ def _real_value(expr: sp.Expr, point: dict[sp.Symbol, sp.Expr]) -> complex | Non
     """expr at ``point`` to 30 digits; None where it is undefined or not real (the point is outside the domain
     where the expression exists, e.g. acos of a number > 1)."""
     try:
-        val = sp.N(expr.subs(point), 30)
+        val = sp.N(expr.xreplace(point), 30)  # xreplace: symbols -> numbers, far cheaper than subs on large sums
     except (TypeError, ValueError, ZeroDivisionError):
         return None
     if val.has(sp.nan, sp.zoo, sp.oo) or not val.is_number:
@@ -308,7 +308,7 @@ def normalize_condition(expr: sp.Expr) -> sp.Expr:
         return sp.Integer(-1)  # 0 > 0 never holds
     sign, kept = 1, []
     for part, power in ((num, 1), (den, -1)):
-        coeff, factors = sp.factor_list(sp.expand(part))
+        coeff, factors = factor_list_expr(sp.expand(part))
         if coeff < 0:
             sign = -sign
         for f, k in factors:
@@ -321,6 +321,22 @@ def normalize_condition(expr: sp.Expr) -> sp.Expr:
     if not kept:
         return sp.Integer(sign)
     return sign * sp.Mul(*kept)
+
+
+def _same_polynomial(a: sp.Expr, b: sp.Expr) -> bool:
+    """a ≡ b, by expanding a - b; first, cheaply, different exact values at one rational point prove a ≢ b
+    (used only where both values are rational numbers: polynomials and rational functions of the symbols)."""
+    if a == b:
+        return True
+    syms = sorted(a.free_symbols | b.free_symbols, key=lambda x: x.name)
+    point = {x: sp.Rational(97 + 31 * k, 89 + 7 * k) for k, x in enumerate(syms)}
+    try:
+        va, vb = a.xreplace(point), b.xreplace(point)
+    except (ZeroDivisionError, TypeError):
+        va = vb = None
+    if va is not None and va.is_Rational and vb.is_Rational and va != vb:
+        return False
+    return sp.expand(a - b) == 0
 
 
 def reduce_conditions(conditions: list[sp.Expr]) -> list[sp.Expr]:
@@ -336,14 +352,14 @@ def reduce_conditions(conditions: list[sp.Expr]) -> list[sp.Expr]:
             factors = sp.Mul.make_args(c)
             if len(factors) < 2:
                 continue
-            keep = [f for f in factors if not any(j != i and sp.expand(f.as_base_exp()[0] - o) == 0
+            keep = [f for f in factors if not any(j != i and _same_polynomial(f.as_base_exp()[0], o)
                                                   for j, o in enumerate(out))]
             if len(keep) < len(factors):
                 out[i] = normalize_condition(sp.Mul(*keep)) if keep else sp.Integer(1)
                 changed = True
         uniq: list[sp.Expr] = []
         for c in out:
-            if c != 1 and not any(sp.expand(c - u) == 0 for u in uniq):
+            if c != 1 and not any(_same_polynomial(c, u) for u in uniq):
                 uniq.append(c)
         out = uniq
     return out

@@ -381,3 +381,18 @@ def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]],
     trig = [sp.cos(x) for x in angles] + [sp.sin(x) for x in angles]
     return sp.Add(*[nice_poly(g) * sp.Mul(*[f ** e for f, e in zip(trig, key)])
                     for key, g in groups.items() if g])
+
+
+def factor_list_expr(expr: sp.Expr) -> tuple[sp.Expr, list[tuple[sp.Expr, int]]]:
+    """``sp.factor_list(expr)`` of a polynomial expression with integer or rational coefficients, through
+    :func:`factor_list_fast` (gcds where linear in a generator) in the ring of its generators, ordered as sympy
+    orders them; sympy's own factorization for any other coefficient domain."""
+    from sympy.polys.rings import sring
+    try:
+        R, p = sring(expr)
+    except (sp.PolynomialError, sp.polys.polyerrors.GeneratorsNeeded, ValueError, TypeError):
+        return sp.factor_list(expr)
+    if (R.domain != ZZ and R.domain != QQ) or any(g.is_number for g in R.symbols):  # sqrt(2), pi: sympy's way
+        return sp.factor_list(expr)
+    c, fl = factor_list_fast(p)
+    return R.domain.to_sympy(c), [(f.as_expr(), e) for f, e in fl]
