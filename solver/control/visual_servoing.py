@@ -25,7 +25,7 @@ import sympy as sp
 from pydantic import BaseModel, Field, model_validator
 
 from solver.math.budget import BudgetExceeded, cpu_budget
-from solver.math.simplify import tidy
+from solver.math.simplify import rational_matrix, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
@@ -498,21 +498,13 @@ def _single_row(col: sp.Matrix) -> int:
 
 
 def _null_directions(M: sp.Matrix) -> list[sp.Matrix]:
-    """A basis of N(M), each vector up to a factor (callers keep ``cleared(v)``, a canonical representative).
-    Entries that are rational functions of symbols with rational coefficients: exact Gauss–Jordan over that
-    field of fractions (DomainMatrix; 1.5 s -> 5 ms for the 2x3 J_ω of an average of three points); else
-    ``Matrix.nullspace(simplify=True)``."""
-    from sympy.polys.matrices import DomainMatrix
-    try:
-        dM = DomainMatrix.from_Matrix(M)
-    except Exception:  # noqa: BLE001 - entries sympy's domains do not take: the generic path
+    """A basis of N(M), each vector up to a factor (callers keep ``cleared(v)``, a canonical representative):
+    exact Gauss–Jordan over the field of fractions where the entries allow (``rational_matrix``; 1.5 s -> 5 ms
+    for the 2x3 J_ω of an average of three points), else ``Matrix.nullspace(simplify=True)``."""
+    dM = rational_matrix(M)
+    if dM is None:
         return M.nullspace(simplify=True)
-    K = dM.domain
-    exact = K.is_ZZ or K.is_QQ or ((K.is_PolynomialRing or K.is_FractionField) and (K.dom.is_ZZ or K.dom.is_QQ)
-                                   and all(g.is_Symbol for g in K.symbols))
-    if not exact:  # e.g. cos θ and sin θ as generators: their relation would be missed (rank too high)
-        return M.nullspace(simplify=True)
-    N = dM.to_field().nullspace().to_Matrix()
+    N = dM.nullspace().to_Matrix()
     return [N[i, :].T for i in range(N.rows)]
 
 
