@@ -85,20 +85,3 @@ def test_constant_offsets_keep_their_phase() -> None:
     assert tidy(sp.cos(q1 + sp.pi / 4)) == sp.cos(q1 + sp.pi / 4)
     assert tidy(3 * sp.sin(q1 - sp.pi / 6)) == 3 * sp.sin(q1 - sp.pi / 6)
     assert tidy(sp.sin(q1) + sp.cos(q1)) == sp.sin(q1) + sp.cos(q1)  # no phase invented where none was written
-
-
-def test_exact_det_and_rational_matrix():
-    """exact_det equals det on matrices of rational functions (a 4x4 s I - A with parameters in denominators, an
-    integer matrix); entries with cos/sin (related by cos² + sin² = 1) or roots are not taken as independent
-    generators: rational_matrix refuses them and exact_det is Matrix.det."""
-    from solver.math.simplify import exact_det, rational_matrix
-    s, m, k, b, g = sp.symbols("s m k b g0", positive=True)
-    q = sp.Symbol("q", real=True)
-    A = sp.Matrix([[0, 0, 1, 0], [0, 0, 0, 1], [-k / m, g / m, -b / m, 0], [k / (2 * m), -(k + g) / m, 0, -b / m]])
-    M = s * sp.eye(4) - A
-    assert sp.cancel(exact_det(M) - M.det()) == 0 and exact_det(M).free_symbols <= {s, m, k, b, g}
-    assert exact_det(sp.Matrix([[2, 1], [7, 4]])) == 1
-    trig = sp.Matrix([[sp.cos(q), sp.sin(q)], [-sp.sin(q), sp.cos(q)]])
-    assert rational_matrix(trig) is None and sp.simplify(exact_det(trig)) == 1
-    assert rational_matrix(sp.Matrix([[sp.sqrt(m), 1], [1, sp.sqrt(m)]])) is None
-    assert rational_matrix(M) is not None
