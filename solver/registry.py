@@ -1,7 +1,9 @@
 """Ask kinds: each solver module registers its kind, its options model and its solve function.
 
 A new ask kind = one module in a chapter package (``solver/<chapter>/``) that calls :func:`ask_kind` + one
-template per format in ``templates/``; nothing else changes (docs/architecture.md).
+template per format in ``templates/``; nothing else changes (docs/architecture.md). A command imports only the
+modules of the kinds it uses (:func:`get_kind`, :func:`ask_kinds`, found by :func:`kind_modules`); grading, the
+schema and the parallel workers import them all (:func:`load_all`).
 """
 from __future__ import annotations
 
@@ -88,16 +90,18 @@ def load_all() -> dict[str, AskKind]:
 
 @lru_cache(maxsize=1)
 def kind_modules() -> dict[str, str]:
-    """Every ask kind's name -> the module that registers it, in :func:`load_all`'s order, found without importing
-    anything: the chapter modules' source is searched for ``@ask_kind("name", ...)`` (tests/test_architecture.py
-    checks that this finds exactly what importing them registers). Empty when the source cannot be read."""
+    """Every ask kind's name -> the module that registers it (chapters in order, modules by name), found without
+    importing anything: the chapter modules' source is searched for ``@ask_kind("name", ...)``
+    (tests/test_startup.py checks that this finds exactly what importing them registers). Empty when the source
+    cannot be read (then the callers import every chapter, as :func:`load_all`)."""
     out: dict[str, str] = {}
     root = Path(__file__).resolve().parent
     for chapter in CHAPTERS:
         folder = root / chapter
         for info in pkgutil.iter_modules([str(folder)]):
+            source = folder / info.name / "__init__.py" if info.ispkg else folder / f"{info.name}.py"
             try:
-                text = (folder / f"{info.name}.py").read_text(encoding="utf-8")
+                text = source.read_text(encoding="utf-8")
             except OSError:
                 return {}
             for name in _DECLARED.findall(text):

@@ -119,24 +119,22 @@ class SpecBase(Strict):
 
 def spec_model(kinds: tuple[str, ...] | None = None) -> type[BaseModel]:
     """The Spec model with `asks` as the union of the options of the ask kinds ``kinds`` (their modules imported
-    on demand), or of every registered ask kind (None; `robosolve schema`). The same errors either way for a spec
-    whose asks all have one of ``kinds`` (the union is discriminated by `kind`); None if a name is no ask kind."""
-    if kinds is None:
+    on demand), or of every registered ask kind (None, or a name that no module registers; `robosolve schema`).
+    The same errors either way for a spec whose asks all have one of ``kinds`` (the union is discriminated by
+    `kind`)."""
+    if kinds is None or ask_kinds(kinds) is None:
         kinds = tuple(load_all())
     return _spec_model(tuple(sorted(set(kinds), key=_order)))
 
 
 def _order(name: str) -> tuple[int, str]:
-    index = list(kind_modules()) or list(ASKS)
+    index = list(kind_modules())
     return (index.index(name), "") if name in index else (len(index), name)
 
 
 @lru_cache(maxsize=64)
 def _spec_model(kinds: tuple[str, ...]) -> type[BaseModel]:
-    found = ask_kinds(kinds)
-    if not found:
-        raise KeyError(f"unknown ask kinds among {kinds}")
-    models = tuple(found[k].options for k in kinds)
+    models = tuple(ASKS[k].options for k in kinds)
     item = Annotated[Union[models], Field(discriminator="kind")]
     return create_model("Spec", __base__=SpecBase,
                         asks=(list[item], Field(description="what is asked, in order")))  # type: ignore[valid-type]
