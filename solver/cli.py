@@ -133,21 +133,24 @@ def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam file
 
 
 def _check_file(path: Path) -> list[str]:
-    """`check` of one file (in a bounded worker): ["<file>: ok ..."] or the error messages."""
-    from solver.grading.grader import grading_spec
-    from solver.publish.handout import is_exam_data, load_exam
+    """`check` of one file (in a bounded worker): ["<file>: ok ..."] or the error messages. Imports only what the
+    file needs: the modules of its ask kinds, the solver only when it has expected values, the handout module only
+    for an exam file."""
     from solver.spec.loader import SpecLoader
+    from solver.spec.models import is_exam_data
     from solver.spec.yamlpos import load_file
-    from solver.verify import ERROR, check_problem
     try:
         located = load_file(path)
         if is_exam_data(located.data):
+            from solver.publish.handout import load_exam
             exam = load_exam(path, located)
             return [f"{path}: ok (exam file, {len(exam.parts)} problem(s))"]
         problem = SpecLoader(located).load()
+        from solver.grading.options import grading_spec
         grading_spec(problem)
         if not problem.expected:
             return [f"{path}: ok"]
+        from solver.verify import ERROR, check_problem
         rep = check_problem(problem, compare=False)
     except UserError as exc:
         return [str(exc)]

@@ -1,14 +1,19 @@
 """Ask kinds: each solver module registers its kind, its options model and its solve function.
 
 A new ask kind = one module in a chapter package (``solver/<chapter>/``) that calls :func:`ask_kind` + one
-template per format in ``templates/``; nothing else changes (docs/architecture.md).
+template per format in ``templates/``; nothing else changes (docs/architecture.md). A command imports only the
+modules of the kinds it uses (:func:`get_kind`, :func:`ask_kinds`, found by :func:`kind_modules`); grading, the
+schema and the parallel workers import them all (:func:`load_all`).
 """
 from __future__ import annotations
 
 import importlib
 import pkgutil
+import re
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Iterable
 
 from pydantic import BaseModel
 
@@ -68,6 +73,7 @@ def property_check(*names: str) -> Callable:
 
 CHAPTERS = ("dynamics", "kinematics", "control", "interaction", "planning")
 _LOADED = False
+_DECLARED = re.compile(r"""@ask_kind\(\s*["']([A-Za-z_][A-Za-z0-9_]*)["']""")
 
 
 def load_all() -> dict[str, AskKind]:
@@ -80,6 +86,52 @@ def load_all() -> dict[str, AskKind]:
                 importlib.import_module(f"solver.{chapter}.{info.name}")
         _LOADED = True
     return ASKS
+
+
+@lru_cache(maxsize=1)
+def kind_modules() -> dict[str, str]:
+    """Every ask kind's name -> the module that registers it (chapters in order, modules by name), found without
+    importing anything: the chapter modules' source is searched for ``@ask_kind("name", ...)``
+    (tests/test_startup.py checks that this finds exactly what importing them registers). Empty when the source
+    cannot be read (then the callers import every chapter, as :func:`load_all`)."""
+    out: dict[str, str] = {}
+    root = Path(__file__).resolve().parent
+    for chapter in CHAPTERS:
+        folder = root / chapter
+        for info in pkgutil.iter_modules([str(folder)]):
+            source = folder / info.name / "__init__.py" if info.ispkg else folder / f"{info.name}.py"
+            try:
+                text = source.read_text(encoding="utf-8")
+            except OSError:
+                return {}
+            for name in _DECLARED.findall(text):
+                out.setdefault(name, f"solver.{chapter}.{info.name}")
+    return out
+
+
+def ask_kinds(names: Iterable[str]) -> dict[str, AskKind] | None:
+    """The registered ask kinds of ``names``, importing only their modules (``robosolve check`` and ``solve`` of a
+    file load the kinds it uses, not every chapter). None when a name is not a known kind."""
+    index = kind_modules()
+    out = {}
+    for name in names:
+        if name not in ASKS:
+            module = index.get(name)
+            if module is None:
+                return None
+            importlib.import_module(module)
+            if name not in ASKS:
+                return None
+        out[name] = ASKS[name]
+    return out
+
+
+def get_kind(name: str) -> AskKind:
+    """The registered ask kind ``name`` (its module imported on demand; KeyError if none registers it)."""
+    found = ask_kinds([name])
+    if found is None:
+        return load_all()[name]
+    return found[name]
 
 
 def preload(count: int = 2) -> None:

@@ -1,15 +1,14 @@
 """Solving a problem: run each ask's registered solver in order."""
 from __future__ import annotations
 
-from solver.registry import load_all
+from solver.registry import get_kind
 from solver.results import Solution
 from solver.spec.problem import Problem
 
 
 def solve_problem(problem: Problem) -> list[Solution]:
-    """One :class:`Solution` per ask of ``problem``."""
-    kinds = load_all()
-    return [kinds[a.kind].solve(problem, a.options, a.ctx) for a in problem.asks]
+    """One :class:`Solution` per ask of ``problem`` (only the modules of its ask kinds are imported)."""
+    return [get_kind(a.kind).solve(problem, a.options, a.ctx) for a in problem.asks]
 
 
 def all_results(solutions: list[Solution]) -> dict:

@@ -464,3 +464,20 @@ def test_adaptive_u_through_the_grader_with_a_suffix():
     ok, ko = item(grade(ref, good)), item(grade(ref, bad))
     assert ok.score == ok.max_score > 0, ok.feedback
     assert ko.score < ko.max_score and any("estimates" in f for f in ko.feedback), ko.feedback
+
+
+def test_exact_det_and_rational_matrix():
+    """exact_det equals det on matrices of rational functions (a 4x4 s I - A with parameters in denominators, an
+    integer matrix); entries with cos/sin (related by cos² + sin² = 1) or roots are not taken as independent
+    generators: rational_matrix refuses them and exact_det is Matrix.det."""
+    from solver.math.simplify import exact_det, rational_matrix
+    s, m, k, b, g = sp.symbols("s m k b g0", positive=True)
+    q = sp.Symbol("q", real=True)
+    A = sp.Matrix([[0, 0, 1, 0], [0, 0, 0, 1], [-k / m, g / m, -b / m, 0], [k / (2 * m), -(k + g) / m, 0, -b / m]])
+    M = s * sp.eye(4) - A
+    assert sp.cancel(exact_det(M) - M.det()) == 0 and exact_det(M).free_symbols <= {s, m, k, b, g}
+    assert exact_det(sp.Matrix([[2, 1], [7, 4]])) == 1
+    trig = sp.Matrix([[sp.cos(q), sp.sin(q)], [-sp.sin(q), sp.cos(q)]])
+    assert rational_matrix(trig) is None and sp.simplify(exact_det(trig)) == 1
+    assert rational_matrix(sp.Matrix([[sp.sqrt(m), 1], [1, sp.sqrt(m)]])) is None
+    assert rational_matrix(M) is not None

@@ -254,3 +254,33 @@ def test_property_check_accepts_any_null_motion():
     basis = res["null_motions_cleared"].value * sp.Matrix([[1, 1, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
     assert _null_check(p, res, "null_motions", basis, lambda n: None, {}).correct
     assert not _null_check(p, res, "null_motions", basis[:, :3], lambda n: None, {}).correct
+
+
+def test_null_directions_are_the_null_space_up_to_a_factor():
+    """The fast null space of the special motions (exact, over the field of fractions) spans N(M) as
+    Matrix.nullspace does: the same canonical vectors after cleared(), the same number of directions when the
+    rank is deficient or full; entries that are not rational functions of symbols (cos θ and sin θ, whose
+    relation the field of fractions would miss; square roots) take Matrix.nullspace itself."""
+    from solver.control.visual_servoing import _null_directions
+    a, b, c, d, lam = sp.symbols("a b c d lambda", positive=True)
+    u = sp.symbols("u1:4", real=True)
+    theta = sp.Symbol("theta", real=True)
+    rational = [
+        point_matrix(u[0], u[1], c, lam)[:, 3:],                              # 2x3, rank 2: one direction
+        point_matrix(u[0], u[1], c, lam)[:, :3] + point_matrix(u[1], u[2], d, lam)[:, :3],
+        sp.Matrix([[a, b, c], [2 * a, 2 * b, 2 * c]]),                       # rank 1: two directions
+        sp.Matrix([[a, 0, 0], [0, b, 0], [0, 0, c]]),                        # full rank: none
+    ]
+    for M in rational:
+        fast, ref = _null_directions(M), M.nullspace(simplify=True)
+        assert len(fast) == len(ref)
+        for v in fast:
+            assert (M * v).applyfunc(sp.simplify) == sp.zeros(M.rows, 1)
+        if len(ref) == 1:
+            assert cleared(fast[0]) == cleared(ref[0])
+    others = [polar_matrix(a, theta, c, lam)[:, 3:],
+              sp.Matrix([[sp.cos(theta) ** 2, 1, 0], [1 - sp.sin(theta) ** 2, 1, 0]]),  # rank 1 by cos² + sin² = 1
+              sp.Matrix([[sp.sqrt(a), b, 1], [1, c, d]])]
+    for M in others:
+        assert _null_directions(M) == M.nullspace(simplify=True)
+    assert len(_null_directions(others[1])) == 2

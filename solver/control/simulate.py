@@ -123,14 +123,14 @@ def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped
 def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (with the suffix): e_final, e_final_norm, e_max_norm, settling_time, u_max, t_end, completed,
     nfev; adaptive also ahat_final."""
-    from solver.registry import load_all
+    from solver.registry import get_kind
     robot = require_model(problem)
     dm = derive(robot)
     n = robot.n
     idx, ask = _target(problem, options, ctx)
     cache = problem.__dict__.setdefault("_control_solutions", {})
     if idx not in cache:
-        cache[idx] = load_all()[ask.kind].solve(problem, ask.options, ask.ctx)
+        cache[idx] = get_kind(ask.kind).solve(problem, ask.options, ask.ctx)
     law_sol = cache[idx]
     sfx = getattr(ask.options, "suffix", "")
     if "u" + sfx not in law_sol.results:

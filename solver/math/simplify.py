@@ -298,3 +298,29 @@ def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:
 
     out = [tidy(sp.Add(*groups[m])) * m for m in sorted(groups, key=key)]
     return [t for t in out if t != 0]
+
+
+def rational_matrix(M: sp.Matrix):  # type: ignore[no-untyped-def]
+    """``M`` as a DomainMatrix over the field of rational functions of its symbols with rational coefficients,
+    where every entry is such a function, else None. Its det, rref and nullspace are exact and much faster than
+    Matrix's with simplification; entries such as cos θ, sin θ or √a are refused (as independent generators,
+    their relations would be missed: a rank too high, a determinant not simplified to 0)."""
+    from sympy.polys.matrices import DomainMatrix
+    try:
+        dM = DomainMatrix.from_Matrix(M)
+    except Exception:  # noqa: BLE001 - entries sympy's domains do not take
+        return None
+    K = dM.domain
+    if K.is_ZZ or K.is_QQ or ((K.is_PolynomialRing or K.is_FractionField) and (K.dom.is_ZZ or K.dom.is_QQ)
+                              and all(g.is_Symbol for g in K.symbols)):
+        return dM.to_field()
+    return None
+
+
+def exact_det(M: sp.Matrix) -> sp.Expr:
+    """det M: over the field of rational functions when the entries allow (:func:`rational_matrix`), else
+    ``M.det()``."""
+    dM = rational_matrix(M) if M.rows else None
+    if dM is None:
+        return M.det()
+    return dM.domain.to_sympy(dM.det())

@@ -8,12 +8,13 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Sequence
 
-import numpy as np
 import sympy as sp
 
 from solver.results import Curve, Figure, Panel
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from solver.spec.robot import Robot
 
 
@@ -44,6 +45,7 @@ def sweep(expr: sp.Expr, x: sp.Symbol, grid: np.ndarray, fixed: dict[sp.Symbol, 
     if not e.free_symbols:
         return [float(e)] * len(grid)
     f = sp.lambdify(x, e, "numpy")
+    import numpy as np  # here, not at the top: most solves draw no figure (start-up of `check`, `solve`)
     return [float(v) for v in np.broadcast_to(f(grid), grid.shape)]
 
 
@@ -66,6 +68,7 @@ def coordinate_figure(name: str, caption: str, entries: list[tuple[str, sp.Expr]
         panels = []
         for j, qj, deps in columns:
             lo, hi = ranges.get(qj, default_range(robot.joints[j]))
+            import numpy as np
             grid = np.linspace(lo, hi, points)
             curves = [Curve(label, [float(v) for v in grid], sweep(e, qj, grid, fixed)) for label, e in deps]
             panels.append(Panel(f"${latex.get(qj, sp.latex(qj))}$", "", curves, robot.joints[j] == "R"))

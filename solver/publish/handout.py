@@ -37,7 +37,7 @@ from solver.publish.render import latex_printer, md2html, render_template, templ
 from solver.spec.errors import Place, UserError
 from solver.spec.loader import SpecLoader, load_problem, validation_error
 from solver.spec.expr import number
-from solver.spec.models import Strict
+from solver.spec.models import Strict, is_exam_data
 from solver.spec.texmath import text_math_problem
 from solver.spec.problem import Problem
 from solver.spec.yamlpos import Located, load_file
@@ -144,11 +144,6 @@ def load_sources(paths: list[Path]) -> Handout:
     parts = [Part(SpecLoader(loc).load(), -1.0) for loc in located]
     return Handout(ExamSpec(title="Exercises", problems=[ExamProblem(problem=str(p)) for p in paths]), parts,
                    ", ".join(str(p) for p in paths))
-
-
-def is_exam_data(data: Any) -> bool:
-    """Whether parsed YAML is an exam file (problems: list, no robot/asks), as opposed to a problem spec."""
-    return isinstance(data, dict) and "problems" in data and "robot" not in data and "asks" not in data
 
 
 # ------------------------------------------------------------------------------------------ building

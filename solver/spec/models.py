@@ -1,6 +1,7 @@
 """The spec format as pydantic models: validation and the JSON Schema (`robosolve schema`).
 
-The `asks:` list is the union of every registered ask kind's options model (:func:`spec_model`).
+The `asks:` list is the union of every registered ask kind's options model (:func:`spec_model`); reading a spec
+builds the union of only the kinds it uses (:func:`spec_kinds`), so that only their modules are imported.
 """
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
-from solver.registry import load_all
+from solver.registry import ASKS, ask_kinds, kind_modules, load_all
 
 Scalar = Union[str, int, float]
 ExprT = Union[str, int, float, list[Any]]
@@ -116,14 +117,43 @@ class SpecBase(Strict):
     notes: str = Field("", description="free notes: assumptions, reconstruction of lost figures, errata")
 
 
-@lru_cache(maxsize=1)
-def spec_model() -> type[BaseModel]:
-    """The Spec model with `asks` as the union of every registered ask kind's options."""
-    kinds = load_all()
-    models = tuple(k.options for k in kinds.values())
-    item = Annotated[Union[models], Field(discriminator="kind")] if len(models) > 1 else models[0]
+def spec_model(kinds: tuple[str, ...] | None = None) -> type[BaseModel]:
+    """The Spec model with `asks` as the union of the options of the ask kinds ``kinds`` (their modules imported
+    on demand), or of every registered ask kind (None, or a name that no module registers; `robosolve schema`).
+    The same errors either way for a spec whose asks all have one of ``kinds`` (the union is discriminated by
+    `kind`)."""
+    if kinds is None or ask_kinds(kinds) is None:
+        kinds = tuple(load_all())
+    return _spec_model(tuple(sorted(set(kinds), key=_order)))
+
+
+def _order(name: str) -> tuple[int, str]:
+    index = list(kind_modules())
+    return (index.index(name), "") if name in index else (len(index), name)
+
+
+@lru_cache(maxsize=64)
+def _spec_model(kinds: tuple[str, ...]) -> type[BaseModel]:
+    models = tuple(ASKS[k].options for k in kinds)
+    item = Annotated[Union[models], Field(discriminator="kind")]
     return create_model("Spec", __base__=SpecBase,
                         asks=(list[item], Field(description="what is asked, in order")))  # type: ignore[valid-type]
+
+
+def spec_kinds(data: Any) -> tuple[str, ...] | None:
+    """The ask kinds a spec's data names, when every ask is a mapping with a known `kind` (else None: validate
+    with every kind, for the errors that list them)."""
+    asks = data.get("asks") if isinstance(data, dict) else None
+    if not isinstance(asks, list) or not asks:
+        return None
+    index = kind_modules()
+    kinds = []
+    for a in asks:
+        k = a.get("kind") if isinstance(a, dict) else None
+        if not isinstance(k, str) or k not in index:
+            return None
+        kinds.append(k)
+    return tuple(kinds)
 
 
 def json_schema() -> dict[str, Any]:
@@ -131,6 +161,11 @@ def json_schema() -> dict[str, Any]:
     schema = spec_model().model_json_schema()
     schema["title"] = "robosolve problem spec"
     return schema
+
+
+def is_exam_data(data: Any) -> bool:
+    """Whether parsed YAML is an exam file (problems: list, no robot/asks), as opposed to a problem spec."""
+    return isinstance(data, dict) and "problems" in data and "robot" not in data and "asks" not in data
 
 
 def _inner_model(annotation: Any, node: Any) -> Any:

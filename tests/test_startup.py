@@ -1,0 +1,149 @@
+"""Start-up (issue 11): `check` and `solve` import only the modules of the ask kinds a file uses, with the same
+diagnostics as the union of every kind; `--help` imports no sympy. No timed assertions: what is imported is what
+the start-up costs."""
+import json
+import subprocess
+import sys
+
+import pytest
+
+from conftest import PROBLEMS, ROOT
+from solver.registry import kind_modules, load_all
+from solver.spec import load_problem
+from solver.spec.errors import UserError
+from solver.spec.models import json_schema
+
+# The CLI in this process: without os.fork, solver.sandbox runs the work in-process, so that what the work
+# imported is in sys.modules at the end.
+PROBE = """
+import json, os, sys
+del os.fork
+sys.argv = ["robosolve"] + sys.argv[1:]
+from solver.cli import main
+code = 0
+try:
+    main()
+except SystemExit as exc:
+    code = exc.code
+print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
+"""
+
+HEAVY = ("scipy", "matplotlib")
+
+
+def imported(*args: str) -> tuple[int, set[str], str]:
+    """Exit code, imported modules and output of `robosolve <args>` run in one process."""
+    r = subprocess.run([sys.executable, "-c", PROBE, *args], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    lines = r.stdout.strip().splitlines()
+    assert lines, r.stderr
+    out = json.loads(lines[-1])
+    return out["code"], set(out["modules"]), "\n".join(lines[:-1]) + r.stderr
+
+
+def kind_modules_in(modules: set[str]) -> set[str]:
+    return set(kind_modules().values()) & modules
+
+
+def test_the_index_names_what_importing_registers():
+    """kind_modules() (source search, no import) == what load_all() registers, with the module of each."""
+    index = kind_modules()
+    kinds = load_all()
+    assert len(index) >= 15
+    assert index == {name: kind.solve.__module__ for name, kind in kinds.items()}
+
+
+def test_check_of_a_dynamics_problem_imports_its_kind_only():
+    code, modules, out = imported("check", str(PROBLEMS / "2007-04-19-ex1.yaml"))  # asks: dynamic_model
+    assert code == 0 and "2007-04-19-ex1.yaml: ok" in out
+    assert kind_modules_in(modules) == {"solver.dynamics.model"}
+    for chapter in ("kinematics", "control", "interaction", "planning"):
+        assert not any(m.startswith(f"solver.{chapter}.") for m in modules), chapter
+    for m in (*HEAVY, "numpy", "jinja2", "solver.grading.grader", "solver.publish.handout", "solver.publish.render"):
+        assert m not in modules, m
+    assert "sympy" in modules  # the problem is solved: its expected: entries must name results
+
+
+def test_check_of_a_multi_kind_problem_imports_those_kinds():
+    code, modules, out = imported("check", str(PROBLEMS / "2016-09-12-ex1.yaml"))
+    assert code == 0 and out.strip().endswith("ok")
+    assert kind_modules_in(modules) == {"solver.dynamics.model", "solver.dynamics.equilibria",
+                                        "solver.dynamics.parametrization"}
+    assert not any(m in modules for m in HEAVY)
+
+
+def test_check_of_a_kinematics_problem_and_of_an_exam():
+    code, modules, out = imported("check", str(PROBLEMS / "2009-09-10-ex1.yaml"))  # asks: kinematics
+    assert code == 0 and out.strip().endswith("ok")
+    assert kind_modules_in(modules) == {"solver.kinematics.analysis"}
+    assert not any(m in modules for m in HEAVY)
+    code, modules, out = imported("check", str(ROOT / "exams" / "2020-07-15-remote.yaml"))
+    assert code == 0 and "ok (exam file, 2 problem(s))" in out
+
+
+def test_solve_imports_its_kinds_and_no_plotting_without_figures():
+    code, modules, out = imported("solve", str(PROBLEMS / "2007-04-19-ex1.yaml"), "--format", "json")
+    assert code == 0 and "B" in json.loads(out[out.index("{"):])["results"]
+    assert kind_modules_in(modules) == {"solver.dynamics.model"}
+    assert not any(m in modules for m in (*HEAVY, "numpy"))  # numpy only to sample figures
+
+
+def test_help_imports_no_maths():
+    code, modules, out = imported("--help")
+    assert code == 0 and "check" in out
+    assert not any(m in modules for m in ("sympy", "numpy", "pydantic", *HEAVY))
+
+
+ASK_ERRORS = [  # an error inside an ask, the kinds the spec uses all known: same message with the union of all kinds
+    "  - kind: dynamic_model\n    figures: maybe\n",
+    "  - kind: dynamic_model\n    figurs: true\n",
+    "  - kind: equilibria\n  - kind: dynamic_model\n    blah: 1\n",
+    "  - kind: kinematics\n    task: [q1]\n    jacobian: 3\n",
+    "  - kind: redundancy\n",
+    "  - kind: dynamic_model\n  - 3\n",
+    "  - kind: dynamic_modle\n",
+    "  - {}\n",
+    "  - kind: dynamic_model\n    title: [1, 2]\n",
+]
+
+SPEC = """\
+id: t
+title: planar 2R
+symbols: {m1: mass 1, m2: mass 2, l1: length 1, d1: com 1, d2: com 2, I1: inertia 1, I2: inertia 2, g0: gravity}
+robot:
+  joints: [R, R]
+  gravity: [0, -g0, 0]
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [l1*cos(q1) + d2*cos(q1 + q2), l1*sin(q1) + d2*sin(q1 + q2)], angle: q1 + q2, inertia: I2}
+asks:
+"""
+
+
+def message(write, text: str) -> str:
+    with pytest.raises(UserError) as exc:
+        load_problem(write(text))
+    return str(exc.value)
+
+
+@pytest.mark.parametrize("asks", ASK_ERRORS)
+def test_ask_errors_are_those_of_the_union_of_every_kind(write, monkeypatch, asks):
+    import solver.spec.loader as loader
+    lazy = message(write, SPEC + asks)
+    monkeypatch.setattr(loader, "spec_kinds", lambda data: None)  # the union of every kind, as before
+    assert message(write, SPEC + asks) == lazy
+    assert "spec.yaml:1" in lazy  # at the ask's line (10 and after)
+
+
+def test_unknown_kind_lists_every_kind_at_its_line(write):
+    msg = message(write, SPEC + "  - kind: dynamic_model\n  - kind: dynamics\n")
+    assert "spec.yaml:12:5: error: unknown or missing ask kind" in msg and ", ".join(sorted(kind_modules())) in msg
+
+
+def test_schema_is_the_union_of_every_kind_after_a_lazy_load(write):
+    load_problem(write(SPEC + "  - kind: equilibria\n"))  # one kind imported on demand first
+    schema = json_schema()
+    variants = schema["properties"]["asks"]["items"]["oneOf"]
+    names = [v["$ref"].rsplit("/", 1)[-1] for v in variants]
+    assert len(names) == len(kind_modules())
+    kinds = load_all()
+    assert names == [kinds[k].options.__name__ for k in kind_modules()]
