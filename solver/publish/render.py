@@ -340,7 +340,7 @@ def equation(value: Any, lhs: str, entry: str, tex: Callable[[Any], str], punct:
     (``entry``_{ij} = ..., zero entries and the lower triangle of a symmetric matrix left out), each long entry
     broken into lines."""
     if not isinstance(value, sp.MatrixBase):
-        return _broken(lhs, tex(value), punct, width)
+        return _broken(lhs, tex(value), punct, width, value, tex)
     cells = [[tex(value[i, j]) for j in range(value.cols)] for i in range(value.rows)]
     widest = max(sum(visible_length(c) + 6 for c in row) for row in cells)  # + column separation
     if widest <= width:
@@ -353,7 +353,7 @@ def equation(value: Any, lhs: str, entry: str, tex: Callable[[Any], str], punct:
             if value[i, j] == 0 or (symmetric and j < i):
                 continue
             idx = f"{i + 1}{j + 1}" if value.cols > 1 else f"{i + 1}"
-            out.append(_broken(f"{entry}_{{{idx}}}", cells[i][j], "", width))
+            out.append(_broken(f"{entry}_{{{idx}}}", cells[i][j], "", width, value[i, j], tex))
     zeros = [f"{entry}_{{{i + 1}{j + 1}}}" if value.cols > 1 else f"{entry}_{{{i + 1}}}"
              for i in range(value.rows) for j in range(value.cols) if value[i, j] == 0 and not (symmetric and j < i)]
     if zeros:
@@ -363,8 +363,24 @@ def equation(value: Any, lhs: str, entry: str, tex: Callable[[Any], str], punct:
     return "\n".join(out)
 
 
-def _broken(lhs: str, text: str, punct: str, width: int) -> str:
-    return display(top_level_terms(text), "", width, lhs=lhs, punct=punct)
+def _broken(lhs: str, text: str, punct: str, width: int, value: Any = None,
+            tex: Callable[[Any], str] | None = None) -> str:
+    """``lhs = text`` broken at the top-level signs when wider than ``width``; a long quotient n/d (``value``) as
+    (1/d)(n) with n broken: a single fraction cannot be broken."""
+    parts = top_level_terms(text)
+    if max(map(visible_length, parts)) > UNBREAKABLE:  # a line TeX cannot even measure: one (overfull) line
+        return f"\\[{lhs} = {text}{punct}\\]"
+    if tex is not None and isinstance(value, sp.Expr) and visible_length(text) > width:
+        n, d = sp.fraction(value)
+        if d != 1 and n.is_Add:
+            num = top_level_terms(tex(n))
+            if max(map(visible_length, num)) <= UNBREAKABLE:
+                return display(num, "", width, lhs=lhs, punct=punct,
+                               wrap=(f"\\frac{{1}}{{{tex(d)}}}\\Big(", "\\Big)"))
+    return display(parts, "", width, lhs=lhs, punct=punct)
+
+
+UNBREAKABLE = 2000  # printed characters of one term past which a multline line would exceed TeX's dimensions
 
 
 def number(value: Any, digits: int = 4) -> str:
