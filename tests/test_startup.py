@@ -72,7 +72,7 @@ def test_check_of_a_multi_kind_problem_imports_those_kinds():
 
 
 def test_check_of_a_kinematics_problem_and_of_an_exam():
-    code, modules, out = imported("check", str(PROBLEMS / "2009-09-10-ex1.yaml"))  # asks: kinematics
+    code, modules, out = imported("check", str(PROBLEMS / "2014-10-27-ex2.yaml"))  # asks: kinematics
     assert code == 0 and out.strip().endswith("ok")
     assert kind_modules_in(modules) == {"solver.kinematics.analysis"}
     assert not any(m in modules for m in HEAVY)
