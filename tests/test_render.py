@@ -118,3 +118,21 @@ def test_display_math_over_several_lines_stays_one_formula():
     text = "Consider\n$$\\tau = B(q)\\ddot q\n + c(q, \\dot q)$$\nand $x$."
     assert "$$\\tau = B(q)\\ddot q  + c(q, \\dot q)$$" in md2tex(text)
     assert "$$\\tau = B(q)\\ddot q  + c(q, \\dot q)$$" in md2html(text)
+
+
+def test_memoized_printers_print_as_sympy_does() -> None:
+    """The printers that print each subexpression once give sympy's text and the report's LaTeX unchanged,
+    also where equal subexpressions recur, orders change inside a product, and floats of other precisions occur."""
+    import sympy as sp
+
+    from solver.publish import render as R
+    q1, q2, m2, l1, d2 = sp.symbols("q1 q2 m2 l1 d2")
+    k = m2 * l1 * d2 * sp.cos(q2) + m2 * d2**2
+    exprs = [k, sp.Matrix([[k, k / 2], [k / 2, -k]]), k * sp.sin(q1 - q2) + (k + 1) ** 2,
+             sp.Float(2.0, 15) * k + sp.Float(2.0, 30) * k**2, sp.Matrix([k, sp.Float(0.5) * q1])]
+    plain = R.Latex({}, {})
+    for e in exprs:
+        assert R._expr_str(e) == str(e)
+        memo = R.Latex({}, {})
+        memo(k)  # fills the memo first
+        assert memo(e) == plain.printer.doprint(e) or memo(e) == plain(e)

@@ -10,6 +10,7 @@ from typing import Any, Callable
 import jinja2
 import sympy as sp
 from sympy.printing.latex import LatexPrinter
+from sympy.printing.str import StrPrinter
 
 from solver.results import Result, Solution
 from solver.spec.texmath import safe_math
@@ -27,7 +28,45 @@ def templates_dir() -> Path:
     raise FileNotFoundError("robosolve templates not found")
 
 
-class _Printer(LatexPrinter):
+class _Memo:
+    """A sympy printer that prints each compound subexpression once: a model's results share most of their
+    subexpressions (the same coefficient sums in B, the C_k, c, S and the model). The text of a subexpression does
+    not depend on where it stands (parentheses are added by the caller), only on the printer's settings, of which
+    "order" is changed while printing: it is part of the key. Floats, whose equal values may print with other
+    precisions, are not memoized."""
+
+    _MEMO_LIMIT = 200_000
+    _memo_on = False
+
+    def doprint(self, expr: Any) -> str:  # type: ignore[override]
+        outer = self._memo_on
+        try:
+            self._memo_on = isinstance(expr, (sp.Basic, sp.MatrixBase)) and not expr.has(sp.Float)
+            return super().doprint(expr)  # type: ignore[misc]
+        finally:
+            self._memo_on = outer
+
+    def _print(self, expr: Any, **kwargs: Any) -> str:  # type: ignore[override]
+        if kwargs or not self._memo_on or not isinstance(expr, sp.Basic) or expr.is_Atom:
+            return super()._print(expr, **kwargs)  # type: ignore[misc]
+        memo = self.__dict__.setdefault("_memo", {})
+        key = (expr, self._settings.get("order"))  # type: ignore[attr-defined]
+        hit = memo.get(key)
+        if hit is None:
+            if len(memo) > self._MEMO_LIMIT:
+                memo.clear()
+            hit = memo[key] = super()._print(expr)  # type: ignore[misc]
+        return hit
+
+
+class _Str(_Memo, StrPrinter):
+    """sympy's str() (the JSON text), memoized."""
+
+
+_STR = _Str()
+
+
+class _Printer(_Memo, LatexPrinter):
     """LaTeX printer writing products as a teacher does: m_2 l_1 q_2 \\dot q_1 \\cos q_2 (parameters, coordinates,
     velocities, accelerations, then functions)."""
 
@@ -469,6 +508,11 @@ def _expr_str(value: Any) -> str:
         return f"Matrix([{rows}])"
     if is_large(value, LARGE_TEXT):
         return _fast_str(value)
+    if isinstance(value, sp.MatrixBase) and value.rows and value.cols:  # str(M), its entries printed once each
+        rows = ", ".join("[" + ", ".join(_STR.doprint(x) for x in value.row(i)) + "]" for i in range(value.rows))
+        return f"Matrix([{rows}])"
+    if isinstance(value, sp.Basic):
+        return _STR.doprint(value)
     return str(value)
 
 
