@@ -24,8 +24,7 @@ import numpy as np
 import sympy as sp
 from pydantic import BaseModel, Field, model_validator
 
-from solver.math.budget import BudgetExceeded, cpu_budget
-from solver.math.simplify import rational_matrix, tidy
+from solver.math.simplify import factor_within, rational_matrix, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
@@ -167,14 +166,8 @@ def cleared(vec: sp.Matrix) -> sp.Matrix:
 
 
 def _factored(x: sp.Expr, budget: float = 1.0) -> sp.Expr:
-    """sp.factor(x) within a CPU budget: multivariate factoring (Wang's algorithm) can take minutes for some
-    orderings of the generators (they follow the hash seed of the process); past the budget only the common
-    factors are pulled out (factor_terms)."""
-    try:
-        with cpu_budget(budget):
-            return sp.factor(x)
-    except BudgetExceeded:
-        return sp.factor_terms(x)
+    """sp.factor(x) within a 1 s CPU budget (:func:`solver.math.simplify.factor_within`)."""
+    return factor_within(x, budget)
 
 
 def _shorter_factored(x: sp.Expr) -> sp.Expr:

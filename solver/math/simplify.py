@@ -19,9 +19,10 @@ from functools import lru_cache
 import sympy as sp
 
 from solver.math.fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
-from solver.math.budget import BudgetExceeded
+from solver.math.budget import BudgetExceeded, cpu_budget
 
 _TRIG = (sp.sin, sp.cos)
+FACTOR_BUDGET = 5.0  # CPU seconds of one cosmetic factorization (a hang on an unlucky generator order)
 
 
 def angle_symbols(expr: sp.Expr) -> list[sp.Symbol]:
@@ -186,13 +187,24 @@ def _product_form(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
     return sp.Add(*[_nice(sp.Add(*c)) * t for t, c in groups.items()])
 
 
+def factor_within(x: sp.Expr, budget: float = FACTOR_BUDGET) -> sp.Expr:
+    """sp.factor(x) within a CPU budget: multivariate factoring (Wang's algorithm) can take minutes for some
+    orderings of the generators (they follow the hash seed of the process); past the budget only the common
+    factors are pulled out (factor_terms)."""
+    try:
+        with cpu_budget(budget):
+            return sp.factor(x)
+    except BudgetExceeded:
+        return sp.factor_terms(x)
+
+
 def _nice(c: sp.Expr) -> sp.Expr:
     """A coefficient as a teacher writes it: factored when that is shorter, else expanded."""
     if c.is_number or c.is_Symbol or not c.is_Add:
         return c
     f = sp.factor_terms(c)
     if len(c.args) <= 12:  # full factorization only where it stays cheap: (q̇1 + q̇2)(2q̇1 + q̇2)
-        g = sp.factor(f)
+        g = factor_within(f)
         f = g if sp.count_ops(g) < sp.count_ops(f) else f
     return f if sp.count_ops(f) < sp.count_ops(c) else c
 
