@@ -335,6 +335,18 @@ def _place(problem, ctx, *sub):  # type: ignore[no-untyped-def]
     return problem.located.place(ctx.path + tuple(sub))
 
 
+def _square(problem, ctx, n: int, name: str, *sub) -> sp.Matrix:  # type: ignore[no-untyped-def]
+    """The option at ``sub`` read as an n×n matrix; a user error naming ``name`` otherwise."""
+    val = ctx.expr(*sub)
+    try:
+        M = sp.Matrix(val)
+    except (TypeError, ValueError):
+        M = None
+    if M is None or M.shape != (n, n):
+        raise UserError(f"{name} must be a {n}x{n} matrix", _place(problem, ctx, *sub))
+    return M
+
+
 @ask_kind("dynamic_properties", DynamicPropertiesAsk,
           "model properties: eigenvalue bounds of B, α, factorizations of c, momentum, inverse dynamics, "
           "other coordinates, conditions for a real robot, energy rates")
@@ -399,13 +411,7 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             sol.add("skew_alt", is_skew(N2), "bool", label="\\dot B - 2S_2 \\text{ skew}")
             checked = []
             for k, f in enumerate(options.factorizations):
-                val = ctx.expr("factorizations", k, "S")
-                try:
-                    S = sp.Matrix(val)
-                except (TypeError, ValueError):
-                    S = None
-                if S is None or S.shape != (n, n):
-                    raise UserError(f"S must be a {n}x{n} matrix", _place(problem, ctx, "factorizations", k, "S"))
+                S = _square(problem, ctx, n, "S", "factorizations", k, "S")
                 valid = all(is_zero(sp.expand(x)) for x in (S * sp.Matrix(dq) - dm.c))
                 N = tidy_matrix(Bd - 2 * S)
                 skew = is_skew(N)
@@ -475,13 +481,7 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
                 if not cand.name.isidentifier():
                     raise UserError(f"candidate name '{cand.name}' is not a plain name",
                                     _place(problem, ctx, "candidates", k, "name"), "use letters, digits and _")
-                Bc = ctx.expr("candidates", k, "B")
-                try:
-                    Bc = sp.Matrix(Bc)
-                except (TypeError, ValueError):
-                    Bc = None
-                if Bc is None or Bc.shape != (n, n):
-                    raise UserError(f"B must be a {n}x{n} matrix", _place(problem, ctx, "candidates", k, "B"))
+                Bc = _square(problem, ctx, n, "B", "candidates", k, "B")
                 gc = sp.Matrix(ctx.expr("candidates", k, "g")) if cand.g is not None else sp.zeros(n, 1)
                 if gc.shape != (n, 1):
                     raise UserError(f"g must have {n} components", _place(problem, ctx, "candidates", k, "g"))
