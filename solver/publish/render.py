@@ -503,14 +503,11 @@ def _expr_str(value: Any) -> str:
         return "[" + ", ".join(_expr_str(v) for v in value) + "]"
     if isinstance(value, dict):
         return "{" + ", ".join(f"{_expr_str(k)}: {_expr_str(v)}" for k, v in value.items()) + "}"
-    if isinstance(value, sp.MatrixBase) and any(is_large(x, LARGE_TEXT) for x in value):
+    if isinstance(value, sp.MatrixBase) and value.rows and value.cols:  # str(M), entry by entry
         rows = ", ".join("[" + ", ".join(_expr_str(x) for x in value.row(i)) + "]" for i in range(value.rows))
         return f"Matrix([{rows}])"
     if is_large(value, LARGE_TEXT):
         return _fast_str(value)
-    if isinstance(value, sp.MatrixBase) and value.rows and value.cols:  # str(M), its entries printed once each
-        rows = ", ".join("[" + ", ".join(_STR.doprint(x) for x in value.row(i)) + "]" for i in range(value.rows))
-        return f"Matrix([{rows}])"
     if isinstance(value, sp.Basic):
         return _STR.doprint(value)
     return str(value)
