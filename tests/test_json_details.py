@@ -81,3 +81,23 @@ def test_long_expressions_printed_directly_read_back():
     tex = Latex({a: "\\alpha"})(big)
     assert "\\alpha" in tex and "\\cos{\\left(q_{1}\\right)}" in tex and tex.count("\\left(") == tex.count("\\right)")
     assert _expr_str(a * sp.cos(q1)) == str(a * sp.cos(q1))
+
+
+def test_steps_refer_to_their_own_asks_results():
+    """Equal results of two asks are one shared object (memoized simplification): each ask's steps name its own
+    result (suffix), a step of an ask without that result names the first ask's."""
+    import sympy as sp
+
+    from solver.results import Solution
+    p = load_problem(RP)
+    x = sp.Symbol("x") ** 2 + 1
+    sols = []
+    for sfx in ("", "_b"):
+        s = Solution("kinematics", title="t")
+        s.add("v" + sfx, x, "scalar", label="v")
+        s.step("use", v=x)
+        sols.append(s)
+    third = Solution("redundancy", title="t")
+    third.step("use", v=x)
+    data = json.loads(render(p, sols + [third], "json"))
+    assert [s["data"]["v"] for s in data["steps"]] == [{"result": "v"}, {"result": "v_b"}, {"result": "v"}]

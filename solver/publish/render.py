@@ -631,16 +631,20 @@ def to_json(problem: Problem, solutions: list[Solution], details: bool = False) 
     latex = Latex(problem.latex_names, ranks(problem))
     results: dict[str, Any] = {}
     refs: dict[int, str] = {}
+    own: list[dict[int, str]] = []   # a step names its own ask's result, else the first ask's with that object
     for sol in solutions:
+        own.append({})
         for name, r in sol.results.items():
             if r.detail and not details:
                 continue
             results[name] = result_json(r, latex)
             if _referable(r.value):
-                refs[id(r.value)] = name
+                own[-1][id(r.value)] = name
+                refs.setdefault(id(r.value), name)
     plain = _Steps(latex, refs, details)
     steps: list[Any] = []
-    for sol in solutions:
+    for sol, mine in zip(solutions, own):
+        plain.refs = {**refs, **mine}
         for st in sol.steps:
             data = plain._dict({k: v for k, v in st.data.items() if k not in ("robot",)})
             steps.append({"ask": sol.kind, "step": st.name, "data": data})
