@@ -57,6 +57,39 @@ def test_product_to_sum_identities_are_exact() -> None:
     assert {k: (x.as_expr(), y.as_expr()) for k, (x, y) in c.items()} == {(0, 0, 0): (a / 2, 0), (2, 0, 0): (a / 2, 0)}
 
 
+def test_algebraic_zero_test_uses_the_radical_relations() -> None:
+    """Radicals r = P^(1/q) as generators reduced modulo r^q − P: True only for an exact zero, None otherwise."""
+    x, y = sp.symbols("x y")
+    s = sp.sqrt(x ** 2 + y)
+    assert is_zero(s ** 3 / (x ** 2 + y) - s) is True
+    assert is_zero(1 / (1 + sp.sqrt(x)) - (1 - sp.sqrt(x)) / (1 - x)) is True
+    assert is_zero(x ** sp.Rational(1, 3) * x ** sp.Rational(1, 2) - x ** sp.Rational(5, 6)) is True
+    assert is_zero(s / (x + s) - (s * x - s ** 2) / (x ** 2 - s ** 2)) is True
+    assert is_zero(1 / (1 + sp.sqrt(x)) - (1 + sp.sqrt(x)) / (1 - x)) is None   # not zero: undecided, never True
+    assert is_zero(sp.sqrt(x) * sp.sqrt(y) - sp.sqrt(x * y)) is None           # false for x, y < 0
+    assert is_zero(sp.sqrt(4 * x ** 2 + 8 * y) - 2 * sp.sqrt(x ** 2 + 2 * y)) is True   # radicands up to a content
+    assert is_zero(sp.sqrt(8 * x) - 2 * sp.sqrt(2) * sp.sqrt(x)) is True
+    assert is_zero(sp.sqrt(-2 * x) - sp.sqrt(2) * sp.sqrt(x)) is None
+    assert is_zero(sp.sqrt(x + sp.sqrt(2) * y) ** 3 - (x + sp.sqrt(2) * y) * sp.sqrt(x + sp.sqrt(2) * y)) is True
+
+
+def test_algebraic_zero_test_with_angles() -> None:
+    """sin, cos of each angle as generators with s² + c² = 1, radicals of trigonometric polynomials as generators:
+    the derivative of a distance √(x(q)² + y(q)²) in two written forms, a phase-shifted sinusoid."""
+    l1, d = sp.symbols("l1 d", positive=True)
+    x = l1 * sp.cos(q1) + q2 * sp.sin(q1) - d
+    y = l1 * sp.sin(q1) - q2 * sp.cos(q1)
+    r = sp.sqrt(x ** 2 + y ** 2)
+    grad = sp.diff(r, q1)
+    other = (d * l1 * sp.sin(q1) - d * q2 * sp.cos(q1)) / sp.sqrt(sp.expand(x ** 2 + y ** 2))
+    assert is_zero(grad - other) is True
+    assert is_zero(grad - 2 * other) is None
+    assert is_zero(sp.sqrt(2) * sp.cos(q1 + sp.pi / 4) - sp.cos(q1) + sp.sin(q1)) is True
+    assert is_zero(sp.sqrt(sp.sin(q1) ** 2 + sp.cos(q1) ** 2 + a) - sp.sqrt(1 + a)) is True
+    assert is_zero(sp.sqrt(1 - sp.sin(q1) ** 2) - sp.cos(q1)) is None          # |cos q1|: undecided, never True
+    assert is_zero(sp.exp(a) * sp.sin(2 * q1) - 2 * sp.exp(a) * sp.sin(q1) * sp.cos(q1)) is True
+
+
 def test_other_functions_are_refused() -> None:
     for e in (sp.tan(q1), a / b * sp.cos(q1), sp.cos(q1 + 1), sp.sqrt(2) * sp.cos(q1), sp.Float(0.5) * sp.sin(q1)):
         try:

@@ -32,7 +32,7 @@ from solver.control.laws import (
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.methods import NAMED_H, damping_matrix, named_objective
 from solver.math.budget import BudgetExceeded, cpu_budget
-from solver.math.simplify import tidy
+from solver.math.simplify import factor_within, tidy
 from solver.results import Solution
 from solver.spec.expr import shape_of
 from solver.spec.problem import AskReader
@@ -190,7 +190,7 @@ def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: 
     square = m == n
     detJ = None
     if square:
-        detJ = sp.factor(sp.simplify(J.det()))
+        detJ = factor_within(sp.simplify(J.det()))
         if _zero(detJ):
             raise inp.fail(("task",), "the task Jacobian is singular everywhere: the task cannot be controlled")
     kp = _gains(problem, options, ctx, "kp", m, True)

@@ -26,7 +26,7 @@ from solver.control.laws import (
     record_law,
 )
 from solver.dynamics.model import derive, require_model
-from solver.math.simplify import tidy
+from solver.math.simplify import factor_within, tidy
 from solver.results import Solution
 from solver.spec.errors import UserError
 
@@ -65,18 +65,18 @@ def solve_elastic(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ig
     if all(_zero(sp.diff(x, t)) for x in nL for t in th):
         raise UserError("law: elastic: the link equations do not depend on the motor positions (no elastic "
                         "coupling)", place)
-    MLi = (ML.adjugate() / sp.factor(ML.det())).applyfunc(sp.simplify)
+    MLi = (ML.adjugate() / factor_within(ML.det())).applyfunc(sp.simplify)
     f2 = (-MLi * nL).applyfunc(tidy)
     state = q + th + dq + dth
     f3 = sp.Matrix([_light(_time_derivative(x, q + th + dq, dq + dth + list(f2))) for x in f2])
     Mth, MthL = M.extract(mot, mot), M.extract(mot, lnk)
     nth = nv.extract(mot, [0])
-    Mthi = (Mth.adjugate() / sp.factor(Mth.det())).applyfunc(sp.simplify)
+    Mthi = (Mth.adjugate() / factor_within(Mth.det())).applyfunc(sp.simplify)
     # only the θ̇ term of f3 = ∂f2/∂q q̇ + ∂f2/∂θ θ̇ + ∂f2/∂q̇ f2 contains θ̇: β = ∂f2/∂θ B_m⁻¹ G_m
     ddth0 = Mthi * (-nth - MthL * f2)
     alpha = sp.Matrix([_light(_time_derivative(x, state, dq + dth + list(f2) + list(ddth0))) for x in f3])
     beta = (f2.jacobian(th) * Mthi * Gm).applyfunc(tidy)
-    detb = sp.factor(sp.simplify(beta.det()))
+    detb = factor_within(sp.simplify(beta.det()))
     if _zero(detb):
         raise UserError("law: elastic: the decoupling matrix of y⁽⁴⁾ is singular (the motors do not reach the "
                         "link accelerations through the springs)", place)
@@ -124,14 +124,14 @@ def solve_elastic(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ig
         d4 = [_symbol(problem, "dddd" + s.name, f"{t}^{{(4)}}") for s, t in zip(q, tex)]
         EL = (ML * sp.Matrix(ddq_s) + nL)
         Jth = EL.jacobian(th)
-        sol_th = (-(Jth.adjugate() / sp.factor(Jth.det())) * EL.xreplace({t: 0 for t in th})).applyfunc(_light)
+        sol_th = (-(Jth.adjugate() / factor_within(Jth.det())) * EL.xreplace({t: 0 for t in th})).applyfunc(_light)
         theta_y = sol_th
         lin_vars = q + dq + ddq_s + d3
         dth_y = sp.Matrix([_time_derivative(x, lin_vars, dq + ddq_s + d3 + d4) for x in sol_th])
         ddth_y = sp.Matrix([_time_derivative(x, lin_vars, dq + ddq_s + d3 + d4) for x in dth_y])
         sub = dict(zip(th, sol_th)) | dict(zip(dth, dth_y))
         rhs = Mth * ddth_y + MthL * sp.Matrix(ddq_s) + nth.xreplace(sub)
-        Gmi = (Gm.adjugate() / sp.factor(Gm.det())).applyfunc(sp.simplify)
+        Gmi = (Gm.adjugate() / factor_within(Gm.det())).applyfunc(sp.simplify)
         u_y = (Gmi * rhs).applyfunc(_light)
         sol.add("theta_y", theta_y, "vector", label="\\theta(q,\\dot q,\\ddot q)")
         sol.add("u_y", u_y, "vector", label="u(q,\\dot q,\\ddot q,q^{(3)},q^{(4)})")

@@ -22,7 +22,7 @@ from typing import Callable, Optional
 import numpy as np
 import sympy as sp
 
-from solver.math.simplify import tidy
+from solver.math.simplify import factor_within, tidy
 
 GRID_POINTS = 20_000      # grid evaluations for a numeric maximum
 RANDOM_ABOVE = 6          # more coordinates than this: random samples instead of a grid
@@ -109,7 +109,7 @@ def termwise_bound(A: sp.Matrix, coords: set[sp.Symbol], ranges: dict) -> Option
         t2 = abs_bound(sp.expand((a - c) ** 2 + 4 * b ** 2), coords, ranges)
         if t1 is None or t2 is None:
             return None
-        return (t1 + sp.sqrt(sp.factor(t2))) / 2
+        return (t1 + sp.sqrt(factor_within(t2))) / 2
     parts = [abs_bound(x, coords, ranges) for x in A if x != 0]
     if any(p is None for p in parts):
         return None
@@ -119,7 +119,7 @@ def termwise_bound(A: sp.Matrix, coords: set[sp.Symbol], ranges: dict) -> Option
 def common_factor(A: sp.Matrix, coords: set[sp.Symbol]) -> sp.Expr:
     """k free of q with A = k·Ā: the product of the q-free factors (with their least power) common to every
     non-zero entry of A (sign excluded)."""
-    entries = [sp.factor(x) for x in A if x != 0]
+    entries = [factor_within(x) for x in A if x != 0]
     if not entries:
         return sp.Integer(1)
     common: Optional[dict] = None
@@ -264,7 +264,7 @@ def gradient_bound(g: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol],
         return out
     k = common_factor(A, cset)
     out.factor = k
-    Abar = (A / k).applyfunc(lambda x: sp.factor(x))
+    Abar = (A / k).applyfunc(lambda x: factor_within(x))
     Abar_v = Abar.xreplace(values)
     if Abar_v != Abar:           # the maximum needs numeric values: use them in k too (α for these values)
         k = k.xreplace(values)

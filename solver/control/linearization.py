@@ -13,7 +13,7 @@ import sympy as sp
 
 from solver.control.laws import ControlLawAsk, _zero
 from solver.dynamics.model import derive, require_model
-from solver.math.simplify import exact_det, tidy
+from solver.math.simplify import exact_det, factor_within, tidy
 from solver.results import Solution
 from solver.spec.errors import UserError
 
@@ -24,7 +24,7 @@ def linearize(B: sp.Matrix, g: sp.Matrix, G: sp.Matrix, Fv: sp.Matrix, q: list, 
     n = len(q)
     Ke = (g - G * ue).jacobian(q).xreplace(at).applyfunc(tidy)
     Be = B.xreplace(at).applyfunc(tidy)
-    Bi = (Be.adjugate() / sp.factor(Be.det())).applyfunc(sp.simplify)
+    Bi = (Be.adjugate() / factor_within(Be.det())).applyfunc(sp.simplify)
     A = sp.zeros(2 * n, 2 * n)
     A[:n, n:] = sp.eye(n)
     A[n:, :n] = (-Bi * Ke).applyfunc(tidy)
@@ -123,7 +123,7 @@ def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # ty
     C = controllability(A, Bl)
     rank = C.rank(simplify=True)
     lam = sp.Symbol("s")
-    cp = sp.factor(sp.simplify(exact_det(lam * sp.eye(2 * n) - A)))
+    cp = factor_within(sp.simplify(exact_det(lam * sp.eye(2 * n) - A)))
     sol = Solution("control_law", title=options.title or "Linear approximation at an equilibrium")
     sol.add("q_eq", sp.Matrix([at[x] for x in q]), "vector", label="q_e")
     sol.add("u_eq", ue, "vector", label="u_e")
@@ -135,7 +135,7 @@ def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # ty
     sol.add("controllable", bool(rank == 2 * n), "bool", label="\\text{controllable}")
     detc = None
     if m == 1:
-        detc = sp.factor(sp.simplify(exact_det(C)))
+        detc = factor_within(sp.simplify(exact_det(C)))
         sol.add("det_ctrb", detc, "scalar", label="\\det\\mathcal{C}")
     sol.add("char_poly", cp, "scalar", label="\\det(sI - A)")
     sol.step("model", B=dm.B, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, n=n, friction=dm.Fv is not None)

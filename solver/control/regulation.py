@@ -31,7 +31,7 @@ from pydantic import Field, field_validator
 
 from solver.control.gravity_bound import GradientBound, box_of, gradient_bound, matrix_function, maximize, spectral
 from solver.dynamics.model import derive, require_model
-from solver.math.simplify import is_zero, tidy
+from solver.math.simplify import factor_within, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
 from solver.spec.errors import UserError
@@ -796,7 +796,7 @@ class _Regulation:
         self.add("AtA", AtA, "matrix", label="A^T A")
         lam_max = None
         if A.shape == (2, 2):
-            tr, det = tidy(AtA.trace()), tidy(sp.factor(AtA.det()))
+            tr, det = tidy(AtA.trace()), tidy(factor_within(AtA.det()))
             self.add("AtA_trace", tr, "scalar", label="\\operatorname{tr}(A^T A)")
             self.add("AtA_det", det, "scalar", label="\\det(A^T A)")
             lam_max = (tr + sp.sqrt(tr ** 2 - 4 * det)) / 2

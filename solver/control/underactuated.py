@@ -24,7 +24,7 @@ from solver.control.laws import (
     record_law,
 )
 from solver.dynamics.model import derive, require_model
-from solver.math.simplify import tidy
+from solver.math.simplify import factor_within, tidy
 from solver.results import Solution
 from solver.spec.errors import UserError
 
@@ -54,7 +54,7 @@ def _block(M: sp.Matrix, rows: list[int], cols: list[int]) -> sp.Matrix:
 
 
 def _inv(M: sp.Matrix) -> sp.Matrix:
-    return (M.adjugate() / sp.factor(M.det())).applyfunc(sp.simplify) if M.rows > 1 else \
+    return (M.adjugate() / factor_within(M.det())).applyfunc(sp.simplify) if M.rows > 1 else \
         sp.Matrix([[1 / M[0, 0]]])
 
 
@@ -91,7 +91,7 @@ def solve_partial(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ig
     else:
         # passive rows: M_pa q̈_a + M_pp v + n_p = 0 ; here lin = passive, free = actuated
         Mpa = _block(M, pas, act)
-        coupling = sp.factor(sp.simplify(Mpa.det()))
+        coupling = factor_within(sp.simplify(Mpa.det()))
         if _zero(coupling):
             raise UserError("non-collocated partial feedback linearization needs det M_pa ≠ 0 (strong inertial "
                             "coupling), but M_pa is singular everywhere", place, "use collocated: true")

@@ -166,7 +166,7 @@ def cleared(vec: sp.Matrix) -> sp.Matrix:
 
 
 def _factored(x: sp.Expr, budget: float = 1.0) -> sp.Expr:
-    """sp.factor(x) within a 1 s CPU budget (:func:`solver.math.simplify.factor_within`)."""
+    """factor_within(x) within a 1 s CPU budget (:func:`solver.math.simplify.factor_within`)."""
     return factor_within(x, budget)
 
 

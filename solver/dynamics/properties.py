@@ -38,7 +38,7 @@ from solver.dynamics.model import (
     derive,
     require_model,
 )
-from solver.math.simplify import angle_symbols, is_zero, tidy, tidy_matrix
+from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy, tidy_matrix
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
 from solver.spec.errors import UserError
@@ -119,7 +119,7 @@ def diagonal_blocks(B: sp.Matrix) -> list[list[int]]:
 
 
 def _nonneg(d: sp.Expr) -> bool:
-    d = sp.factor(sp.expand(d))
+    d = factor_within(sp.expand(d))
     return d == 0 or bool(d.is_nonnegative)
 
 
@@ -265,7 +265,7 @@ def affine_bound(A: sp.Matrix, coord: sp.Symbol, others: set[sp.Symbol]) -> tupl
         us.append(poly.coeff_monomial(1))
 
     def norm(xs: list[sp.Expr]) -> sp.Expr:
-        return sp.sqrt(sp.factor(sum((x ** 2 for x in xs), sp.Integer(0)))) if len(xs) != 1 else xs[0]
+        return sp.sqrt(factor_within(sum((x ** 2 for x in xs), sp.Integer(0)))) if len(xs) != 1 else xs[0]
 
     return tidy(norm(us) + norm(ws)), tidy(norm(vs))
 
@@ -553,7 +553,7 @@ def balancing_conditions(g: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symb
         if e == 0:
             continue
         for c in sp.Poly(e, *gens).coeffs():
-            c = sp.factor(c)
+            c = factor_within(c)
             if c != 0 and all(not sp.simplify(c - d) == 0 and not sp.simplify(c + d) == 0 for d in conds):
                 conds.append(c)
     return conds

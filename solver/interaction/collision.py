@@ -26,7 +26,7 @@ from pydantic import Field
 from solver.dynamics.model import DynamicModel, derive, has_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.rigid import dh_chain
-from solver.math.simplify import is_zero, tidy, tidy_matrix, velocity_terms
+from solver.math.simplify import factor_within, is_zero, tidy, tidy_matrix, velocity_terms
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -286,13 +286,13 @@ def identify_with_location(point: sp.Matrix, q: list[sp.Symbol], F: sp.Matrix, r
         [sp.eye(link)[:, j] for j in range(link)]
     if len(combos) < m:
         return None
-    C = sp.Matrix.hstack(*combos).T.applyfunc(lambda x: sp.factor(sp.cancel(x)))  # rows: ρ-free combinations
+    C = sp.Matrix.hstack(*combos).T.applyfunc(lambda x: factor_within(sp.cancel(x)))  # rows: ρ-free combinations
     A = (C * Ja.T).applyfunc(tidy)
     rows = last_independent(A, m)
     if not rows:
         return None
     A2, rhs = A.extract(rows, list(range(m))), (C * r[:link, 0]).extract(rows, [0])
-    Fs = (A2.adjugate() * rhs / tidy(A2.det())).applyfunc(lambda x: _tidy_quotient(sp.factor(sp.cancel(x))))
+    Fs = (A2.adjugate() * rhs / tidy(A2.det())).applyfunc(lambda x: _tidy_quotient(factor_within(sp.cancel(x))))
     ks = [k for k in range(link) if not all(_zero(x) for x in Jb[:, k])]
     if not ks:
         return None
@@ -301,7 +301,7 @@ def identify_with_location(point: sp.Matrix, q: list[sp.Symbol], F: sp.Matrix, r
     if _zero(den):
         return None
     loc = (r[k] - (Ja[:, k].T * Fs)[0]) / den
-    return Fs, _tidy_quotient(sp.factor(sp.cancel(sp.together(loc))))
+    return Fs, _tidy_quotient(factor_within(sp.cancel(sp.together(loc))))
 
 
 def collect_linear(e: sp.Expr, syms: list[sp.Symbol]) -> sp.Expr:
@@ -800,7 +800,7 @@ def _analyze(c: _Ctx, cc: ContactCase, r: sp.Matrix, K: sp.Matrix, dm: DynamicMo
             if cc.R is not None:
                 d["F_id_local"] = (cc.R.T * N).applyfunc(lambda x: _quotient(tidy(x), D))
     elif d["F_id"] is not None and cc.R is not None:
-        d["F_id_local"] = (cc.R.T * d["F_id"]).applyfunc(lambda x: _tidy_quotient(sp.factor(sp.cancel(x))))
+        d["F_id_local"] = (cc.R.T * d["F_id"]).applyfunc(lambda x: _tidy_quotient(factor_within(sp.cancel(x))))
     if dm is not None and dm.G is None and cc.force_given:
         fric = dm.Fv * sp.Matrix(c.dq) if dm.Fv is not None else sp.zeros(n, 1)
         d["u_hold"] = tidy_matrix(dm.c + dm.g + fric - tau)

@@ -32,7 +32,7 @@ from pydantic import Field, model_validator
 from solver.dynamics.equilibria import equilibria
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
-from solver.math.simplify import angle_symbols, is_zero, tidy
+from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -169,7 +169,7 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
         n = tidy(sp.expand(n))
         d = rest
         if d.has(sp.sin, sp.cos) and sp.count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
-            short = sp.factor(sp.trigsimp(tidy(sp.expand(d))))
+            short = factor_within(sp.trigsimp(tidy(sp.expand(d))))
             d = short if sp.count_ops(short) <= sp.count_ops(d) else d
         if d.is_number:
             return tidy(n / d)

@@ -34,7 +34,7 @@ from pydantic import Field, model_validator
 from solver.dynamics.model import derive, has_model
 from solver.interaction import linear as lti
 from solver.math.equivalence import conditions_equiv, scalar_equiv
-from solver.math.simplify import tidy
+from solver.math.simplify import factor_within, tidy
 from solver.registry import PROPERTY_CHECKS, PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
@@ -206,7 +206,7 @@ def frac_terms(e: sp.Expr, s: sp.Symbol) -> tuple[list[sp.Expr], list[sp.Expr]]:
         poly = sp.Poly(sp.expand(p), s)
         out = []
         for (k,), c in zip(poly.monoms(), poly.coeffs()):
-            f = sp.factor(c)
+            f = factor_within(c)
             c = f if sp.count_ops(f) <= sp.count_ops(c) else c
             out.append(c * S_SHOW**k)
         return out
@@ -225,14 +225,14 @@ def nice(e: sp.Expr, state: list[sp.Symbol] | None = None) -> sp.Expr:
         terms = sp.collect(e, state, evaluate=False)
         out = sp.Integer(0)
         for k, c in terms.items():
-            f = sp.factor(c) if sp.count_ops(c) < 80 else c
+            f = factor_within(c) if sp.count_ops(c) < 80 else c
             out += (f if sp.count_ops(f) <= sp.count_ops(c) else c) * k
         return out
-    best = sp.factor(e)
+    best = factor_within(e)
     if sp.count_ops(best) > 200:
         return e
     for x in sorted(e.free_symbols, key=lambda v: v.name):
-        cand = x + sp.factor(e - x)
+        cand = x + factor_within(e - x)
         if sp.count_ops(cand) < sp.count_ops(best):
             best = cand
     return best
@@ -1007,7 +1007,7 @@ def _report_analysis(c: Ctx, S: Setup, law: Law, an: Analysis, sol: Solution, ad
         We = lti.rational(1 - W, s)
         add("W", W, "scalar", label="W(s) = F_c(s)/F_d(s)")
         add("W_e", We, "scalar", label="W_e(s) = 1 - W(s)")
-        tf: dict[str, Any] = {"W": W, "We": We, "W0": sp.factor(W.subs(s, 0)) if not xi else sp.Integer(1)}
+        tf: dict[str, Any] = {"W": W, "We": We, "W0": factor_within(W.subs(s, 0)) if not xi else sp.Integer(1)}
         if law.plain_force:
             L = _loop_gain(S, law, s)
             if L is not None:

@@ -21,7 +21,7 @@ import sympy as sp
 
 from solver.math.equivalence import reduce_conditions
 from solver.math.fourier import factor_list_expr
-from solver.math.simplify import tidy
+from solver.math.simplify import factor_within, tidy
 
 S = sp.Symbol("s")  # the Laplace variable (the problem's own `s` replaces it when declared)
 MAX_SYMBOLIC_DEGREE = 6  # Routh tables and closed-form poles are symbolic up to this degree
@@ -68,7 +68,7 @@ def equilibrium(loop: LinearLoop) -> sp.Matrix | None:
     """x̄ with A0 x̄ + r0 = 0 (ẍ = ẋ = 0); None when A0 is singular (no isolated equilibrium)."""
     if loop.A0.shape[0] != loop.A0.shape[1] or sp.simplify(loop.A0.det()) == 0:
         return None
-    return loop.A0.LUsolve(-loop.r0).applyfunc(lambda e: sp.factor(sp.cancel(e)))
+    return loop.A0.LUsolve(-loop.r0).applyfunc(lambda e: factor_within(sp.cancel(e)))
 
 
 def steady_velocity(loop: LinearLoop) -> sp.Matrix | None:
@@ -90,7 +90,7 @@ def steady_velocity(loop: LinearLoop) -> sp.Matrix | None:
         return None
     if all(sp.simplify(e) == 0 for e in vel):
         return None  # at rest: no steady motion
-    return vel.applyfunc(lambda e: sp.factor(sp.cancel(e)))
+    return vel.applyfunc(lambda e: factor_within(sp.cancel(e)))
 
 
 def char_poly(loop: LinearLoop, s: sp.Symbol) -> sp.Expr:
@@ -105,7 +105,7 @@ def collect_s(p: sp.Expr, s: sp.Symbol) -> sp.Expr:
     poly = sp.Poly(sp.expand(p), s)
     out = sp.Integer(0)
     for (k,), c in zip(poly.monoms(), poly.coeffs()):
-        f = sp.factor(c)
+        f = factor_within(c)
         out += (f if sp.count_ops(f) <= sp.count_ops(c) else c) * s**k
     return out
 
@@ -125,7 +125,7 @@ def rational(e: sp.Expr, s: sp.Symbol) -> sp.Expr:
     """A rational function of s as N(s)/D(s), both collected in s (common factors cancelled)."""
     n, d = sp.fraction(sp.cancel(sp.together(e)))
     if not d.has(s):
-        return collect_s(n, s) / d if n.has(s) else sp.factor(n / d)
+        return collect_s(n, s) / d if n.has(s) else factor_within(n / d)
     lead = sp.Poly(d, s).LC()
     n, d = sp.expand(n / lead), sp.expand(d / lead)
     # keep the leading coefficient of the denominator when it is a plain parameter (m s² + ...), as printed
@@ -153,7 +153,7 @@ def s_factors(p: sp.Expr, s: sp.Symbol, max_ops: int = 3000) -> list[tuple[sp.Ex
 
 def coefficients(p: sp.Expr, s: sp.Symbol) -> list[sp.Expr]:
     """[a_n, ..., a_0] of a polynomial in s."""
-    return [sp.factor(c) for c in sp.Poly(sp.expand(p), s).all_coeffs()]
+    return [factor_within(c) for c in sp.Poly(sp.expand(p), s).all_coeffs()]
 
 
 def hurwitz_determinants(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
@@ -179,7 +179,7 @@ def routh_column(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
     degenerate case, not Hurwitz) ends the column with 0."""
     b0 = sp.sympify(coeffs[0])
     deltas = hurwitz_determinants(coeffs)
-    out = [sp.factor(b0)]
+    out = [factor_within(b0)]
     prev = sp.Integer(1)
     for d in deltas:
         if sp.expand(d) == 0:
@@ -210,7 +210,7 @@ def _short(p: sp.Expr) -> sp.Expr:
     p = sp.expand(p)
     if sp.count_ops(p) > 400:
         return p
-    f = sp.factor(p)
+    f = factor_within(p)
     return f if sp.count_ops(f) <= sp.count_ops(p) else p
 
 
@@ -350,7 +350,7 @@ def match_polynomial(p: sp.Expr, target: sp.Expr, s: sp.Symbol, unknowns: Sequen
     sol = sp.solve(eqs, list(unknowns), dict=True)
     if not sol:
         return None
-    return {k: sp.factor(v) for k, v in sol[0].items()}
+    return {k: factor_within(v) for k, v in sol[0].items()}
 
 
 def second_order(m: sp.Expr, d: sp.Expr, k: sp.Expr) -> tuple[sp.Expr, sp.Expr]:

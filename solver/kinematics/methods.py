@@ -579,8 +579,8 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
             if JEe.shape[0] == n and n <= 4:
                 JEs = sp.Matrix.vstack(*[t["J"] for t in spec.tasks])
                 if sp.count_ops(JEs) <= 200:
-                    from solver.math.simplify import tidy
-                    detE = sp.factor(tidy(JEs.det()))
+                    from solver.math.simplify import factor_within, tidy
+                    detE = factor_within(tidy(JEs.det()))
                     add("det_JE_sym", detE, "scalar", label="\\det J_E(q)")
             add("rank_JE", sp.Integer(rk), "number", label="\\operatorname{rank} J_E")
             add("JE_pinv", la.sym(JEp), "matrix", label="J_E^{\\#}")

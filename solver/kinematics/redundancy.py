@@ -31,7 +31,7 @@ from solver.kinematics.methods import (
     solve_methods,
     wants_methods,
 )
-from solver.math.simplify import tidy
+from solver.math.simplify import factor_within, tidy
 from solver.registry import ask_kind
 from solver.results import Solution
 from solver.spec.expr import shape_of
@@ -187,14 +187,14 @@ def _tidy_rational(e: sp.Expr) -> sp.Expr:
     e, back = _hide_radicals(e)
     t = tidy(e)
     if t.free_symbols and not t.is_polynomial() and sp.count_ops(t) <= 150:
-        f = sp.factor(sp.expand_trig(t))
+        f = factor_within(sp.expand_trig(t))
         for _ in range(2):  # (cos x - 1)(cos x + 1) -> -sin(x)^2, then cancel again
             g = f
             for c in f.atoms(sp.cos):
                 g = g.subs((c - 1) * (c + 1), -sp.sin(c.args[0]) ** 2)
             if g == f:
                 break
-            f = sp.factor(g)
+            f = factor_within(g)
         if sp.count_ops(f) < sp.count_ops(t):
             t = f
     return t.xreplace(back) if back else t

@@ -187,10 +187,11 @@ def _product_form(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
     return sp.Add(*[_nice(sp.Add(*c)) * t for t, c in groups.items()])
 
 
+@lru_cache(maxsize=20000)
 def factor_within(x: sp.Expr, budget: float = FACTOR_BUDGET) -> sp.Expr:
     """sp.factor(x) within a CPU budget: multivariate factoring (Wang's algorithm) can take minutes for some
     orderings of the generators (they follow the hash seed of the process); past the budget only the common
-    factors are pulled out (factor_terms)."""
+    factors are pulled out (factor_terms). Memoized: the same coefficients recur across the asks of a problem."""
     try:
         with cpu_budget(budget):
             return sp.factor(x)
@@ -220,12 +221,12 @@ def _rational(expr: sp.Expr) -> sp.Expr:
     denominator (m1 + m3/4 + Iy*(D - 2d)^2/((q1 - q2)^2 + (D - 2d)^2)^2 stays so)."""
     groups: dict[sp.Expr, list[sp.Expr]] = {}
     for t in sp.Add.make_args(sp.expand(expr, deep=False)):
-        n, d = sp.fraction(sp.factor(t))
+        n, d = sp.fraction(factor_within(t))
         groups.setdefault(d, []).append(n)
-    by_den = sp.Add(*[sp.factor(sp.Add(*ns)) / d for d, ns in groups.items()])
+    by_den = sp.Add(*[factor_within(sp.Add(*ns)) / d for d, ns in groups.items()])
     if len(groups) == 1 or sp.count_ops(expr) > 150:   # one denominator already, or too big to combine cheaply
         return by_den
-    whole = sp.factor(sp.cancel(expr))
+    whole = factor_within(sp.cancel(expr))
     return by_den if sp.count_ops(by_den) <= sp.count_ops(whole) else whole
 
 
@@ -248,7 +249,7 @@ def tidy(expr: sp.Expr) -> sp.Expr:
         try:
             n, d = _fourier(num), _fourier(den)
             if not angle_symbols(n / d):
-                return sp.factor(n / d)
+                return factor_within(n / d)
             return n / d
         except NotTrigPolynomial:
             pass
@@ -273,12 +274,88 @@ def _canonical_coefficients(expr: sp.Expr) -> bool:
     return all(isinstance(f, (sp.sin, sp.cos)) for f in expr.atoms(sp.Function))
 
 
+def _algebraic_zero(expr: sp.Expr) -> bool | None:
+    """Exact zero test of an algebraic expression in sines, cosines and radicals.
+
+    sin x, cos x of each angle become generators s, c (arguments k·x + b expanded); a radical (γ·A/B)^(p/q), with
+    A, B primitive polynomials reduced modulo s² + c² = 1 (inner radicals already generators) and γ > 0 rational,
+    becomes r^p·γ^(p/q): one generator r per distinct (A/B)^(1/q), however it was written, and γ^(p/q) in sympy's
+    normal form (√8 = 2√2) with a generator ρ per root b^(1/m) left in it; any other function is opaque. The
+    numerator N of the resulting rational function is divided by {B r^q − A, ρ^m − b, s² + c² − 1}: a remainder 0
+    writes N as a combination of them, which proves expr ≡ 0 (with polynomial radicands their leading monomials
+    are coprime in lex order r > s > c > the rest: a Gröbner basis, so 0 iff N is in the ideal).
+    True: zero; False: undecided (|x| = √x², relations between roots of different orders are not used);
+    None: not mapped (a radical of a function other than sin/cos)."""
+    from sympy.polys.fields import field
+    from sympy.polys.orderings import lex
+    trig = {f: sp.expand_trig(f) for f in expr.atoms(sp.sin, sp.cos)}
+    e = expr.xreplace(trig) if trig else expr
+    angles = sorted({f.args[0] for f in e.atoms(sp.sin, sp.cos) if f.args[0].is_Symbol}, key=str)
+    sc = {x: (sp.Dummy(f"s_{x}"), sp.Dummy(f"c_{x}")) for x in angles}
+    e = e.xreplace({f: sc[f.args[0]][0 if isinstance(f, sp.sin) else 1]
+                    for f in e.atoms(sp.sin, sp.cos) if f.args[0] in sc})
+    rads = [p for p in e.atoms(sp.Pow) if p.exp.is_Rational and not p.exp.is_Integer]
+    if any(p.base.atoms(sp.Function) for p in rads):
+        return None
+    opaque = {f: sp.Dummy("f") for f in e.atoms(sp.Function)}
+    depth = {p: sum(1 for o in rads if o != p and p.base.has(o)) for p in rads}
+    rads.sort(key=lambda p: depth[p])       # innermost first; they take the last (lowest) generators in lex order
+    pool = [sp.Dummy("r") for _ in range(2 * len(rads))]
+    trig_gens = [g for x in angles for g in sc[x]]
+    syms = pool + trig_gens + sorted(e.xreplace(opaque).free_symbols - set(trig_gens), key=str)
+    try:
+        F = field(syms, sp.QQ, lex)[0]
+        R = F.ring
+        sub: dict[sp.Expr, sp.Expr] = {}
+        keys: dict[tuple, sp.Dummy] = {}
+        basis = []
+
+        def generator(key: tuple, relation) -> sp.Dummy:  # type: ignore[no-untyped-def]
+            if key not in keys:
+                keys[key] = pool[len(pool) - 1 - len(keys)]
+                basis.append(relation(R.gens[syms.index(keys[key])]))
+            return keys[key]
+
+        pythagoras = [R.gens[syms.index(s_)] ** 2 + R.gens[syms.index(c_)] ** 2 - 1 for s_, c_ in sc.values()]
+
+        def normal(f):  # type: ignore[no-untyped-def]
+            return f.rem(pythagoras) if pythagoras else f
+
+        for p in rads:
+            q, k = int(p.exp.q), int(p.exp.p)
+            P = F.from_expr(p.base.xreplace(sub).xreplace(opaque))
+            ca, A = normal(P.numer).primitive()
+            cb, B = normal(P.denom).primitive()
+            ratio = R.domain.to_sympy(ca) / R.domain.to_sympy(cb)
+            c = abs(ratio)
+            if ratio < 0:
+                A = -A
+            val = sp.Integer(1)
+            if A != 1 or B != 1:
+                val *= generator(("r", A, B, q), lambda g, A=A, B=B, q=q: B * g ** q - A) ** k
+            n = c ** p.exp     # sympy's normal form of a rational's root: 4^(1/2) = 2, 8^(1/2) = 2·2^(1/2)
+            sub[p] = val * n.xreplace({
+                a: generator(("c", a.base, int(a.exp.q)), lambda g, b=a.base, m=int(a.exp.q): g ** m - R.from_expr(b))
+                ** int(a.exp.p) for a in n.atoms(sp.Pow) if a.base.is_Rational and not a.exp.is_Integer})
+        num = F.from_expr(e.xreplace(sub).xreplace(opaque)).numer
+        basis = sorted(basis, key=lambda g: g.LM, reverse=True)
+        basis += pythagoras
+        return not (num.rem(basis) if basis else num)
+    except (ValueError, sp.PolynomialError, TypeError, ZeroDivisionError):
+        return None
+
+
 def is_zero(expr: sp.Expr) -> bool | None:
     """Exact zero test for trigonometric polynomials; None when the canonical form does not decide (a non-zero
     form of an expression with radicals or other functions does not prove it non-zero)."""
     expr = sp.sympify(expr)
-    if not angle_symbols(expr) and _canonical_coefficients(expr):   # a rational function: exact and fast
+    canonical = _canonical_coefficients(expr)
+    if canonical and not angle_symbols(expr):   # a rational function: exact and fast
         return sp.cancel(expr) == 0
+    if not canonical:   # radicals or other functions: True is a proof, anything else is not
+        z0 = _algebraic_zero(expr)
+        if z0 is not None:
+            return True if z0 else None
     try:
         z = _fourier(expr) == 0
     except NotTrigPolynomial:
@@ -287,7 +364,7 @@ def is_zero(expr: sp.Expr) -> bool | None:
             z = _fourier(num) == 0
         except NotTrigPolynomial:
             return None
-    return True if z else (False if _canonical_coefficients(expr) else None)
+    return True if z else (False if canonical else None)
 
 
 def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:

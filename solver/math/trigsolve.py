@@ -34,7 +34,7 @@ from typing import Any, Callable, Iterable, Sequence
 
 import sympy as sp
 
-from solver.math.simplify import tidy
+from solver.math.simplify import factor_within, tidy
 
 MAX_FAMILIES = 32
 MAX_OPS = 400  # equations larger than this are not eliminated symbolically
@@ -496,7 +496,7 @@ def _cs_linear(e: sp.Expr, x: sp.Symbol) -> tuple[sp.Expr, sp.Expr, sp.Expr] | N
 def _root(e: sp.Expr) -> sp.Expr:
     """√e with the radicand tidied (and perfect squares recognized)."""
     e = tidy(sp.expand(e))
-    return sp.sqrt(sp.factor(e)) if e.free_symbols else sp.sqrt(e)
+    return sp.sqrt(factor_within(e)) if e.free_symbols else sp.sqrt(e)
 
 
 def _solve_cs(p: sp.Expr, C: sp.Symbol, S: sp.Symbol) -> tuple[list[sp.Expr], dict] | None:

@@ -19,7 +19,7 @@ import numpy as np
 import sympy as sp
 from pydantic import BaseModel, Field
 
-from solver.math.simplify import tidy
+from solver.math.simplify import factor_within, tidy
 from solver.registry import ask_kind
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
@@ -139,7 +139,7 @@ def _solve_potential(problem, options: MotionPlanningAsk, ctx, sol: Solution, ad
         eta0 = sp.sympify(ctx.expr("obstacles", i - 1, "range"))
         k = sp.sympify(ctx.expr("obstacles", i - 1, "gain"))
         U = repulsive(eta, eta0, k)
-        G = sp.Matrix([tidy(sp.factor(sp.diff(U, x))) for x in q])
+        G = sp.Matrix([tidy(factor_within(sp.diff(U, x))) for x in q])
         add(f"U_rep{i}", U, "scalar", label=f"U_{{r,{i}}}")
         add(f"grad_rep{i}", G if n > 1 else G[0], "vector" if n > 1 else "scalar",
             label=f"\\partial U_{{r,{i}}}/\\partial q")

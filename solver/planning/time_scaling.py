@@ -37,6 +37,7 @@ from solver.registry import ask_kind
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
 from solver.spec.models import Strict
+from solver.math.simplify import factor_within
 
 Scalar = Union[str, int, float]
 ExprT = Union[str, int, float, list[Any]]
@@ -192,7 +193,7 @@ def inverse(y: sp.Expr) -> sp.Expr:
     """1/y for y > 0, written sqrt(1/y²) when that is shorter (k = sqrt((τ − g)/(U − g)) rather than
     1/sqrt((U − g)/(τ − g)))."""
     a = sp.simplify(1 / y)
-    b = sp.sqrt(sp.factor(sp.cancel(sp.simplify(1 / y ** 2))))
+    b = sp.sqrt(factor_within(sp.cancel(sp.simplify(1 / y ** 2))))
     return b if sp.count_ops(b) < sp.count_ops(a) else a
 
 
