@@ -337,40 +337,40 @@ def _nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
     return number * body
 
 
+@lru_cache(maxsize=16)
+def _trig_ring(m: int) -> PolyRing:
+    """Q[c_1..c_m, s_1..s_m]: the monomials of a product form (its symbols never leave this module)."""
+    return _ring(tuple([sp.Dummy(f"c{i}") for i in range(m)] + [sp.Dummy(f"s{i}") for i in range(m)]))
+
+
+@lru_cache(maxsize=4096)
+def _cos_sin(k: tuple[int, ...]) -> tuple[PolyElement, PolyElement]:
+    """(cos(k·x), sin(k·x)) in _trig_ring(len(k)): Chebyshev for each multiple angle, cos(n x) = T_n(c),
+    sin(n x) = s U_{n-1}(c), then the addition formulas over the angles."""
+    Rt = _trig_ring(len(k))
+    m = len(k)
+    C, S = Rt.gens[:m], Rt.gens[m:]
+    i = next((j for j, v in enumerate(k) if v), None)
+    if i is None:
+        return Rt.one, Rt.zero
+    n = k[i]
+    t0, t1, u0, u1 = Rt.one, C[i], Rt.zero, Rt.one  # T_0, T_1, U_{-1}, U_0
+    for _ in range(abs(n) - 1):
+        t0, t1 = t1, 2 * C[i] * t1 - t0
+        u0, u1 = u1, 2 * C[i] * u1 - u0
+    ca, sa = t1, (S[i] * u1 if n >= 0 else -S[i] * u1)
+    cb, sb = _cos_sin(tuple(0 if j == i else v for j, v in enumerate(k)))
+    return ca * cb - sa * sb, sa * cb + ca * sb
+
+
 def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]], angles: list[sp.Symbol]) -> sp.Expr:
     """The same function written over monomials in cos/sin of single angles (c₂ s₂, c₁ c₂ s₃, ...), each
     coefficient through :func:`nice_poly`; multiple angles by Chebyshev: cos(n x) = T_n(c), sin(n x) = s U_{n-1}(c)."""
     R = next(iter(coeffs.values()))[0].ring
-    m = len(angles)
-    cs = [sp.Dummy(f"c{i}") for i in range(m)] + [sp.Dummy(f"s{i}") for i in range(m)]
-    Rt = _ring(tuple(cs))  # the trigonometric monomials alone; coefficients stay in R
-    C, S = Rt.gens[:m], Rt.gens[m:]
-    memo: dict[tuple[int, ...], tuple[PolyElement, PolyElement]] = {}
-
-    def single(i: int, n: int) -> tuple[PolyElement, PolyElement]:
-        t0, t1, u0, u1 = Rt.one, C[i], Rt.zero, Rt.one  # T_0, T_1, U_{-1}, U_0
-        for _ in range(abs(n) - 1):
-            t0, t1 = t1, 2 * C[i] * t1 - t0
-            u0, u1 = u1, 2 * C[i] * u1 - u0
-        cos_n, sin_n = (t1, S[i] * u1) if n else (Rt.one, Rt.zero)
-        return cos_n, (sin_n if n >= 0 else -sin_n)
-
-    def cos_sin(k: tuple[int, ...]) -> tuple[PolyElement, PolyElement]:
-        if k in memo:
-            return memo[k]
-        i = next((j for j, v in enumerate(k) if v), None)
-        if i is None:
-            out = (Rt.one, Rt.zero)
-        else:
-            ca, sa = single(i, k[i])
-            cb, sb = cos_sin(tuple(0 if j == i else v for j, v in enumerate(k)))
-            out = (ca * cb - sa * sb, sa * cb + ca * sb)
-        memo[k] = out
-        return out
-
+    Rt = _trig_ring(len(angles))  # the trigonometric monomials alone; coefficients stay in R
     groups: dict[tuple[int, ...], PolyElement] = {}
     for k, (a, b) in coeffs.items():
-        ck, sk = cos_sin(k)
+        ck, sk = _cos_sin(k)
         for coeff, trig_poly in ((a, ck), (b, sk)):
             if not coeff:
                 continue
