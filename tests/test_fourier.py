@@ -186,3 +186,19 @@ def test_factor_list_expr_equals_sympys_on_expressions() -> None:
         assert got[0] == ref[0] and sorted(map(str, got[1])) == sorted(map(str, ref[1])), e
     for c in (sp.sqrt(2), sp.pi, sp.sqrt(2) * sp.pi):  # numbers that sring would take as generators
         assert factor_list_expr(c * a + c * b) == sp.factor_list(c * a + c * b)
+
+
+def test_tidy_of_a_distance_gradient_keeps_the_distance() -> None:
+    """∂‖a(q) − b‖/∂q: numerator in Fourier form over the radical as given (the sum of squares, shorter than its
+    expansion), equal to the original; no trigsimp fallback (which wrote sin(q + π/4) terms)."""
+    l1, l2 = sp.symbols("l1 l2", positive=True)
+    ax = l1 * sp.cos(q1) - (q2 - l2) * sp.sin(q1) - sp.Rational(1, 10) - sp.sqrt(2) * l1
+    ay = l1 * sp.sin(q1) + (q2 - l2) * sp.cos(q1) + sp.Rational(1, 10)
+    d = sp.sqrt(ax ** 2 + ay ** 2)
+    for x in (q1, q2):
+        g = sp.diff(d, x)
+        t = tidy(g)
+        assert is_zero(t - g) is True
+        assert t.atoms(sp.Pow) & {d, 1 / d} and not t.has(sp.pi)
+        num = sp.fraction(sp.together(t))[0]
+        assert not any(p.base.free_symbols and not p.exp.is_Integer for p in num.atoms(sp.Pow))  # √ only below

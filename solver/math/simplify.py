@@ -20,6 +20,7 @@ import sympy as sp
 
 from solver.math.fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
 from solver.math.budget import BudgetExceeded, cpu_budget
+from solver.math.opcount import count_ops
 
 _TRIG = (sp.sin, sp.cos)
 FACTOR_BUDGET = 5.0  # CPU seconds of one cosmetic factorization (a hang on an unlucky generator order)
@@ -149,7 +150,7 @@ def fourier_expr(coeffs: dict, angles: list[sp.Symbol], nice=nice_poly) -> sp.Ex
     mixed = any(v < 0 or v > 1 for k in coeffs for v in k if any(k))
     if mixed and not large:
         product = product_form(coeffs, angles) if nice is nice_poly else _product_form(fourier, angles)
-        if sp.count_ops(product) < sp.count_ops(fourier):
+        if count_ops(product) < count_ops(fourier):
             return product
     return fourier
 
@@ -206,8 +207,8 @@ def _nice(c: sp.Expr) -> sp.Expr:
     f = sp.factor_terms(c)
     if len(c.args) <= 12:  # full factorization only where it stays cheap: (q̇1 + q̇2)(2q̇1 + q̇2)
         g = factor_within(f)
-        f = g if sp.count_ops(g) < sp.count_ops(f) else f
-    return f if sp.count_ops(f) < sp.count_ops(c) else c
+        f = g if count_ops(g) < count_ops(f) else f
+    return f if count_ops(f) < count_ops(c) else c
 
 
 def _sum_denominator(expr: sp.Expr) -> bool:
@@ -224,10 +225,10 @@ def _rational(expr: sp.Expr) -> sp.Expr:
         n, d = sp.fraction(factor_within(t))
         groups.setdefault(d, []).append(n)
     by_den = sp.Add(*[factor_within(sp.Add(*ns)) / d for d, ns in groups.items()])
-    if len(groups) == 1 or sp.count_ops(expr) > 150:   # one denominator already, or too big to combine cheaply
+    if len(groups) == 1 or count_ops(expr) > 150:   # one denominator already, or too big to combine cheaply
         return by_den
     whole = factor_within(sp.cancel(expr))
-    return by_den if sp.count_ops(by_den) <= sp.count_ops(whole) else whole
+    return by_den if count_ops(by_den) <= count_ops(whole) else whole
 
 
 @lru_cache(maxsize=20000)
@@ -253,12 +254,36 @@ def tidy(expr: sp.Expr) -> sp.Expr:
             return n / d
         except NotTrigPolynomial:
             pass
+    radical = _tidy_radicals(expr)
+    if radical is not None:
+        return radical
     try:
         return sp.trigsimp(sp.simplify(expr))
     except BudgetExceeded:  # a caller's CPU budget ran out: let it know
         raise
     except Exception:  # pragma: no cover - sympy internals
         return expr
+
+
+def _tidy_radicals(expr: sp.Expr) -> sp.Expr | None:
+    """An expression in sin/cos and radicals of them as one ratio: each radical X^(p/q) a symbol r^p, numerator and
+    denominator tidied, then r = X^(1/q) put back with X as given or tidied, whichever is shorter:
+    ∂‖a(q) − b‖/∂q = (a − b)ᵀ ∂a/∂q / ‖a − b‖ with its numerator in Fourier form and ‖a − b‖ the distance it is.
+    None for other functions or nested radicals."""
+    if not all(isinstance(f, _TRIG) for f in expr.atoms(sp.Function)):
+        return None
+    rads = [p for p in expr.atoms(sp.Pow) if p.base.free_symbols and p.exp.is_Rational and not p.exp.is_Integer]
+    if not rads or any(o != p and p.base.has(o) for p in rads for o in rads):
+        return None
+    gens: dict[tuple[sp.Expr, int], sp.Dummy] = {}
+    sub = {}
+    for p in rads:
+        r = gens.setdefault((p.base, int(p.exp.q)), sp.Dummy("r"))
+        sub[p] = r ** int(p.exp.p)
+    num, den = sp.fraction(sp.together(expr.xreplace(sub)))
+    body = tidy(num) / tidy(den)
+    back = {r: min((base, tidy(base)), key=count_ops) ** sp.Rational(1, q) for (base, q), r in gens.items()}
+    return body.xreplace(back)
 
 
 def tidy_matrix(m: sp.Matrix) -> sp.Matrix:
