@@ -56,6 +56,9 @@ def _laurent_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict[tuple[
     :func:`solver.fourier.fourier_coefficients`."""
     if expr.atoms(sp.tan, sp.cot, sp.sec, sp.csc, sp.atan2, sp.asin, sp.acos, sp.atan, sp.Abs, sp.sign):
         raise NotTrigPolynomial(expr)
+    aset = set(angles)
+    if any(not (p.exp.is_Integer and p.exp > 0) and p.base.free_symbols & aset for p in expr.atoms(sp.Pow)):
+        raise NotTrigPolynomial(expr)   # an angle in a denominator or a radical: refused before expanding
     zs = [sp.Dummy(f"z_{x.name}") for x in angles]
 
     def expo(k: tuple[int, ...], b: sp.Expr, sign: int) -> sp.Expr:
