@@ -110,3 +110,21 @@ def test_extra_terms_friction_and_input_map():
     assert dm.B == sp.diag(I + m * d**2, Bm)
     assert is_zero(dm.g[0] - (m * g0 * d * sp.cos(q) + K * (q - th))) and is_zero(dm.g[1] + K * (q - th))
     assert is_zero(dm.lhs[1] - (Bm * ddth - K * (q - th) + fv * dth))
+
+
+def test_one_derivation_per_robot_each_caller_its_copy(monkeypatch):
+    """The asks of a problem share one derivation of its robot; each gets matrices it may change on its own."""
+    import solver.dynamics.model as model
+    calls = []
+    real = model._derive
+    monkeypatch.setattr(model, "_derive", lambda r: calls.append(r) or real(r))
+    r = planar_nR(2)
+    a, b = derive(r), derive(r)
+    assert len(calls) == 1 and a.B == b.B and a.B is not b.B
+    b00 = a.B[0, 0]
+    b.B[0, 0] = 0
+    b.notes.append("changed")
+    c = derive(r)
+    assert c.B[0, 0] == b00 == a.B[0, 0] and not c.notes and len(calls) == 1
+    derive(planar_nR(2))                        # another robot object (equal data): derived again
+    assert len(calls) == 2

@@ -139,9 +139,33 @@ def require_model(problem) -> Robot:  # type: ignore[no-untyped-def]
     return robot
 
 
+_DERIVED: dict[int, tuple[Robot, DynamicModel]] = {}   # id(robot) -> (robot, model): a problem's asks share one
+_DERIVED_MAX = 8
+
+
 def derive(robot: Robot) -> DynamicModel:
     """The full Lagrangian model of ``robot``: in the canonical trigonometric-polynomial form throughout when the
-    robot's data allow (solver.dynamics.canonical), else entry by entry with :func:`tidy`."""
+    robot's data allow (solver.dynamics.canonical), else entry by entry with :func:`tidy`. Derived once per robot
+    object (robots are not changed after loading): the asks of a problem (model, control law, regulation, ...) each
+    get their own copy of the same model."""
+    hit = _DERIVED.get(id(robot))
+    if hit is None or hit[0] is not robot:
+        if len(_DERIVED) >= _DERIVED_MAX:
+            _DERIVED.pop(next(iter(_DERIVED)))
+        hit = _DERIVED[id(robot)] = (robot, _derive(robot))
+    return _copy(hit[1])
+
+
+def _copy(dm: DynamicModel) -> DynamicModel:
+    """A copy whose matrices and lists a caller may change without touching the shared model."""
+    def m(x):  # type: ignore[no-untyped-def]
+        return x.copy() if isinstance(x, sp.MatrixBase) else x
+    return DynamicModel(list(dm.bodies), dm.T_extra, dm.T, m(dm.B), [m(x) for x in dm.C] if dm.C is not None else None,
+                        m(dm.c), m(dm.S), dm.skew, dm.U_extra, dm.U, m(dm.g), m(dm.Fv), m(dm.G), m(dm.u), m(dm.lhs),
+                        list(dm.notes))
+
+
+def _derive(robot: Robot) -> DynamicModel:
     from solver.dynamics.canonical import derive_canonical
     fast = derive_canonical(robot)
     if fast is not None:
