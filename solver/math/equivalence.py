@@ -298,17 +298,29 @@ def set_equiv(got: list[sp.Matrix], want: list[sp.Matrix], angles: list[int] | N
     return Verdict(CORRECT)
 
 
+def _numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+    """expr = n/d with n, d expanded polynomials: through the field of rational functions of its generators
+    (sparse polynomial arithmetic), or sympy's together/expand where the field does not take it."""
+    from sympy.polys.fields import sfield
+    try:
+        _, f = sfield(expr)
+        return f.numer.as_expr(), f.denom.as_expr()
+    except (sp.PolynomialError, ValueError, TypeError, NotImplementedError, sp.polys.polyerrors.GeneratorsNeeded):
+        num, den = sp.fraction(sp.together(expr))
+        return sp.expand(num), sp.expand(den)
+
+
 def normalize_condition(expr: sp.Expr) -> sp.Expr:
     """The condition ``expr > 0`` in a canonical form: the numerator and denominator factored, every factor known
     to be positive (from the symbols' assumptions: masses, stiffnesses, ...) and every positive number removed,
     the remaining factors multiplied (n/d > 0 iff n·d > 0). Returns 1 for a condition that always holds, -1 for
     one that never does."""
-    num, den = sp.fraction(sp.together(sp.sympify(expr)))
-    if sp.expand(num) == 0:
+    num, den = _numer_denom(sp.sympify(expr))
+    if num == 0:
         return sp.Integer(-1)  # 0 > 0 never holds
     sign, kept = 1, []
     for part, power in ((num, 1), (den, -1)):
-        coeff, factors = factor_list_expr(sp.expand(part))
+        coeff, factors = factor_list_expr(part)
         if coeff < 0:
             sign = -sign
         for f, k in factors:
