@@ -18,7 +18,7 @@ from functools import lru_cache
 
 import sympy as sp
 
-from solver.math.fourier import NotTrigPolynomial, fourier_coefficients, nice_poly, product_form
+from solver.math.fourier import NotTrigPolynomial, factor_list_fast, fourier_coefficients, nice_poly, product_form
 from solver.math.budget import BudgetExceeded, cpu_budget
 from solver.math.opcount import count_ops
 
@@ -198,9 +198,34 @@ def factor_within(x: sp.Expr, budget: float = FACTOR_BUDGET) -> sp.Expr:
     factors are pulled out (factor_terms). Memoized: the same coefficients recur across the asks of a problem."""
     try:
         with cpu_budget(budget):
-            return sp.factor(x)
+            fast = _factor_rational(x)
+            return fast if fast is not None else sp.factor(x)
     except BudgetExceeded:
         return sp.factor_terms(x)
+
+
+def _factor_rational(x: sp.Expr) -> sp.Expr | None:
+    """sp.factor(x) for a rational function with rational coefficients in its symbols: numerator and denominator
+    from the field of rational functions, factored by :func:`fourier.factor_list_fast` (gcds where linear in a
+    generator), in sympy's generator order; None for anything else (sympy's factor then)."""
+    from sympy.core.mul import _keep_coeff
+    from sympy.polys.fields import field
+    from sympy.polys.polyutils import _sort_gens
+    syms = list(_sort_gens(list(x.free_symbols)))
+    if not syms or x.atoms(sp.Function) or any(not p.exp.is_Integer for p in x.atoms(sp.Pow)) or x.atoms(sp.Float):
+        return None
+    try:
+        F = field(syms, sp.QQ)[0]
+        f = F.from_expr(x)
+    except (ValueError, sp.PolynomialError, TypeError, ZeroDivisionError):
+        return None
+    if not f.numer:
+        return sp.Integer(0)
+    cn, fn = factor_list_fast(f.numer)
+    cd, fd = factor_list_fast(f.denom)
+    coeff = sp.QQ.to_sympy(cn) / sp.QQ.to_sympy(cd)
+    parts = [g.as_expr() ** k for g, k in fn] + [g.as_expr() ** -k for g, k in fd]
+    return _keep_coeff(coeff, sp.Mul(*parts))
 
 
 def _nice(c: sp.Expr) -> sp.Expr:
@@ -215,9 +240,16 @@ def _nice(c: sp.Expr) -> sp.Expr:
 
 
 def _sum_denominator(expr: sp.Expr) -> bool:
-    """Whether a denominator of ``expr`` is a sum (a rational function, not a polynomial over monomials)."""
-    den = sp.denom(sp.together(expr))
-    return any(isinstance(f.as_base_exp()[0], sp.Add) for f in sp.Mul.make_args(den))
+    """Whether a denominator of ``expr`` is a sum (a rational function, not a polynomial over monomials): a sum to
+    a negative power reached through sums, products and positive integer powers, the factors the denominator of
+    together(expr) is made of (without building it)."""
+    if expr.is_Add or expr.is_Mul:
+        return any(_sum_denominator(a) for a in expr.args)
+    if expr.is_Pow:
+        if expr.exp.is_negative:
+            return bool(expr.base.is_Add)
+        return bool(expr.exp.is_Integer) and _sum_denominator(expr.base)
+    return False
 
 
 def _rational(expr: sp.Expr) -> sp.Expr:

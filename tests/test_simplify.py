@@ -1,0 +1,59 @@
+"""The fast paths of solver.math.simplify agree with sympy's definitions they replace."""
+from __future__ import annotations
+
+import random
+
+import sympy as sp
+
+from solver.math.simplify import _factor_rational, _sum_denominator, factor_within
+
+a, b, c, m1, m2 = sp.symbols("a b c m1 m2", positive=True)
+x, y = sp.symbols("x y")
+SYMS = [a, b, c, m1, m2, x, y]
+
+
+def _poly(rng: random.Random, terms: int) -> sp.Expr:
+    out = sp.Integer(0)
+    for _ in range(terms):
+        mono = sp.Integer(rng.choice([-3, -2, -1, 1, 2, 5])) / rng.choice([1, 1, 2, 3])
+        for s in rng.sample(SYMS, rng.randint(0, 3)):
+            mono *= s ** rng.randint(1, 2)
+        out += mono
+    return out
+
+
+def _rational(rng: random.Random) -> sp.Expr:
+    f, g, h = (_poly(rng, rng.randint(1, 3)) for _ in range(3))
+    e = f * g / (h if h != 0 else 1)
+    return e + _poly(rng, 2) / (_poly(rng, 2) or 1) if rng.random() < 0.5 else sp.expand(e)
+
+
+def test_factor_rational_is_sympys_factor():
+    rng = random.Random(11)
+    for _ in range(150):
+        e = _rational(rng)
+        fast = _factor_rational(e)
+        assert fast is not None
+        assert fast == sp.factor(e), e
+    # outside its domain it declines
+    assert _factor_rational(sp.sin(a) * b + b) is None
+    assert _factor_rational(sp.sqrt(a) + 1) is None
+    assert _factor_rational(sp.Float(0.5) * a + a * b) is None
+
+
+def test_factor_within_examples():
+    assert factor_within(m1 * m2 * x**2 - m1 * m2) == m1 * m2 * (x - 1) * (x + 1)
+    e = (m1 * m2 - b**2) * x / (m1**2 * m2 - m1 * b**2)
+    assert factor_within(e) == x / m1
+
+
+def test_sum_denominator_matches_together():
+    def reference(e: sp.Expr) -> bool:
+        den = sp.denom(sp.together(e))
+        return any(isinstance(f.as_base_exp()[0], sp.Add) for f in sp.Mul.make_args(den))
+    rng = random.Random(5)
+    cases = [a / (b + c), a / b + c, (a + b) ** -2 * c, sp.sin(a) / (1 + b), (a / (b + 1)) ** 2, a ** -1 + b ** -1,
+             sp.sqrt(a + b), 1 / sp.sqrt(a + b) + 1]
+    cases += [_rational(rng) for _ in range(100)]
+    for e in cases:
+        assert _sum_denominator(e) == reference(e), e
