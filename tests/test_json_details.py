@@ -101,3 +101,19 @@ def test_steps_refer_to_their_own_asks_results():
     third.step("use", v=x)
     data = json.loads(render(p, sols + [third], "json"))
     assert [s["data"]["v"] for s in data["steps"]] == [{"result": "v"}, {"result": "v_b"}, {"result": "v"}]
+
+
+def test_steps_refer_to_results_by_value_not_identity():
+    """A step value equal to a result (another object: which objects sympy's caches share changes from run to
+    run, with the hash seed) is written as a reference, so the JSON of a problem is the same on every run."""
+    import sympy as sp
+
+    from solver.results import Solution
+    p = load_problem(RP)
+    q = sp.Symbol("q")
+    s = Solution("kinematics", title="t")
+    s.add("M", sp.Matrix([[sp.cos(q), 1], [0, sp.sin(q)]]), "matrix", label="M")
+    s.add("w", sp.cos(q) + 2, "scalar", label="w")
+    s.step("use", M=sp.Matrix([[sp.cos(q), 1], [0, sp.sin(q)]]), w=2 + sp.cos(q), other=sp.sin(q) + 2)
+    data = json.loads(render(p, [s], "json"))["steps"][0]["data"]
+    assert data["M"] == {"result": "M"} and data["w"] == {"result": "w"} and "other" not in data

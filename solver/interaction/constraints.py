@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+from functools import lru_cache
 from dataclasses import dataclass, field
 from typing import Any, Literal, Optional, Union
 
@@ -169,13 +170,20 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
         n = tidy(sp.expand(n))
         d = rest
         if d.has(sp.sin, sp.cos) and sp.count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
-            short = factor_within(sp.trigsimp(tidy(sp.expand(d))))
-            d = short if sp.count_ops(short) <= sp.count_ops(d) else d
+            d = _short_denominator(d)
         if d.is_number:
             return tidy(n / d)
     if d.could_extract_minus_sign():
         n, d = -n, -d
     return _common(n) / _common(d)
+
+
+@lru_cache(maxsize=4096)
+def _short_denominator(d: sp.Expr) -> sp.Expr:
+    """A small trigonometric denominator in its shortest form ((1 - cos q)(1 + cos q) -> sin(q)^2); memoized:
+    the entries of a matrix over one determinant share it, and trigsimp is slow."""
+    short = factor_within(sp.trigsimp(tidy(sp.expand(d))))
+    return short if sp.count_ops(short) <= sp.count_ops(d) else d
 
 
 def _common(e: sp.Expr) -> sp.Expr:

@@ -270,12 +270,22 @@ class Extremum:
     how: str
 
 
+def _transcendental_in(f: sp.Expr, t: sp.Symbol) -> bool:
+    """Whether f has a function of a nonlinear polynomial in t (cos(3Δ t²/T² − 2Δ t³/T³ + q₀) along a cubic):
+    f = 0 then has no closed-form roots, and simplifying f to find them costs seconds for nothing."""
+    for fn in f.atoms(sp.Function):
+        for arg in fn.args:
+            if isinstance(arg, sp.Expr) and arg.has(t) and not (arg.is_polynomial(t) and sp.degree(arg, t) <= 1):
+                return True
+    return False
+
+
 def _interior_roots(f1: sp.Expr, t: sp.Symbol, a: sp.Expr, b: sp.Expr) -> Optional[list[sp.Expr]]:
     """Zeros of f1 strictly inside (a, b), found in σ = (t − a)/(b − a) ∈ (0, 1); None when they cannot be
     found exactly."""
     if f1 == 0 or not f1.has(t):
         return []
-    if sp.count_ops(f1) > SIZE_LIMIT:
+    if sp.count_ops(f1) > SIZE_LIMIT or _transcendental_in(f1, t):
         return None
     s = sp.Dummy("sigma", real=True)
     g = sp.simplify(f1.subs(t, a + (b - a) * s))

@@ -583,13 +583,15 @@ class _Steps:
     """Step data to JSON, each expression written once: a value that is a result of the report is written as
     {"result": NAME}, other sympy values (with ``details`` only) as {"expr", "latex"}, once per object."""
 
-    def __init__(self, latex: Latex, refs: dict[int, str], details: bool) -> None:
+    def __init__(self, latex: Latex, refs: dict[Any, str], details: bool) -> None:
         self.latex, self.refs, self.details = latex, refs, details
         self.seen: dict[int, Any] = {}
 
     def __call__(self, obj: Any) -> Any:
-        if id(obj) in self.refs and _referable(obj):
-            return {"result": self.refs[id(obj)]}
+        if _referable(obj):
+            key = _ref_key(obj)
+            if key is not None and key in self.refs:
+                return {"result": self.refs[key]}
         if isinstance(obj, (str, int, float, bool)) or obj is None:
             return obj
         if not self.details:  # only references to results and plain data
@@ -618,6 +620,21 @@ class _Steps:
 _SKIP = object()
 
 
+def _ref_key(value: Any) -> Any:
+    """A hashable key equal for equal values (a result is referred to by value: identity would depend on which
+    objects sympy's caches happen to share, and change the JSON from run to run); None when not hashable."""
+    if isinstance(value, sp.MatrixBase):
+        return ("matrix", value.shape, tuple(value))
+    if isinstance(value, (list, tuple)):
+        keys = tuple(_ref_key(v) if _referable(v) else v for v in value)
+        try:
+            hash(keys)
+        except TypeError:
+            return None
+        return ("list", keys)
+    return value if isinstance(value, sp.Basic) else None
+
+
 def _referable(value: Any) -> bool:
     """A value written by reference when it is a result: a matrix, a list or a compound expression (atoms such
     as 0 are shared objects in sympy)."""
@@ -630,17 +647,18 @@ def to_json(problem: Problem, solutions: list[Solution], details: bool = False) 
     ...) and the steps' own expressions only with ``details``. Step data refer to results by name."""
     latex = Latex(problem.latex_names, ranks(problem))
     results: dict[str, Any] = {}
-    refs: dict[int, str] = {}
-    own: list[dict[int, str]] = []   # a step names its own ask's result, else the first ask's with that object
+    refs: dict[Any, str] = {}
+    own: list[dict[Any, str]] = []   # a step names its own ask's result, else the first ask's with that value
     for sol in solutions:
         own.append({})
         for name, r in sol.results.items():
             if r.detail and not details:
                 continue
             results[name] = result_json(r, latex)
-            if _referable(r.value):
-                own[-1][id(r.value)] = name
-                refs.setdefault(id(r.value), name)
+            key = _ref_key(r.value) if _referable(r.value) else None
+            if key is not None:
+                own[-1].setdefault(key, name)
+                refs.setdefault(key, name)
     plain = _Steps(latex, refs, details)
     steps: list[Any] = []
     for sol, mine in zip(solutions, own):
