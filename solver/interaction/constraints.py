@@ -117,14 +117,21 @@ def _atom_power(terms: list[sp.Expr], f: sp.Expr) -> int:
     return k or 0
 
 
+@lru_cache(maxsize=1024)
+def _expanded_terms(n: sp.Expr, trig: bool) -> tuple[sp.Expr, ...]:
+    """The terms of n expanded (with trig: sin/cos of sums expanded too); memoized: :func:`ratio` tries each
+    factor of the denominator on the same numerator."""
+    return sp.Add.make_args(sp.expand(sp.expand(sp.expand_trig(n)) if trig else n))
+
+
 def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
     """(n / f^j, j) for the largest j <= e with f^j dividing n: for an atom f (symbol, sin, cos) by exponents of
     the terms of n (in its own form, then in product form for sin/cos when n is small), otherwise by polynomial
     division (small n only)."""
     small = sp.count_ops(n) <= MAX_CANCEL_OPS * 4
-    forms = [n] + ([sp.expand(sp.expand_trig(n))] if small and isinstance(f, (sp.sin, sp.cos)) else [])
-    for form in forms:
-        terms = list(sp.Add.make_args(sp.expand(form)))
+    forms = [False] + ([True] if small and isinstance(f, (sp.sin, sp.cos)) else [])
+    for trig in forms:
+        terms = list(_expanded_terms(n, trig))
         if f.is_Symbol or isinstance(f, (sp.sin, sp.cos)):
             j = min(_atom_power(terms, f), e)
             if j:
@@ -162,12 +169,15 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     if sp.count_ops(d) <= MAX_CANCEL_OPS and sp.count_ops(n) <= MAX_CANCEL_OPS * 10:
         coeff, factors = sp.factor_list(d)
         rest = sp.sympify(coeff)
+        divided = False
         for f, e in factors:
             j = 0
             if f.free_symbols:
                 n, j = _divide_out(n, f, e)
+                divided = divided or j > 0
             rest *= f ** (e - j)
-        n = tidy(sp.expand(n))
+        if divided:  # (n is tidy already otherwise)
+            n = tidy(sp.expand(n))
         d = rest
         if d.has(sp.sin, sp.cos) and sp.count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
             d = _short_denominator(d)
