@@ -14,6 +14,7 @@ the Routh table is positive; the conditions are returned in the canonical form o
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
@@ -158,10 +159,14 @@ def coefficients(p: sp.Expr, s: sp.Symbol) -> list[sp.Expr]:
 
 def hurwitz_determinants(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
     """Δ_1..Δ_n, the leading principal minors of the Hurwitz matrix H_ij = b_{2j-i+1} of b_0 sⁿ + b_1 sⁿ⁻¹ + ...
-    + b_n (exact polynomial arithmetic, no fractions)."""
+    + b_n (exact polynomial arithmetic, no fractions). Memoized: the Routh column and the report both use them."""
+    return list(_hurwitz_determinants(tuple(sp.sympify(c) for c in coeffs)))
+
+
+@lru_cache(maxsize=256)
+def _hurwitz_determinants(b: tuple[sp.Expr, ...]) -> tuple[sp.Expr, ...]:
     from sympy.polys.matrices import DomainMatrix
 
-    b = [sp.sympify(c) for c in coeffs]
     n = len(b) - 1
 
     def coef(k: int) -> sp.Expr:
@@ -170,7 +175,7 @@ def hurwitz_determinants(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
     H = sp.Matrix(n, n, lambda i, j: coef(2 * j - i + 1))
     dH = DomainMatrix.from_Matrix(H)
     K = dH.domain
-    return [K.to_sympy(dH[:k, :k].det()) if k > 1 else sp.expand(H[0, 0]) for k in range(1, n + 1)]
+    return tuple(K.to_sympy(dH[:k, :k].det()) if k > 1 else sp.expand(H[0, 0]) for k in range(1, n + 1))
 
 
 def routh_column(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
@@ -229,7 +234,10 @@ def always_positive(c: sp.Expr) -> bool | None:
         return bool(c > 0)
     if not all(s.is_positive for s in c.free_symbols):
         return None
-    num, den = sp.fraction(sp.together(c))
+    if any(p.exp.is_negative for p in c.atoms(sp.Pow)):
+        num, den = sp.fraction(sp.together(c))
+    else:  # a polynomial: together() would only clear the rational coefficients' denominators (a positive factor)
+        num, den = c, sp.Integer(1)
     for part in (sp.expand(num), sp.expand(den)):
         if part.is_number:
             if part <= 0:
@@ -307,24 +315,20 @@ def stable_for_all(conditions: Sequence[sp.Expr], samples: int = 3000,
         return None, None  # conditions on gains of any sign: they are design conditions, not a property
     rng = np.random.default_rng(seed)
     funcs = [sp.lambdify(syms, c, "numpy") for c in conditions]
-    for _ in range(samples):
-        vals = []
-        for x in syms:
-            if x.is_positive:
-                vals.append(float(10 ** rng.uniform(-2, 2)))
-            elif x.is_nonnegative:
-                vals.append(float(10 ** rng.uniform(-2, 2)) * (rng.random() > 0.1))
-            else:
-                vals.append(float(rng.uniform(-10, 10)))
-        try:
-            bad = any(float(f(*vals)) <= 0 for f in funcs)
-        except (ZeroDivisionError, OverflowError, ValueError, TypeError):
-            continue
-        if bad:
-            point = {x: sp.nsimplify(round(v, 3) if abs(v) >= 1 else float(f"{v:.3g}"), rational=True)
-                     for x, v in zip(syms, vals)}
-            if any(sp.sympify(c).xreplace(point) <= 0 for c in conditions):
-                return False, point
+    X = 10 ** rng.uniform(-2, 2, size=(samples, len(syms)))  # every sample at once (log-uniform in [0.01, 100])
+    bad = np.zeros(samples, dtype=bool)
+    with np.errstate(all="ignore"):
+        for f in funcs:
+            try:
+                val = np.broadcast_to(np.asarray(f(*X.T), dtype=float), (samples,))
+            except (ZeroDivisionError, OverflowError, ValueError, TypeError):
+                continue
+            bad |= val <= 0
+    for i in np.flatnonzero(bad):  # in the order drawn; a candidate is re-checked exactly at rounded values
+        point = {x: sp.nsimplify(round(v, 3) if abs(v) >= 1 else float(f"{v:.3g}"), rational=True)
+                 for x, v in zip(syms, X[i].tolist())}
+        if any(sp.sympify(c).xreplace(point) <= 0 for c in conditions):
+            return False, point
     return None, None
 
 
