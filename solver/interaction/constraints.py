@@ -34,6 +34,7 @@ from solver.dynamics.equilibria import equilibria
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy
+from solver.math.opcount import count_ops
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -128,7 +129,7 @@ def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
     """(n / f^j, j) for the largest j <= e with f^j dividing n: for an atom f (symbol, sin, cos) by exponents of
     the terms of n (in its own form, then in product form for sin/cos when n is small), otherwise by polynomial
     division (small n only)."""
-    small = sp.count_ops(n) <= MAX_CANCEL_OPS * 4
+    small = count_ops(n) <= MAX_CANCEL_OPS * 4
     forms = [False] + ([True] if small and isinstance(f, (sp.sin, sp.cos)) else [])
     for trig in forms:
         terms = list(_expanded_terms(n, trig))
@@ -166,7 +167,7 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
         return n
     if d.is_number:
         return tidy(n / d)
-    if sp.count_ops(d) <= MAX_CANCEL_OPS and sp.count_ops(n) <= MAX_CANCEL_OPS * 10:
+    if count_ops(d) <= MAX_CANCEL_OPS and count_ops(n) <= MAX_CANCEL_OPS * 10:
         coeff, factors = sp.factor_list(d)
         rest = sp.sympify(coeff)
         divided = False
@@ -179,7 +180,7 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
         if divided:  # (n is tidy already otherwise)
             n = tidy(sp.expand(n))
         d = rest
-        if d.has(sp.sin, sp.cos) and sp.count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
+        if d.has(sp.sin, sp.cos) and count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
             d = _short_denominator(d)
         if d.is_number:
             return tidy(n / d)
@@ -193,7 +194,7 @@ def _short_denominator(d: sp.Expr) -> sp.Expr:
     """A small trigonometric denominator in its shortest form ((1 - cos q)(1 + cos q) -> sin(q)^2); memoized:
     the entries of a matrix over one determinant share it, and trigsimp is slow."""
     short = factor_within(sp.trigsimp(tidy(sp.expand(d))))
-    return short if sp.count_ops(short) <= sp.count_ops(d) else d
+    return short if count_ops(short) <= count_ops(d) else d
 
 
 def _common(e: sp.Expr) -> sp.Expr:
@@ -286,7 +287,7 @@ def choose_complement(A: sp.Matrix, q: list[sp.Symbol]) -> tuple[sp.Matrix, list
         det = tidy(A[:, list(S)].det())
         if det == 0 or generic_rank(sp.Matrix([[det]])) == 0:
             continue
-        key = (bool(det.free_symbols & set(q)), sp.count_ops(det), S)
+        key = (bool(det.free_symbols & set(q)), count_ops(det), S)
         if best is None or key < best[0]:
             best = (key, S, det)
     if best is None:
@@ -617,7 +618,7 @@ def _singular(M: sp.Matrix, q: list[sp.Symbol], k: int) -> tuple[list[sp.Matrix]
         return [sp.Matrix(q)], True, True
     if not any(x.free_symbols & set(q) for x in minors):
         return [], False, True
-    if len(set(angle_symbols(sp.Add(*minors))) & set(q)) > 2 or sum(sp.count_ops(x) for x in minors) > 200:
+    if len(set(angle_symbols(sp.Add(*minors))) & set(q)) > 2 or sum(count_ops(x) for x in minors) > 200:
         return [], False, False
     try:
         configs, _, every = equilibria(sp.Matrix(minors), q)
@@ -892,7 +893,7 @@ def _num(e: Any) -> Any:
         return e.applyfunc(_num)
     if not isinstance(e, sp.Expr) or e.is_Rational:
         return e
-    if not e.atoms(sp.Float) and sp.count_ops(e) <= 40:
+    if not e.atoms(sp.Float) and count_ops(e) <= 40:
         return e
     if e.is_number:
         return sp.Float(e.evalf(15), 15)
