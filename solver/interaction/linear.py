@@ -22,6 +22,7 @@ import sympy as sp
 
 from solver.math.equivalence import reduce_conditions
 from solver.math.fourier import factor_list_expr
+from solver.math.opcount import count_ops
 from solver.math.simplify import factor_within, tidy
 
 S = sp.Symbol("s")  # the Laplace variable (the problem's own `s` replaces it when declared)
@@ -107,7 +108,7 @@ def collect_s(p: sp.Expr, s: sp.Symbol) -> sp.Expr:
     out = sp.Integer(0)
     for (k,), c in zip(poly.monoms(), poly.coeffs()):
         f = factor_within(c)
-        out += (f if sp.count_ops(f) <= sp.count_ops(c) else c) * s**k
+        out += (f if count_ops(f) <= count_ops(c) else c) * s**k
     return out
 
 
@@ -139,7 +140,7 @@ def s_factors(p: sp.Expr, s: sp.Symbol, max_ops: int = 3000) -> list[tuple[sp.Ex
     """The factors of p(s) that depend on s, with multiplicities (the constant content dropped): a decoupled
     closed loop gives one factor per direction. p itself when it does not factor (or is too large to try)."""
     p = sp.expand(p)
-    if sp.count_ops(p) > max_ops:
+    if count_ops(p) > max_ops:
         return [(collect_s(p, s), 1)]
     num, _ = sp.fraction(sp.together(p))
     try:
@@ -213,10 +214,10 @@ def _ratio(a: sp.Expr, b: sp.Expr) -> sp.Expr:
 def _short(p: sp.Expr) -> sp.Expr:
     """A polynomial factored when that is shorter (and cheap)."""
     p = sp.expand(p)
-    if sp.count_ops(p) > 400:
+    if count_ops(p) > 400:
         return p
     f = factor_within(p)
-    return f if sp.count_ops(f) <= sp.count_ops(p) else p
+    return f if count_ops(f) <= count_ops(p) else p
 
 
 def hurwitz_conditions(column: Sequence[sp.Expr]) -> list[sp.Expr]:
@@ -365,7 +366,7 @@ def second_order(m: sp.Expr, d: sp.Expr, k: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
 def short_poles(p: sp.Expr, s: sp.Symbol, max_ops: int = 24) -> list[sp.Expr] | None:
     """:func:`poles`, but closed forms only when they are short enough to read."""
     out = poles(p, s)
-    if out is not None and sum(sp.count_ops(x) for x in out) > max_ops:
+    if out is not None and sum(count_ops(x) for x in out) > max_ops:
         return None
     return out
 

@@ -31,6 +31,7 @@ from solver.kinematics.methods import (
     solve_methods,
     wants_methods,
 )
+from solver.math.opcount import count_ops
 from solver.math.simplify import factor_within, tidy
 from solver.registry import ask_kind
 from solver.results import Solution
@@ -153,9 +154,9 @@ def _clean(e: sp.Expr) -> sp.Expr:
     if e.is_Rational or not e.is_number:
         return e
     out = sp.expand(sp.radsimp(sp.together(e)))
-    if sp.count_ops(out) > 12:
+    if count_ops(out) > 12:
         s = sp.simplify(out)
-        out = s if sp.count_ops(s) < sp.count_ops(out) else out
+        out = s if count_ops(s) < count_ops(out) else out
     return out
 
 
@@ -186,7 +187,7 @@ def _tidy_rational(e: sp.Expr) -> sp.Expr:
         return tidy(e)
     e, back = _hide_radicals(e)
     t = tidy(e)
-    if t.free_symbols and not t.is_polynomial() and sp.count_ops(t) <= 150:
+    if t.free_symbols and not t.is_polynomial() and count_ops(t) <= 150:
         f = factor_within(sp.expand_trig(t))
         for _ in range(2):  # (cos x - 1)(cos x + 1) -> -sin(x)^2, then cancel again
             g = f
@@ -195,7 +196,7 @@ def _tidy_rational(e: sp.Expr) -> sp.Expr:
             if g == f:
                 break
             f = factor_within(g)
-        if sp.count_ops(f) < sp.count_ops(t):
+        if count_ops(f) < count_ops(t):
             t = f
     return t.xreplace(back) if back else t
 
@@ -323,7 +324,7 @@ def _quot(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     """n/d with common factors cancelled when that is cheap."""
     if n == 0:
         return sp.Integer(0)
-    if sp.count_ops(n) + sp.count_ops(d) <= 60:
+    if count_ops(n) + count_ops(d) <= 60:
         return _tidy_rational(n / d)
     return n / d
 

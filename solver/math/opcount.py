@@ -14,7 +14,9 @@ from sympy.simplify.radsimp import fraction
 @lru_cache(maxsize=50000)
 def count_ops(e: sp.Basic) -> int:
     """Number of operations of ``e`` as :func:`sympy.count_ops` counts them (Add, Mul, Pow, sin/cos, numbers,
-    symbols; an expression with any other node is handed to sympy)."""
+    symbols; an expression with any other node, or a Python number, is handed to sympy)."""
+    if not isinstance(e, sp.Basic):
+        return int(sp.count_ops(e))
     if e.is_Symbol:
         return 0
     if e.is_Rational:

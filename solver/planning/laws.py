@@ -24,6 +24,8 @@ from typing import Any, Callable, Optional
 import numpy as np
 import sympy as sp
 
+from solver.math.opcount import count_ops
+
 SIZE_LIMIT = 400  # count_ops above which extrema are searched numerically
 GRID = 801        # samples per piece for numeric searches
 
@@ -285,7 +287,7 @@ def _interior_roots(f1: sp.Expr, t: sp.Symbol, a: sp.Expr, b: sp.Expr) -> Option
     found exactly."""
     if f1 == 0 or not f1.has(t):
         return []
-    if sp.count_ops(f1) > SIZE_LIMIT or _transcendental_in(f1, t):
+    if count_ops(f1) > SIZE_LIMIT or _transcendental_in(f1, t):
         return None
     s = sp.Dummy("sigma", real=True)
     g = sp.simplify(f1.subs(t, a + (b - a) * s))

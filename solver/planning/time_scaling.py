@@ -28,6 +28,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import DynamicModel, derive, require_model
+from solver.math.opcount import count_ops
 from solver.planning.laws import Law, LawError, extremum, sample
 from solver.planning.motion import Motion, MotionSpec, coordinated_trapezoids, read_motion
 from solver.planning.trajectory import (law_view, assume_positive, coordinate_labels, law_figure, parse_times,
@@ -100,7 +101,7 @@ class Piece:
 def _simplify(M: sp.Matrix) -> sp.Matrix:
     """Light tidying only (full simplification of trigonometric functions of polynomials in t is slow): values
     are simplified where they are evaluated."""
-    return M.applyfunc(lambda x: sp.factor_terms(sp.expand(x)) if sp.count_ops(x) < 300 else x)
+    return M.applyfunc(lambda x: sp.factor_terms(sp.expand(x)) if count_ops(x) < 300 else x)
 
 
 def torque_pieces(motion: Motion, dm: DynamicModel, robot, values: dict, Ginv: Optional[sp.Matrix]) -> list[Piece]:  # type: ignore[no-untyped-def]
@@ -194,7 +195,7 @@ def inverse(y: sp.Expr) -> sp.Expr:
     1/sqrt((U − g)/(τ − g)))."""
     a = sp.simplify(1 / y)
     b = sp.sqrt(factor_within(sp.cancel(sp.simplify(1 / y ** 2))))
-    return b if sp.count_ops(b) < sp.count_ops(a) else a
+    return b if count_ops(b) < count_ops(a) else a
 
 
 @dataclass
@@ -313,7 +314,7 @@ def motion_view(motion: Motion, pieces: Optional[list[Piece]] = None) -> dict:
                   "symbols": [sp.Symbol(n, real=True) for n in motion.names]}
     if pieces:
         taus = [law_view(tau_law(pieces, i, motion.t)) for i in range(len(pieces[0].tau))]
-        if all(sp.count_ops(p) < 60 for v in taus for p, _, _ in v["pieces"]):
+        if all(count_ops(p) < 60 for v in taus for p, _, _ in v["pieces"]):
             view["taus"] = taus
     return view
 
