@@ -22,8 +22,8 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-from functools import lru_cache
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any, Literal, Optional, Union
 
 import numpy as np
@@ -33,8 +33,8 @@ from pydantic import Field, model_validator
 from solver.dynamics.equilibria import equilibria
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
-from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy
 from solver.math.opcount import count_ops
+from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution

@@ -237,9 +237,10 @@ def always_positive(c: sp.Expr) -> bool | None:
         return None
     if any(p.exp.is_negative for p in c.atoms(sp.Pow)):
         num, den = sp.fraction(sp.together(c))
-    else:  # a polynomial: together() would only clear the rational coefficients' denominators (a positive factor)
-        num, den = c, sp.Integer(1)
-    for part in (sp.expand(num), sp.expand(den)):
+        parts: tuple[sp.Expr, ...] = (sp.expand(num), sp.expand(den))
+    else:  # a polynomial, expanded above: together() would only clear the rational coefficients' denominators
+        parts = (c,)
+    for part in parts:
         if part.is_number:
             if part <= 0:
                 return None
