@@ -83,17 +83,27 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
           details: bool = typer.Option(False, "--details", help="JSON: also the intermediate results (per-body "
                                        "quantities) and the expressions of the steps")) -> None:
     """Solve a problem and print the step-by-step solution."""
-    from solver.publish.figures import write_figures
+    from solver.publish.figures import Painter
     from solver.publish.render import render
     from solver.solve import solve_problem
     from solver.spec import load_problem
 
     def work() -> tuple[str, int]:
-        problem = load_problem(spec)
-        solutions = solve_problem(problem)
-        figures = write_figures(solutions, output, format.value) if output and format is not Fmt.json else []
-        return render(problem, solutions, format.value, fragment=fragment, template_dir=templates,
-                      details=details), len(figures)
+        # figures are drawn by a helper process that warms matplotlib up while the problem is solved
+        painter = Painter(format.value) if output and format is not Fmt.json else None
+        try:
+            problem = load_problem(spec)
+            solutions = solve_problem(problem)
+            figures = painter.write(solutions, output, format.value) if painter and output else []
+            text = render(problem, solutions, format.value, fragment=fragment, template_dir=templates,
+                          details=details)
+            if painter:
+                painter.wait()
+        except BaseException:
+            if painter:
+                painter.cancel()
+            raise
+        return text, len(figures)
     try:
         if output:
             _output_file(output)

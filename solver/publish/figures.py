@@ -2,6 +2,9 @@
 from __future__ import annotations
 
 import math
+import os
+import pickle
+import signal
 from pathlib import Path
 
 from solver.results import Figure, RobotPose, Sketch, Solution
@@ -80,19 +83,147 @@ def draw(fig: Figure, path: Path) -> None:
     plt.close(f)
 
 
-def write_figures(solutions: list[Solution], output: Path, fmt: str) -> list[Path]:
-    """Draw every figure beside ``output`` as <stem>-<name>.pdf (LaTeX) or .png (Markdown, HTML) and set
-    ``figure.path`` relative to the output's directory. Returns the files written."""
+def _plan(solutions: list[Solution], output: Path, fmt: str) -> list[tuple[Figure, Path]]:
+    """Each figure and its file beside ``output``, <stem>-<k>-<name>.pdf (LaTeX) or .png (Markdown, HTML);
+    ``figure.path`` set relative to the output's directory."""
     suffix = ".pdf" if fmt == "tex" else ".png"
-    written = []
+    jobs = []
     for k, sol in enumerate(solutions, 1):
         for fig in sol.figures:
-            name = f"{output.stem}-{k}-{fig.name}{suffix}"
-            path = output.parent / name
-            draw(fig, path)
-            fig.path = name
-            written.append(path)
-    return written
+            fig.path = f"{output.stem}-{k}-{fig.name}{suffix}"
+            jobs.append((fig, output.parent / fig.path))
+    return jobs
+
+
+def write_figures(solutions: list[Solution], output: Path, fmt: str) -> list[Path]:
+    """Draw every figure beside ``output`` (see :func:`_plan`). Returns the files written."""
+    jobs = _plan(solutions, output, fmt)
+    for fig, path in jobs:
+        draw(fig, path)
+    return [path for _, path in jobs]
+
+
+def _warm_up(fmt: str) -> None:
+    """Import matplotlib and draw a small figure with mathtext (fonts, the mathtext parser, the backend)."""
+    import io
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    f, ax = plt.subplots(figsize=(1, 1))
+    ax.plot([0, 1], [0, 1], label=r"$\dot q_1$")
+    ax.set_xlabel(r"$t$ [s]")
+    ax.legend()
+    f.savefig(io.BytesIO(), format="pdf" if fmt == "tex" else "png", dpi=30)
+    plt.close(f)
+
+
+def _read_all(fd: int) -> bytes:
+    chunks = []
+    while True:
+        chunk = os.read(fd, 1 << 20)
+        if not chunk:
+            return b"".join(chunks)
+        chunks.append(chunk)
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+
+
+def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
+    """The painter process: warm up, read the pickled (name, panels, path) list, draw, answer b"ok" or the
+    error; never returns. Its other inherited descriptors are closed first (a parent reading to EOF, like the
+    sandbox, must not wait for it)."""
+    status = b"ok"
+    try:
+        keep = sorted((jobs_fd, status_fd))
+        os.closerange(3, keep[0])
+        os.closerange(keep[0] + 1, keep[1])
+        os.closerange(keep[1] + 1, 1 << 16)
+        _warm_up(fmt)
+        data = _read_all(jobs_fd)
+        for name, panels, path in (pickle.loads(data) if data else []):
+            draw(Figure(name, "", lambda p=panels: p), Path(path))
+    except BaseException as exc:  # noqa: BLE001 - reported to the parent
+        status = f"{exc.__class__.__name__}: {exc}".encode()[:2000] or b"failed"
+    try:
+        _write_all(status_fd, status)
+    finally:
+        os._exit(0)
+
+
+class Painter:
+    """Figures drawn on the other core: a helper process forked before the problem is solved imports and warms
+    up matplotlib (about a second) meanwhile, then draws what :meth:`write` sends it while this process renders
+    the report; :meth:`wait` joins it. Without fork (or when the fork fails) :meth:`write` draws in-process. The
+    helper inherits this process's limits (the sandbox's memory and CPU time)."""
+
+    def __init__(self, fmt: str) -> None:
+        self.pid, self._jobs, self._status = 0, -1, -1
+        if not hasattr(os, "fork"):
+            return
+        try:
+            jobs_r, jobs_w = os.pipe()
+            status_r, status_w = os.pipe()
+            pid = os.fork()
+        except OSError:
+            return
+        if pid == 0:  # the painter
+            os.close(jobs_w)
+            os.close(status_r)
+            _paint(fmt, jobs_r, status_w)
+        os.close(jobs_r)
+        os.close(status_w)
+        self.pid, self._jobs, self._status = pid, jobs_w, status_r
+
+    def write(self, solutions: list[Solution], output: Path, fmt: str) -> list[Path]:
+        """Send every figure to the painter (or draw it here); ``figure.path`` is set at once. The files."""
+        jobs = _plan(solutions, output, fmt)
+        if not self.pid:
+            for fig, path in jobs:
+                draw(fig, path)
+        elif self._jobs >= 0:
+            data = pickle.dumps([(fig.name, fig.panels, str(path)) for fig, path in jobs])
+            try:
+                _write_all(self._jobs, data)
+            finally:
+                os.close(self._jobs)
+                self._jobs = -1
+        return [path for _, path in jobs]
+
+    def wait(self) -> None:
+        """Wait until the painter has drawn every figure sent; RuntimeError with its message if it failed."""
+        if not self.pid:
+            return
+        if self._jobs >= 0:
+            os.close(self._jobs)
+            self._jobs = -1
+        try:
+            status = _read_all(self._status)
+        finally:
+            os.close(self._status)
+            os.waitpid(self.pid, 0)
+            self.pid = 0
+        if status != b"ok":
+            raise RuntimeError(f"drawing the figures failed: {status.decode(errors='replace') or 'crashed'}")
+
+    def cancel(self) -> None:
+        """Stop the painter (the work failed): kill and reap it."""
+        if not self.pid:
+            return
+        for fd in (self._jobs, self._status):
+            if fd >= 0:
+                os.close(fd)
+        self._jobs = self._status = -1
+        try:
+            os.kill(self.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        os.waitpid(self.pid, 0)
+        self.pid = 0
 
 
 # ------------------------------------------------------------------------------------------------ robot sketches

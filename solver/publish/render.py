@@ -440,6 +440,52 @@ def ranks(problem: Problem) -> dict[sp.Symbol, int]:
     return out
 
 
+class _CompiledTemplates(jinja2.BytecodeCache):
+    """Compiled templates kept across environments and processes (compiling the report templates costs more than
+    rendering them): in memory, and in Jinja2's per-user cache folder (created 0700 and checked to be the user's;
+    entries are checked against the template's source, so an edited template is compiled again). The key has
+    the environment's syntax options and filter names, on which the compiled code depends."""
+
+    def __init__(self) -> None:
+        self.memory: dict[str, bytes] = {}
+        self.disk: jinja2.FileSystemBytecodeCache | None = None
+        try:
+            self.disk = jinja2.FileSystemBytecodeCache()
+        except (OSError, RuntimeError):  # no safe per-user folder: memory only
+            self.disk = None
+
+    def get_bucket(self, environment: jinja2.Environment, name: str, filename: str | None,
+                   source: str) -> jinja2.bccache.Bucket:
+        e = environment
+        setup = repr((e.block_start_string, e.variable_start_string, e.comment_start_string, e.trim_blocks,
+                      e.lstrip_blocks, e.keep_trailing_newline, e.autoescape, sorted(e.filters), sorted(e.tests)))
+        key = self.get_cache_key(f"{name}\0{setup}", filename)
+        bucket = jinja2.bccache.Bucket(environment, key, self.get_source_checksum(source))
+        self.load_bytecode(bucket)
+        return bucket
+
+    def load_bytecode(self, bucket: jinja2.bccache.Bucket) -> None:
+        data = self.memory.get(bucket.key)
+        if data is not None:
+            bucket.bytecode_from_string(data)
+        if bucket.code is None and self.disk is not None:
+            try:
+                self.disk.load_bytecode(bucket)
+            except Exception:  # an unreadable or stale entry: compile again
+                bucket.reset()
+
+    def dump_bytecode(self, bucket: jinja2.bccache.Bucket) -> None:
+        self.memory[bucket.key] = bucket.bytecode_to_string()
+        if self.disk is not None:
+            try:
+                self.disk.dump_bytecode(bucket)
+            except OSError:
+                pass
+
+
+_COMPILED = _CompiledTemplates()
+
+
 def template_env(subdir: str, custom: Path | None = None, autoescape: bool = False) -> jinja2.Environment:
     """Jinja2 environment over templates/<subdir>/, a user's <custom>/<subdir>/ first. LaTeX templates (tex,
     latex) use << >>, <% %> and <# #> so that braces stay LaTeX's. Filters every template may use: points,
@@ -447,7 +493,7 @@ def template_env(subdir: str, custom: Path | None = None, autoescape: bool = Fal
     dirs = [str(p / subdir) for p in ([custom] if custom else []) + [templates_dir()]]
     opts: dict[str, Any] = dict(loader=jinja2.FileSystemLoader(dirs), undefined=jinja2.StrictUndefined,
                                 trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
-                                autoescape=autoescape)
+                                autoescape=autoescape, bytecode_cache=_COMPILED)
     if subdir in ("tex", "latex"):
         opts.update(block_start_string="<%", block_end_string="%>", variable_start_string="<<",
                     variable_end_string=">>", comment_start_string="<#", comment_end_string="#>")

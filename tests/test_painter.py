@@ -1,0 +1,87 @@
+"""The figure helper process (solver.publish.figures.Painter) and the compiled-template cache of the renderer."""
+import os
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from conftest import PROBLEMS
+
+from solver.publish.figures import Painter, write_figures
+from solver.publish.render import render
+from solver.results import Curve, Figure, Panel, Solution
+from solver.solve import solve_problem
+from solver.spec import load_problem
+
+
+def _solution(name: str = "demo") -> Solution:
+    sol = Solution("demo")
+    panel = Panel("$t$ [s]", "", [Curve("$q_1$", [0.0, 0.5, 1.0], [0.0, 0.25, 1.0])])
+    sol.figures.append(Figure(name, "caption", lambda: [panel]))
+    return sol
+
+
+def test_painter_draws_the_same_files_as_in_process(tmp_path):
+    sols = solve_problem(load_problem(PROBLEMS / "2004-03-25-ex1.yaml"))
+    (tmp_path / "a").mkdir()
+    here = write_figures(sols, tmp_path / "a" / "r.md", "md")
+    painter = Painter("md")
+    (tmp_path / "b").mkdir()
+    there = painter.write(sols, tmp_path / "b" / "r.md", "md")
+    assert [f.path for f in sols[0].figures] == ["r-1-gravity.png", "r-1-inertia.png"]  # set before drawing
+    painter.wait()
+    assert [p.name for p in here] == [p.name for p in there] == ["r-1-gravity.png", "r-1-inertia.png"]
+    for a, b in zip(here, there):
+        assert a.read_bytes() == b.read_bytes() and len(a.read_bytes()) > 10_000
+
+
+def test_painter_failure_is_reported(tmp_path):
+    painter = Painter("md")
+    painter.write([_solution()], tmp_path / "missing-folder" / "r.md", "md")  # cannot be written
+    with pytest.raises(RuntimeError, match="drawing the figures failed"):
+        painter.wait()
+
+
+def test_painter_without_figures_and_cancel(tmp_path):
+    painter = Painter("tex")
+    assert painter.write([Solution("empty")], tmp_path / "r.tex", "tex") == []
+    painter.wait()  # nothing to draw: returns once the helper has warmed up and exited
+    other = Painter("md")
+    pid = other.pid
+    other.cancel()
+    assert other.pid == 0 and pid and not Path(f"/proc/{pid}").exists()  # killed and reaped
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_painter_keeps_no_inherited_descriptor():
+    """A parent that reads a pipe to its end (the sandbox) must not wait for the helper: the helper closes every
+    descriptor it inherited but its own two pipes."""
+    r, w = os.pipe()
+    painter = Painter("md")
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:  # the helper closes them first thing
+            fds = set(os.listdir(f"/proc/{painter.pid}/fd"))
+            if str(w) not in fds and str(r) not in fds:
+                break
+            time.sleep(0.01)
+        assert len(fds - {"0", "1", "2"}) == 2
+        assert str(w) not in fds and str(r) not in fds
+    finally:
+        painter.cancel()
+        os.close(r)
+        os.close(w)
+
+
+def test_compiled_templates_follow_their_source(tmp_path):
+    """The compiled-template cache gives the same text as a fresh compilation, and an edited template is compiled
+    again (its source checksum is part of the entry)."""
+    problem = load_problem(PROBLEMS / "2004-03-25-ex1.yaml")
+    sols = solve_problem(problem)
+    assert render(problem, sols, "tex") == render(problem, sols, "tex")
+    (tmp_path / "md").mkdir()
+    page = tmp_path / "md" / "page.md.j2"
+    page.write_text("ONE {{ problem.id }}\n")
+    assert render(problem, sols, "md", template_dir=tmp_path) == "ONE 2004-03-25-ex1\n"
+    page.write_text("TWO {{ problem.id }}\n")
+    assert render(problem, sols, "md", template_dir=tmp_path) == "TWO 2004-03-25-ex1\n"
