@@ -204,28 +204,108 @@ def factor_within(x: sp.Expr, budget: float = FACTOR_BUDGET) -> sp.Expr:
         return sp.factor_terms(x)
 
 
+class _NotRational(Exception):
+    pass
+
+
+def _fraction(e: sp.Expr, R) -> tuple:  # type: ignore[no-untyped-def]
+    """e = n / Π bᵏ in the polynomial ring R: (n, {b: k}) with each b monic, never multiplied out (a denominator
+    (q1² + d²)³ stays the cube of its base, whose factors are found on the base alone)."""
+    if e.is_Rational:
+        return R(e), {}
+    if e.is_Symbol:
+        return R(e), {}
+    if e.is_Add:
+        parts = [_fraction(a, R) for a in e.args]
+        common: dict = {}
+        for _, d in parts:
+            for b, k in d.items():
+                common[b] = max(common.get(b, 0), k)
+        n = R.zero
+        for ni, di in parts:
+            for b, k in common.items():
+                if k > di.get(b, 0):
+                    ni = ni * b ** (k - di.get(b, 0))
+            n += ni
+        return n, common
+    if e.is_Mul:
+        n, d = R.one, {}
+        for a in e.args:
+            na, da = _fraction(a, R)
+            n *= na
+            for b, k in da.items():
+                d[b] = d.get(b, 0) + k
+        return n, d
+    if e.is_Pow and e.exp.is_Integer:
+        k = int(e.exp)
+        nb, db = _fraction(e.base, R)
+        if k >= 0:
+            return nb ** k, {b: j * k for b, j in db.items()}
+        if not nb:
+            raise ZeroDivisionError
+        num = R.one
+        for b, j in db.items():
+            num *= b ** (-j * k)
+        if nb.is_ground:
+            return num.quo_ground(nb.LC ** -k), {}
+        lc = nb.LC
+        return num.quo_ground(lc ** -k), {nb.quo_ground(lc): -k}
+    raise _NotRational
+
+
+def _over_QQ(x: sp.Expr) -> bool:
+    """Whether x is a rational function of its symbols with rational coefficients (no functions, radicals,
+    floats)."""
+    return bool(x.free_symbols) and not x.atoms(sp.Function) and not x.atoms(sp.Float) and all(
+        p.exp.is_Integer for p in x.atoms(sp.Pow))
+
+
+_FACTORED: dict = {}  # factor_list_fast by polynomial: the same denominators recur across a model's entries
+
+
+def _factor_list(p):  # type: ignore[no-untyped-def]
+    hit = _FACTORED.get(p)
+    if hit is None:
+        if len(_FACTORED) > 20000:
+            _FACTORED.clear()
+        hit = _FACTORED[p] = factor_list_fast(p)
+    return hit
+
+
 def _factor_rational(x: sp.Expr) -> sp.Expr | None:
-    """sp.factor(x) for a rational function with rational coefficients in its symbols: numerator and denominator
-    from the field of rational functions, factored by :func:`fourier.factor_list_fast` (gcds where linear in a
-    generator), in sympy's generator order; None for anything else (sympy's factor then)."""
+    """sp.factor(x) for a rational function with rational coefficients in its symbols: x = n / Π bᵏ over the
+    ring of its symbols (:func:`_fraction`, the bases of the denominators kept apart), n and each base b factored
+    by :func:`fourier.factor_list_fast` (gcds where linear in a generator), the irreducible factors common to
+    the numerator and the denominator cancelled, in sympy's generator order; None for anything else."""
     from sympy.core.mul import _keep_coeff
-    from sympy.polys.fields import field
     from sympy.polys.polyutils import _sort_gens
-    syms = list(_sort_gens(list(x.free_symbols)))
-    if not syms or x.atoms(sp.Function) or any(not p.exp.is_Integer for p in x.atoms(sp.Pow)) or x.atoms(sp.Float):
+    from sympy.polys.rings import ring
+    if not _over_QQ(x):
         return None
+    R = ring(tuple(_sort_gens(list(x.free_symbols))), sp.QQ)[0]
     try:
-        F = field(syms, sp.QQ)[0]
-        f = F.from_expr(x)
-    except (ValueError, sp.PolynomialError, TypeError, ZeroDivisionError):
+        n, bases = _fraction(x, R)
+    except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError):
         return None
-    if not f.numer:
+    if not n:
         return sp.Integer(0)
-    cn, fn = factor_list_fast(f.numer)
-    cd, fd = factor_list_fast(f.denom)
-    coeff = sp.QQ.to_sympy(cn) / sp.QQ.to_sympy(cd)
-    parts = [g.as_expr() ** k for g, k in fn] + [g.as_expr() ** -k for g, k in fd]
-    return _keep_coeff(coeff, sp.Mul(*parts))
+    coeff, fn = _factor_list(n)
+    num: dict = {}
+    for g, k in fn:
+        num[g] = num.get(g, 0) + k
+    den: dict = {}
+    for b, k in bases.items():
+        cb, fb = _factor_list(b)
+        coeff /= cb ** k
+        for g, j in fb:
+            den[g] = den.get(g, 0) + j * k
+    for g in list(den):
+        common = min(den[g], num.get(g, 0))
+        if common:
+            num[g] -= common
+            den[g] -= common
+    parts = [g.as_expr() ** k for g, k in num.items() if k] + [g.as_expr() ** -k for g, k in den.items() if k]
+    return _keep_coeff(sp.QQ.to_sympy(coeff), sp.Mul(*parts))
 
 
 def _nice(c: sp.Expr) -> sp.Expr:
@@ -262,7 +342,7 @@ def _rational(expr: sp.Expr) -> sp.Expr:
     by_den = sp.Add(*[factor_within(sp.Add(*ns)) / d for d, ns in groups.items()])
     if len(groups) == 1 or count_ops(expr) > 150:   # one denominator already, or too big to combine cheaply
         return by_den
-    whole = factor_within(sp.cancel(expr))
+    whole = factor_within(expr if _over_QQ(expr) else sp.cancel(expr))  # (the fast path needs no cancel)
     return by_den if count_ops(by_den) <= count_ops(whole) else whole
 
 
