@@ -35,6 +35,13 @@ def test_factor_rational_is_sympys_factor():
         fast = _factor_rational(e)
         assert fast is not None
         assert fast == sp.factor(e), e
+    # denominators that are powers and quotients of sums, common factors to cancel, a model's entry
+    q1, q2, d, D, Iy = sp.symbols("q1 q2 d D Iy")
+    base = (q1 - q2) ** 2 + (D - 2 * d) ** 2
+    for e in [-2 * D**2 * Iy * q2 / base**3 + Iy / base**2, (x**2 - 1) / (x - 1) ** 3 + 1 / (x + 1),
+              1 / (1 / (x + 1) + 1), ((x + y) / (x - y)) ** -2 * (x + y) ** 3, (a + b) ** -3 * (a + b) ** 2 * c,
+              (m1 * x + m2) / (2 * m1 * x + 2 * m2) + a / (3 * a * b + 3 * a), sp.Rational(3, 4) * x / (6 * x**2)]:
+        assert _factor_rational(e) == sp.factor(e), e
     # outside its domain it declines
     assert _factor_rational(sp.sin(a) * b + b) is None
     assert _factor_rational(sp.sqrt(a) + 1) is None

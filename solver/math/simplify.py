@@ -285,7 +285,7 @@ def _factor_rational(x: sp.Expr) -> sp.Expr | None:
     R = ring(tuple(_sort_gens(list(x.free_symbols))), sp.QQ)[0]
     try:
         n, bases = _fraction(x, R)
-    except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError):
+    except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError, RecursionError):
         return None
     if not n:
         return sp.Integer(0)
