@@ -64,3 +64,30 @@ def test_sum_denominator_matches_together():
     cases += [_rational(rng) for _ in range(100)]
     for e in cases:
         assert _sum_denominator(e) == reference(e), e
+
+
+def test_tidy_expanded_is_tidy_of_the_expansion():
+    """tidy_expanded(e) == tidy(expand(e)) for products and powers of trigonometric sums, also where an angle or
+    a symbol cancels (it then expands), and for expressions outside the algebra (radicals, fractions)."""
+    from solver.math.simplify import tidy, tidy_expanded
+    q1, q2, L, d = sp.symbols("q1 q2 L d")
+    c1, s1, c12 = sp.cos(q1), sp.sin(q1), sp.cos(q1 + q2)
+    rng = random.Random(3)
+    pool = [c1, s1, c12, sp.sin(q2), L, d, m1, sp.Integer(2), sp.Rational(1, 3)]
+    cases = [(L * c1 + d * c12) ** 2 * (m1 * s1 - 1), (c1**2 + s1**2) * L - L + d, (L * c1 - d) * (L * c1 + d),
+             s1 * L - s1 * L + c12, sp.sqrt(2) * c1 * (L + d), (L + d) / (L - d) * c1, (a * c1 + b) ** 3]
+    for _ in range(40):
+        cases.append(sp.Mul(*[sp.Add(*rng.sample(pool, 3)) for _ in range(rng.randint(1, 3))]) ** rng.randint(1, 2))
+    for e in cases:
+        assert tidy_expanded(e) == tidy(sp.expand(e)), e
+
+
+def test_divide_out_cancels_and_declines_exactly():
+    from solver.interaction.constraints import _divide_out
+    q, L, d = sp.symbols("q L d")
+    f = L * sp.cos(q) + d
+    n = sp.expand(f**2 * (sp.sin(q) + L))
+    quo, j = _divide_out(n, f, 3)
+    assert j == 2 and sp.expand(quo - (sp.sin(q) + L)) == 0
+    assert _divide_out(sp.expand(L * sp.sin(q) + d), f, 2) == (sp.expand(L * sp.sin(q) + d), 0)  # no cos(q) in n
+    assert _divide_out(L**2 * sp.sin(q) + L * d, L, 3) == (L * sp.sin(q) + d, 1)

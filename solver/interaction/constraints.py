@@ -34,7 +34,7 @@ from solver.dynamics.equilibria import equilibria
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.opcount import count_ops
-from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy
+from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy, tidy_expanded
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -130,16 +130,18 @@ def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
     the terms of n (in its own form, then in product form for sin/cos when n is small), otherwise by polynomial
     division (small n only)."""
     small = count_ops(n) <= MAX_CANCEL_OPS * 4
+    atom = f.is_Symbol or isinstance(f, (sp.sin, sp.cos))
+    if not atom and (not small or not f.atoms(sp.sin, sp.cos) <= n.atoms(sp.sin, sp.cos)
+                     or not f.free_symbols <= n.free_symbols):
+        return n, 0  # (a generator of f that n does not have: f cannot divide n)
     forms = [False] + ([True] if small and isinstance(f, (sp.sin, sp.cos)) else [])
     for trig in forms:
         terms = list(_expanded_terms(n, trig))
-        if f.is_Symbol or isinstance(f, (sp.sin, sp.cos)):
+        if atom:
             j = min(_atom_power(terms, f), e)
             if j:
                 return sp.Add(*[t / f ** j for t in terms]), j
             continue
-        if not small:
-            break
         out, j = sp.Add(*terms), 0
         while j < e:
             try:
@@ -154,15 +156,23 @@ def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
     return n, 0
 
 
+def _num_den(e: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+    """fraction(together(e)); (e, 1) at once for a polynomial with integer coefficients (no negative power, no
+    fraction: together would only pull common factors out, which the expansion that follows undoes)."""
+    if not any(p.exp.is_negative for p in e.atoms(sp.Pow)) and all(r.is_Integer for r in e.atoms(sp.Rational)):
+        return e, sp.Integer(1)
+    return sp.fraction(sp.together(e))
+
+
 def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     """n/d for trigonometric polynomials n, d: both tidied, the factors of d that divide n cancelled (d factored
     when small; no multivariate gcd, which is far too slow on these expressions), the sign in the numerator."""
-    n1, n2 = sp.fraction(sp.together(sp.sympify(n)))
-    d1, d2 = sp.fraction(sp.together(sp.sympify(d)))
-    n = tidy(sp.expand(n1 * d2))
+    n1, n2 = _num_den(sp.sympify(n))
+    d1, d2 = _num_den(sp.sympify(d))
+    n = tidy_expanded(n1 * d2)
     if n == 0:
         return sp.Integer(0)
-    d = tidy(sp.expand(n2 * d1))
+    d = tidy_expanded(n2 * d1)
     if d == 1:
         return n
     if d.is_number:
@@ -178,7 +188,7 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
                 divided = divided or j > 0
             rest *= f ** (e - j)
         if divided:  # (n is tidy already otherwise)
-            n = tidy(sp.expand(n))
+            n = tidy_expanded(n)
         d = rest
         if d.has(sp.sin, sp.cos) and count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
             d = _short_denominator(d)

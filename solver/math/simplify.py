@@ -346,6 +346,29 @@ def _rational(expr: sp.Expr) -> sp.Expr:
     return by_den if count_ops(by_den) <= count_ops(whole) else whole
 
 
+def tidy_expanded(expr: sp.Expr) -> sp.Expr:
+    """tidy(sp.expand(expr)) without expanding: for a trigonometric polynomial (a product of large sums, a power
+    of a determinant) the canonical Fourier form is computed from the tree by sparse ring arithmetic, which gives
+    the same coefficients as from the expanded sum (the form is canonical); anything else is expanded and tidied."""
+    expr = sp.sympify(expr)
+    if expr.free_symbols and not expr.is_Atom:
+        angles = angle_symbols(expr)
+        try:
+            coeffs = fourier_coefficients(expr, angles)
+        except NotTrigPolynomial:
+            pass
+        else:
+            used = [x for j, x in enumerate(angles) if any(k[j] for k in coeffs)]
+            if len(used) < len(angles):  # angles that cancelled: the form over those left, as from the sum
+                return tidy(sp.expand(expr))
+            syms = sorted(expr.free_symbols, key=lambda x: x.name)  # fourier_coefficients' generators
+            used_gens = {syms[i] for a, b in coeffs.values() for p in (a, b) for m in p.itermonoms()
+                         for i, e in enumerate(m) if e}
+            if coeffs and used_gens | set(angles) == expr.free_symbols:  # no symbol cancelled
+                return fourier_expr(coeffs, angles)
+    return tidy(sp.expand(expr))
+
+
 @lru_cache(maxsize=20000)
 def tidy(expr: sp.Expr) -> sp.Expr:
     """Simplify ``expr`` to the compact form a teacher prints (canonical for trigonometric polynomials)."""
