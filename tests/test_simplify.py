@@ -75,7 +75,8 @@ def test_tidy_expanded_is_tidy_of_the_expansion():
     rng = random.Random(3)
     pool = [c1, s1, c12, sp.sin(q2), L, d, m1, sp.Integer(2), sp.Rational(1, 3)]
     cases = [(L * c1 + d * c12) ** 2 * (m1 * s1 - 1), (c1**2 + s1**2) * L - L + d, (L * c1 - d) * (L * c1 + d),
-             s1 * L - s1 * L + c12, sp.sqrt(2) * c1 * (L + d), (L + d) / (L - d) * c1, (a * c1 + b) ** 3]
+             s1 * L - s1 * L + c12, sp.sqrt(2) * c1 * (L + d), (L + d) / (L - d) * c1, (a * c1 + b) ** 3,
+             (sp.Float(0.1) * c1 + sp.Float(0.2)) * (sp.Float(0.3) * L * c1 + 1)]
     for _ in range(40):
         cases.append(sp.Mul(*[sp.Add(*rng.sample(pool, 3)) for _ in range(rng.randint(1, 3))]) ** rng.randint(1, 2))
     for e in cases:

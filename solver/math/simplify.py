@@ -351,7 +351,7 @@ def tidy_expanded(expr: sp.Expr) -> sp.Expr:
     of a determinant) the canonical Fourier form is computed from the tree by sparse ring arithmetic, which gives
     the same coefficients as from the expanded sum (the form is canonical); anything else is expanded and tidied."""
     expr = sp.sympify(expr)
-    if expr.free_symbols and not expr.is_Atom:
+    if expr.free_symbols and not expr.is_Atom:  # (floats: NotTrigPolynomial, sympy's rounded products then)
         angles = angle_symbols(expr)
         try:
             coeffs = fourier_coefficients(expr, angles)
