@@ -93,11 +93,26 @@ def _child(fn: Callable[[T], Any], item: T, limits: Limits, w: int) -> None:
         except BaseException:  # noqa: BLE001
             payload = pickle.dumps((EXCEPTION, exc.__class__.__name__))
     try:
-        view = memoryview(payload)
-        while view:
-            view = view[os.write(w, view):]
+        write_all(w, payload)
     finally:
         os._exit(0)
+
+
+def write_all(fd: int, data: bytes) -> None:
+    """Write all of ``data`` to the (blocking) descriptor ``fd``."""
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+
+
+def read_all(fd: int) -> bytes:
+    """Read the (blocking) descriptor ``fd`` to its end."""
+    chunks = []
+    while True:
+        chunk = os.read(fd, 1 << 20)
+        if not chunk:
+            return b"".join(chunks)
+        chunks.append(chunk)
 
 
 @dataclass

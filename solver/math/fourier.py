@@ -205,7 +205,7 @@ def _product_cost(factors: list[tuple[PolyElement, int]]) -> int:
 _FACTORS: dict = {}  # factorizations already computed (the same coefficients recur in B, C_k, c, S, the model)
 
 
-def _factor_small(p: PolyElement) -> tuple[PolyElement, list[tuple[PolyElement, int]]]:
+def factor_small(p: PolyElement) -> tuple[PolyElement, list[tuple[PolyElement, int]]]:
     """Factorization of ``p`` computed in the ring of only the generators it uses (much faster); memoized."""
     used = [i for i in range(p.ring.ngens) if any(m[i] for m in p.itermonoms())]
     small = _ring(tuple(p.ring.symbols[i] for i in used))
@@ -312,7 +312,7 @@ def _nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
     best = [(lead, 1), (prim, 1)]
     p_cost = _cost(p) + (content < 0)  # an extracted minus sign is free: -g₀(q₂ - d₁) vs g₀ d₁ - g₀ q₂
     if 2 < len(prim) <= max_terms:
-        c, factors = _factor_small(prim)
+        c, factors = factor_small(prim)
         if len(factors) > 1 or any(e > 1 for _, e in factors):
             sign = 1
             for i, (f, e) in enumerate(factors):

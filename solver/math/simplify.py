@@ -18,7 +18,7 @@ from functools import lru_cache
 
 import sympy as sp
 
-from solver.math.fourier import NotTrigPolynomial, factor_list_fast, fourier_coefficients, nice_poly, product_form
+from solver.math.fourier import NotTrigPolynomial, factor_small, fourier_coefficients, nice_poly, product_form
 from solver.math.budget import BudgetExceeded, cpu_budget
 from solver.math.opcount import count_ops
 
@@ -260,23 +260,24 @@ def _over_QQ(x: sp.Expr) -> bool:
         p.exp.is_Integer for p in x.atoms(sp.Pow))
 
 
-_FACTORED: dict = {}  # factor_list_fast by polynomial: the same denominators recur across a model's entries
-
-
-def _factor_list(p):  # type: ignore[no-untyped-def]
-    hit = _FACTORED.get(p)
-    if hit is None:
-        if len(_FACTORED) > 20000:
-            _FACTORED.clear()
-        hit = _FACTORED[p] = factor_list_fast(p)
-    return hit
+def _factors(p) -> tuple:  # type: ignore[no-untyped-def]
+    """(content, {factor as an expression: exponent}) of the polynomial p, by fourier's memoized factorization in
+    the ring of the generators p uses."""
+    if p.is_ground:
+        return p.LC, {}
+    content, fl = factor_small(p)
+    out: dict = {}
+    for g, k in fl:
+        key = g.as_expr()
+        out[key] = out.get(key, 0) + k
+    return content, out
 
 
 def _factor_rational(x: sp.Expr) -> sp.Expr | None:
     """sp.factor(x) for a rational function with rational coefficients in its symbols: x = n / Π bᵏ over the
     ring of its symbols (:func:`_fraction`, the bases of the denominators kept apart), n and each base b factored
-    by :func:`fourier.factor_list_fast` (gcds where linear in a generator), the irreducible factors common to
-    the numerator and the denominator cancelled, in sympy's generator order; None for anything else."""
+    by :func:`fourier.factor_small` (factor_list_fast: gcds where linear in a generator), the irreducible factors
+    common to the numerator and the denominator cancelled, in sympy's generator order; None for anything else."""
     from sympy.core.mul import _keep_coeff
     from sympy.polys.polyutils import _sort_gens
     from sympy.polys.rings import ring
@@ -289,22 +290,19 @@ def _factor_rational(x: sp.Expr) -> sp.Expr | None:
         return None
     if not n:
         return sp.Integer(0)
-    coeff, fn = _factor_list(n)
-    num: dict = {}
-    for g, k in fn:
-        num[g] = num.get(g, 0) + k
+    coeff, num = _factors(n)
     den: dict = {}
     for b, k in bases.items():
-        cb, fb = _factor_list(b)
+        cb, fb = _factors(b)
         coeff /= cb ** k
-        for g, j in fb:
+        for g, j in fb.items():
             den[g] = den.get(g, 0) + j * k
     for g in list(den):
         common = min(den[g], num.get(g, 0))
         if common:
             num[g] -= common
             den[g] -= common
-    parts = [g.as_expr() ** k for g, k in num.items() if k] + [g.as_expr() ** -k for g, k in den.items() if k]
+    parts = [g ** k for g, k in num.items() if k] + [g ** -k for g, k in den.items() if k]
     return _keep_coeff(sp.QQ.to_sympy(coeff), sp.Mul(*parts))
 
 

@@ -8,6 +8,7 @@ import signal
 from pathlib import Path
 
 from solver.results import Figure, RobotPose, Sketch, Solution
+from solver.sandbox import read_all, write_all
 
 
 def _categorical(ax, curves: list) -> None:  # type: ignore[no-untyped-def]
@@ -118,21 +119,6 @@ def _warm_up(fmt: str) -> None:
     plt.close(f)
 
 
-def _read_all(fd: int) -> bytes:
-    chunks = []
-    while True:
-        chunk = os.read(fd, 1 << 20)
-        if not chunk:
-            return b"".join(chunks)
-        chunks.append(chunk)
-
-
-def _write_all(fd: int, data: bytes) -> None:
-    view = memoryview(data)
-    while view:
-        view = view[os.write(fd, view):]
-
-
 def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
     """The painter process: warm up, read the pickled (name, panels, path) list, draw, answer b"ok" or the
     error; never returns. Its other inherited descriptors are closed first (a parent reading to EOF, like the
@@ -144,13 +130,13 @@ def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
         os.closerange(keep[0] + 1, keep[1])
         os.closerange(keep[1] + 1, 1 << 16)
         _warm_up(fmt)
-        data = _read_all(jobs_fd)
+        data = read_all(jobs_fd)
         for name, panels, path in (pickle.loads(data) if data else []):
             draw(Figure(name, "", lambda p=panels: p), Path(path))
     except BaseException as exc:  # noqa: BLE001 - reported to the parent
         status = f"{exc.__class__.__name__}: {exc}".encode()[:2000] or b"failed"
     try:
-        _write_all(status_fd, status)
+        write_all(status_fd, status)
     finally:
         os._exit(0)
 
@@ -188,7 +174,7 @@ class Painter:
         elif self._jobs >= 0:
             data = pickle.dumps([(fig.name, fig.panels, str(path)) for fig, path in jobs])
             try:
-                _write_all(self._jobs, data)
+                write_all(self._jobs, data)
             finally:
                 os.close(self._jobs)
                 self._jobs = -1
@@ -202,7 +188,7 @@ class Painter:
             os.close(self._jobs)
             self._jobs = -1
         try:
-            status = _read_all(self._status)
+            status = read_all(self._status)
         finally:
             os.close(self._status)
             os.waitpid(self.pid, 0)
