@@ -44,8 +44,11 @@ def test_painter_failure_is_reported(tmp_path):
 
 def test_painter_without_figures_and_cancel(tmp_path):
     painter = Painter("tex")
+    helper = painter.pid
     assert painter.write([Solution("empty")], tmp_path / "r.tex", "tex") == []
-    painter.wait()  # nothing to draw: returns once the helper has warmed up and exited
+    # nothing to draw: the helper is stopped at once (not waited for through its warm-up) and reaped
+    assert painter.pid == 0 and helper and not Path(f"/proc/{helper}").exists()
+    painter.wait()
     other = Painter("md")
     pid = other.pid
     other.cancel()

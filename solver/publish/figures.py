@@ -168,6 +168,9 @@ class Painter:
     def write(self, solutions: list[Solution], output: Path, fmt: str) -> list[Path]:
         """Send every figure to the painter (or draw it here); ``figure.path`` is set at once. The files."""
         jobs = _plan(solutions, output, fmt)
+        if not jobs:  # nothing to draw: do not wait for the warm-up
+            self.cancel()
+            return []
         if not self.pid:
             for fig, path in jobs:
                 draw(fig, path)
