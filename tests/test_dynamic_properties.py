@@ -338,6 +338,31 @@ def test_cartesian_inertia_is_the_task_space_kinetic_energy(task):
         assert "M_p" not in r
 
 
+def test_cartesian_inertia_of_a_planar_3r_with_orientation():
+    """cartesian_inertia(J, B) = J⁻ᵀ B J⁻¹ on a robot no exercise uses (planar 3R, task (x, y, φ), its own B):
+    equal to the numeric product at random configurations, and ½ṙᵀM_pṙ = ½q̇ᵀBq̇."""
+    from solver.dynamics.properties import cartesian_inertia
+    q1, q2, q3 = q = sp.symbols("q1 q2 q3")
+    a1, a2, a3, m2, m3 = sp.symbols("a1 a2 a3 m2 m3", positive=True)
+    f = sp.Matrix([a1 * sp.cos(q1) + a2 * sp.cos(q1 + q2) + a3 * sp.cos(q1 + q2 + q3),
+                   a1 * sp.sin(q1) + a2 * sp.sin(q1 + q2) + a3 * sp.sin(q1 + q2 + q3), q1 + q2 + q3])
+    J = f.jacobian(q)
+    B = sp.Matrix([[3 + m2 * sp.cos(q2) + m3 * sp.cos(q2 + q3), 1 + m3 * sp.cos(q3), 0],
+                   [1 + m3 * sp.cos(q3), 2 + m2, m3 * sp.cos(q3) / 2],
+                   [0, m3 * sp.cos(q3) / 2, 1]])
+    Mp = cartesian_inertia(J, B)
+    assert Mp.is_symmetric()
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        st = dict(zip(q, rng.uniform(-2, 2, 3))) | dict(zip((a1, a2, a3, m2, m3), rng.uniform(0.5, 2, 5)))
+        Jn, Bn = (np.array(M.subs(st).evalf(), dtype=float) for M in (J, B))
+        Mn = np.array(Mp.subs(st).evalf(), dtype=float)
+        Ji = np.linalg.inv(Jn)
+        assert np.allclose(Mn, Ji.T @ Bn @ Ji)
+        v = rng.normal(size=3)
+        assert np.isclose((Jn @ v) @ Mn @ (Jn @ v), v @ Bn @ v)
+
+
 def test_fault_torque_imposes_the_acceleration():
     """With τ_f at joint 1, the forward dynamics of B q̈ + c + g = u − e₁ τ_f give q̈₁ = −λ q̇₁ (planar RP)."""
     text = PRP.replace("[alpha, forward_dynamics]", "[fault]").replace(

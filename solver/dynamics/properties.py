@@ -501,6 +501,15 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
     return sol
 
 
+def cartesian_inertia(J: sp.Matrix, B: sp.Matrix) -> sp.Matrix:
+    """M_p = J⁻ᵀ B J⁻¹ = adj(J)ᵀ B adj(J) / det(J)² for a square J: polynomial numerators (expanded and tidied
+    once) over one denominator, each entry then written by `tidy` (no general simplification)."""
+    d = tidy(sp.expand(J.det()))
+    adj = J.adjugate()
+    N = (adj.T * B * adj).applyfunc(lambda x: tidy(sp.expand(x)))
+    return tidy_matrix(N / d ** 2)
+
+
 def _cartesian_inertia(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
     """M_p = (J B⁻¹ Jᵀ)⁻¹ (= J⁻ᵀ B J⁻¹ for a square J): symbolic for a square J, and at `state` (q values) with its
     eigenvalues and inverse (p̈ = M_p⁻¹ F from rest without gravity)."""
@@ -517,8 +526,7 @@ def _cartesian_inertia(problem, options, ctx, sol, dm, robot) -> None:  # type: 
     sol.add("J_cart", J.applyfunc(tidy), "matrix", label="J(q)")
     Mp = None
     if m == n and sp.count_ops(J) + sp.count_ops(dm.B) <= 400:
-        Ji = J.inv()
-        Mp = tidy_matrix((Ji.T * dm.B * Ji).applyfunc(sp.simplify))
+        Mp = cartesian_inertia(J, dm.B)
         sol.add("M_p", Mp, "matrix", label="M_p(q) = J^{-T} B J^{-1}")
     state = _read_state(problem, options, ctx, robot) if options.state else {}
     at = None
