@@ -92,3 +92,19 @@ def test_divide_out_cancels_and_declines_exactly():
     assert j == 2 and sp.expand(quo - (sp.sin(q) + L)) == 0
     assert _divide_out(sp.expand(L * sp.sin(q) + d), f, 2) == (sp.expand(L * sp.sin(q) + d), 0)  # no cos(q) in n
     assert _divide_out(L**2 * sp.sin(q) + L * d, L, 3) == (L * sp.sin(q) + d, 1)
+
+
+def test_simplified_is_memoized_simplify():
+    """`simplified` returns sp.simplify's result; exact expressions are memoized (the second call is a cache hit),
+    expressions with floats (equal at different precisions) and matrices are not."""
+    from solver.math.simplify import _simplified, simplified
+    t, T = sp.symbols("t T", positive=True)
+    e = sp.sin(t) ** 2 + sp.cos(t) ** 2 + (T ** 2 - 1) / (T - 1)
+    hits = _simplified.cache_info().hits
+    assert simplified(e) == sp.simplify(e) == T + 2
+    assert simplified(e) == T + 2 and _simplified.cache_info().hits == hits + 1
+    f = sp.Float("0.5", 30) * (sp.sin(t) ** 2 + sp.cos(t) ** 2)
+    misses = _simplified.cache_info().misses
+    assert simplified(f) == sp.Float("0.5", 30) and _simplified.cache_info().misses == misses
+    M = sp.Matrix([[sp.sin(t) ** 2 + sp.cos(t) ** 2]])
+    assert simplified(M) == sp.Matrix([[1]])

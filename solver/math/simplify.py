@@ -191,6 +191,19 @@ def _product_form(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
     return sp.Add(*[_nice(sp.Add(*c)) * t for t, c in groups.items()])
 
 
+@lru_cache(maxsize=4096)
+def _simplified(e: sp.Basic) -> sp.Basic:
+    return sp.simplify(e)
+
+
+def simplified(e: object) -> object:
+    """sp.simplify(e), memoized for exact expressions (a problem's planning asks simplify the same breaks, bounds,
+    instants and torques many times). Floats (equal at different precisions) and matrices are not memoized."""
+    if isinstance(e, sp.Expr) and not e.has(sp.Float):
+        return _simplified(e)
+    return sp.simplify(e)
+
+
 @lru_cache(maxsize=20000)
 def factor_within(x: sp.Expr, budget: float = FACTOR_BUDGET) -> sp.Expr:
     """sp.factor(x) within a CPU budget: multivariate factoring (Wang's algorithm) can take minutes for some

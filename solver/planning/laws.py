@@ -24,6 +24,7 @@ from typing import Any, Callable, Optional
 import numpy as np
 import sympy as sp
 
+from solver.math.simplify import simplified
 from solver.math.opcount import count_ops
 
 SIZE_LIMIT = 400  # count_ops above which extrema are searched numerically
@@ -77,12 +78,12 @@ class Law:
         return len(self.pieces) - 1
 
     def at(self, tau: sp.Expr) -> sp.Expr:
-        return sp.simplify(self.pieces[self.piece_of(tau)].subs(self.t, tau))
+        return simplified(self.pieces[self.piece_of(tau)].subs(self.t, tau))
 
     def jump(self, k: int) -> sp.Expr:
         """p_k(t_k) − p_{k−1}(t_k) at the inner break k (0 when continuous)."""
         b = self.breaks[k]
-        return sp.simplify(self.pieces[k].subs(self.t, b) - self.pieces[k - 1].subs(self.t, b))
+        return simplified(self.pieces[k].subs(self.t, b) - self.pieces[k - 1].subs(self.t, b))
 
     def subs(self, m: dict) -> "Law":
         return Law(self.t, [sp.sympify(b).subs(m) for b in self.breaks], [p.subs(m) for p in self.pieces],
@@ -105,7 +106,7 @@ class Law:
 
 def less(a: sp.Expr, b: sp.Expr) -> Optional[bool]:
     """a < b, when it can be decided (None otherwise)."""
-    d = sp.simplify(sp.sympify(b) - sp.sympify(a))
+    d = simplified(sp.sympify(b) - sp.sympify(a))
     if d.is_positive:
         return True
     if d.is_nonpositive:
@@ -131,7 +132,7 @@ def piecewise_polynomial(t: sp.Symbol, knots: list[sp.Expr], degree: int, contin
     ``end_positions``, p_k(t_k) = x_k and p_k(t_{k+1}) = x_{k+1} on every piece: the unique solution of the
     linear system in the coefficients."""
     nseg = len(knots) - 1
-    h = [sp.simplify(knots[k + 1] - knots[k]) for k in range(nseg)]
+    h = [simplified(knots[k + 1] - knots[k]) for k in range(nseg)]
     size = nseg * (degree + 1)
     rows: list[list[sp.Expr]] = []
     rhs: list[sp.Expr] = []
@@ -152,7 +153,7 @@ def piecewise_polynomial(t: sp.Symbol, knots: list[sp.Expr], degree: int, contin
             if lt:
                 break
             k = kk + 1
-        sigma = sp.simplify((c.time - knots[k]) / h[k])
+        sigma = simplified((c.time - knots[k]) / h[k])
         rows.append(row(k, sigma, c.order))
         rhs.append(c.value)
     if end_positions is not None:
@@ -171,12 +172,12 @@ def piecewise_polynomial(t: sp.Symbol, knots: list[sp.Expr], degree: int, contin
         raise LawError(f"{n_eq} conditions for {size} coefficients ({nseg} piece(s) of degree {degree})",
                        "law", "give exactly one condition per coefficient (or change the degree)")
     M, b = sp.Matrix(rows), sp.Matrix(rhs)
-    det = sp.simplify(M.det())
+    det = simplified(M.det())
     if det == 0:
         raise LawError("the conditions do not determine the polynomial (they are dependent or inconsistent: "
                        "e.g. two conditions on the same derivative at the same time)", "law",
                        "check the times and orders of the conditions")
-    a = M.LUsolve(b).applyfunc(sp.simplify)
+    a = M.LUsolve(b).applyfunc(simplified)
     pieces, coeffs = [], []
     for k in range(nseg):
         ak = [a[k * (degree + 1) + j] for j in range(degree + 1)]
@@ -190,11 +191,11 @@ def rest_defaults(conds: list[Cond], t0: sp.Expr, t1: sp.Expr, needed: int) -> l
     """Complete ``conds`` up to ``needed`` with rest conditions q^(r)(t0) = q^(r)(t1) = 0, r = 1, 2, ...
     (lowest order first, start before end), skipping those already given."""
     out = list(conds)
-    have = {(sp.simplify(c.time), c.order) for c in conds}
+    have = {(simplified(c.time), c.order) for c in conds}
     r = 1
     while len(out) < needed and r < 10:
         for tt in (t0, t1):
-            if len(out) < needed and (sp.simplify(tt), r) not in have:
+            if len(out) < needed and (simplified(tt), r) not in have:
                 out.append(Cond(tt, r, sp.Integer(0), "rest"))
         r += 1
     return out
@@ -204,11 +205,11 @@ def rest_defaults(conds: list[Cond], t0: sp.Expr, t1: sp.Expr, needed: int) -> l
 def trapezoidal(t: sp.Symbol, qi: sp.Expr, qf: sp.Expr, T: sp.Expr, Ts: sp.Expr) -> Law:
     """Bang-coast-bang: q̈ = A on [0, Ts], 0 on [Ts, T − Ts], −A on [T − Ts, T]; Ts = T/2 is bang-bang."""
     D = qf - qi
-    A = sp.simplify(D / (Ts * (T - Ts)))
-    V = sp.simplify(A * Ts)
+    A = simplified(D / (Ts * (T - Ts)))
+    V = simplified(A * Ts)
     p1 = qi + A * t ** 2 / 2
     p3 = qf - A * (T - t) ** 2 / 2
-    bang = sp.simplify(Ts - T / 2) == 0
+    bang = simplified(Ts - T / 2) == 0
     if bang:
         return Law(t, [sp.Integer(0), T / 2, T], [p1, p3], {"A": A, "V": V, "Ts": T / 2, "Delta": D})
     p2 = qi + V * (t - Ts / 2)
@@ -220,8 +221,8 @@ def trapezoid_Ts(D: sp.Expr, T: sp.Expr, V: sp.Expr | None = None, A: sp.Expr | 
     or the acceleration A (Ts = T/2 − sqrt(T²/4 − Δ/A)); V and A are magnitudes along Δ."""
     sgn = sp.sign(D) if D.is_number and D != 0 else sp.Integer(1)
     if V is not None:
-        return sp.simplify(T - D / (sgn * V))
-    return sp.simplify(T / 2 - sp.sqrt(T ** 2 / 4 - D / (sgn * A)))
+        return simplified(T - D / (sgn * V))
+    return simplified(T / 2 - sp.sqrt(T ** 2 / 4 - D / (sgn * A)))
 
 
 def check_trapezoid(Ts: sp.Expr, T: sp.Expr, given: str) -> None:
@@ -239,9 +240,9 @@ def min_time_trapezoid(D: sp.Expr, V: sp.Expr, A: sp.Expr) -> tuple[sp.Expr, sp.
     T = |Δ|/V + V/A with a coast phase (|Δ| > V²/A), else T = 2 sqrt(|Δ|/A) (bang-bang).
     Returns (T_coast, T_bang, coast?, the condition |Δ| − V²/A > 0 as an expression)."""
     aD = sp.Abs(D) if not (D.is_nonnegative or D.is_nonpositive) else (D if D.is_nonnegative else -D)
-    T_coast = sp.simplify(aD / V + V / A)
-    T_bang = sp.simplify(2 * sp.sqrt(aD / A))
-    margin = sp.simplify(aD - V ** 2 / A)
+    T_coast = simplified(aD / V + V / A)
+    T_bang = simplified(2 * sp.sqrt(aD / A))
+    margin = simplified(aD - V ** 2 / A)
     coast = True if margin.is_positive else (False if margin.is_nonpositive else None)
     return T_coast, T_bang, coast, margin
 
@@ -250,14 +251,14 @@ def cycloidal(t: sp.Symbol, qi: sp.Expr, qf: sp.Expr, T: sp.Expr) -> Law:
     s = t / T
     D = qf - qi
     return Law(t, [sp.Integer(0), T], [qi + D * (s - sp.sin(2 * sp.pi * s) / (2 * sp.pi))],
-               {"Delta": D, "A": sp.simplify(2 * sp.pi * D / T ** 2), "V": sp.simplify(2 * D / T)})
+               {"Delta": D, "A": simplified(2 * sp.pi * D / T ** 2), "V": simplified(2 * D / T)})
 
 
 def harmonic(t: sp.Symbol, qi: sp.Expr, qf: sp.Expr, T: sp.Expr) -> Law:
     s = t / T
     D = qf - qi
     return Law(t, [sp.Integer(0), T], [qi + D * (1 - sp.cos(sp.pi * s)) / 2],
-               {"Delta": D, "A": sp.simplify(sp.pi ** 2 * D / (2 * T ** 2)), "V": sp.simplify(sp.pi * D / (2 * T))})
+               {"Delta": D, "A": simplified(sp.pi ** 2 * D / (2 * T ** 2)), "V": simplified(sp.pi * D / (2 * T))})
 
 
 # ------------------------------------------------------------------------------------------------ extrema
@@ -290,7 +291,7 @@ def _interior_roots(f1: sp.Expr, t: sp.Symbol, a: sp.Expr, b: sp.Expr) -> Option
     if count_ops(f1) > SIZE_LIMIT or _transcendental_in(f1, t):
         return None
     s = sp.Dummy("sigma", real=True)
-    g = sp.simplify(f1.subs(t, a + (b - a) * s))
+    g = simplified(f1.subs(t, a + (b - a) * s))
     try:
         if g.is_polynomial(s) and sp.degree(g, s) <= 4:
             sols = sp.solve(g, s)
@@ -305,16 +306,16 @@ def _interior_roots(f1: sp.Expr, t: sp.Symbol, a: sp.Expr, b: sp.Expr) -> Option
         return None
     out = []
     for x in sols:
-        x = sp.simplify(x)
+        x = simplified(x)
         if x.has(sp.I):
-            if sp.simplify(sp.im(x)) != 0:
+            if simplified(sp.im(x)) != 0:
                 continue
-            x = sp.simplify(sp.re(x))
+            x = simplified(sp.re(x))
         lo, hi = less(0, x), less(x, 1)
         if lo is None or hi is None:
             return None
         if lo and hi:
-            out.append(sp.simplify(a + (b - a) * x))
+            out.append(simplified(a + (b - a) * x))
     return out
 
 
@@ -334,36 +335,36 @@ def extremum(law: Law, values: dict) -> Optional[Extremum]:
                 return None  # neither exact nor numeric: parameters without values
             return _numeric_extremum(law, values)
         for tau in [a, *roots, b]:
-            cands.append((tau, sp.simplify(p.subs(t, tau))))
+            cands.append((tau, simplified(p.subs(t, tau))))
     if all(not v.free_symbols for _, v in cands):
         best = max(cands, key=lambda c: float(sp.Abs(c[1])))
         return Extremum(best[1], sp.Abs(best[1]), best[0], "exact")
-    nonzero = [c for c in cands if sp.simplify(c[1]) != 0]
+    nonzero = [c for c in cands if simplified(c[1]) != 0]
     if not nonzero:
         return Extremum(sp.Integer(0), sp.Integer(0), None, "exact")
     distinct: list[tuple[sp.Expr, sp.Expr]] = []
     for c in nonzero:
-        if not any(sp.simplify(sp.Abs(c[1]) - sp.Abs(d[1])) == 0 for d in distinct):
+        if not any(simplified(sp.Abs(c[1]) - sp.Abs(d[1])) == 0 for d in distinct):
             distinct.append(c)
     if len(distinct) == 1:
         c = distinct[0]
-        return Extremum(c[1], sp.simplify(sp.Abs(c[1])), c[0], "exact")
+        return Extremum(c[1], simplified(sp.Abs(c[1])), c[0], "exact")
     # several symbolic candidates: one that dominates all the others by a constant ratio, else the values
     for c in distinct:
         ok = True
         for d in distinct:
             if d is c:
                 continue
-            r = sp.simplify(sp.Abs(c[1]) / sp.Abs(d[1]))
+            r = simplified(sp.Abs(c[1]) / sp.Abs(d[1]))
             if not (r.is_number and r >= 1):
                 ok = False
                 break
         if ok:
-            return Extremum(c[1], sp.simplify(sp.Abs(c[1])), c[0], "exact")
+            return Extremum(c[1], simplified(sp.Abs(c[1])), c[0], "exact")
     numeric = [(c, c[1].subs(values)) for c in distinct]
     if all(not v.free_symbols for _, v in numeric):
         c = max(numeric, key=lambda x: float(sp.Abs(x[1])))[0]
-        return Extremum(c[1], sp.simplify(sp.Abs(c[1])), c[0], "values")
+        return Extremum(c[1], simplified(sp.Abs(c[1])), c[0], "values")
     return Extremum(sp.Max(*[sp.Abs(c[1]) for c in distinct]), sp.Max(*[sp.Abs(c[1]) for c in distinct]), None,
                     "symbolic")
 
@@ -390,8 +391,8 @@ def _numeric_extremum(law: Law, values: dict) -> Extremum:
     k = best[3] if len(best) > 3 else 0
     for j in (k, k + 1):  # at a break of the law: the exact value of the piece there
         if j < len(bks) and abs(best[0] - bks[j]) <= 1e-7 * max(1.0, abs(bks[-1] - bks[0])):
-            v = sp.simplify(law.pieces[k].subs(law.t, law.breaks[j]))
-            return Extremum(v, sp.simplify(sp.Abs(v)), law.breaks[j], "exact")
+            v = simplified(law.pieces[k].subs(law.t, law.breaks[j]))
+            return Extremum(v, simplified(sp.Abs(v)), law.breaks[j], "exact")
     return Extremum(sp.Float(best[2], 12), sp.Float(best[1], 12), sp.Float(best[0], 12), "numeric")
 
 

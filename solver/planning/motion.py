@@ -11,6 +11,7 @@ from typing import Any, Literal, Optional, Union
 import sympy as sp
 from pydantic import Field
 
+from solver.math.simplify import simplified
 from solver.planning.laws import (Cond, Law, LawError, check_trapezoid, cycloidal, harmonic, less,
                                   min_time_trapezoid, piecewise_polynomial, rest_defaults, trapezoid_Ts,
                                   trapezoidal)
@@ -312,7 +313,7 @@ def _spline(t: sp.Symbol, knots: list[sp.Expr], pos: list[sp.Expr], degree: int,
 def _trapezoids(r: Reader, vals: dict, dim: int, law: str, T: sp.Expr | None, t: sp.Symbol,
                 motion: Motion) -> None:
     qi, qf = _ends(r, vals, dim)
-    D = [sp.simplify(qf[i] - qi[i]) for i in range(dim)]
+    D = [simplified(qf[i] - qi[i]) for i in range(dim)]
     given = [k for k in ("Ts", "V", "A") if (k,) in vals]
     if law == "bang_bang":
         if given:
@@ -354,7 +355,7 @@ def coordinated_trapezoids(t: sp.Symbol, qi: list[sp.Expr], qf: list[sp.Expr], V
     dim = len(qi)
     Ti, info = [], []
     for i in range(dim):
-        D = sp.simplify(qf[i] - qi[i])
+        D = simplified(qf[i] - qi[i])
         Tc, Tb, coast, margin = min_time_trapezoid(D, V[i], A[i])
         if coast is None:
             notes.append(f"coordinate {i + 1}: a coast phase is assumed (|Δ| > V²/A, i.e. {margin} > 0)")
@@ -379,8 +380,8 @@ def coordinated_trapezoids(t: sp.Symbol, qi: list[sp.Expr], qf: list[sp.Expr], V
             Ts = V[i] / A[i] if coast else Ti[i] / 2
         else:
             sgn = sp.sign(D) if D.is_number and D != 0 else 1
-            Ts = sp.simplify(T / 2 - sp.sqrt(T ** 2 / 4 - D / (sgn * A[i])))
-        law = trapezoidal(t, qi[i], qf[i], T, Ts) if sp.simplify(D) != 0 else \
+            Ts = simplified(T / 2 - sp.sqrt(T ** 2 / 4 - D / (sgn * A[i])))
+        law = trapezoidal(t, qi[i], qf[i], T, Ts) if simplified(D) != 0 else \
             Law(t, [sp.Integer(0), T], [qi[i]], {"A": sp.Integer(0), "V": sp.Integer(0), "Ts": sp.Integer(0),
                                                   "Delta": sp.Integer(0)})
         law.params.update(T_own=Ti[i], T_coast=Tc, T_bang=Tb, coast=coast, margin=margin)

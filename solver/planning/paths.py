@@ -17,6 +17,8 @@ from typing import Optional
 import numpy as np
 import sympy as sp
 
+from solver.math.simplify import simplified
+
 IK_TOL = 1e-10
 IK_ITER = 100
 
@@ -40,16 +42,16 @@ class AxisAngle:
 def axis_angle(R: sp.Matrix) -> AxisAngle:
     """The inverse axis-angle problem for a rotation matrix (exact), with θ ∈ [0, π]."""
     w = sp.Matrix([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    s2 = sp.sqrt(sp.simplify(sum(x ** 2 for x in w)))
-    c2 = sp.simplify(R.trace() - 1)
-    theta = sp.simplify(sp.atan2(s2, c2))
-    if sp.simplify(s2) != 0:
-        return AxisAngle(theta, (w / (2 * sp.sin(theta))).applyfunc(sp.simplify), "regular")
-    if sp.simplify(c2 - 2) == 0:
+    s2 = sp.sqrt(simplified(sum(x ** 2 for x in w)))
+    c2 = simplified(R.trace() - 1)
+    theta = simplified(sp.atan2(s2, c2))
+    if simplified(s2) != 0:
+        return AxisAngle(theta, (w / (2 * sp.sin(theta))).applyfunc(simplified), "regular")
+    if simplified(c2 - 2) == 0:
         return AxisAngle(sp.Integer(0), None, "zero")
     M = (R + sp.eye(3)) / 2  # = r rᵀ for θ = π
     k = max(range(3), key=lambda i: float(M[i, i]) if M[i, i].is_number else 0.0)
-    r = (M[:, k] / sp.sqrt(M[k, k])).applyfunc(sp.simplify)
+    r = (M[:, k] / sp.sqrt(M[k, k])).applyfunc(simplified)
     return AxisAngle(sp.pi, r, "pi")
 
 
@@ -80,7 +82,7 @@ class Path:
             return None
         if self.rot.axis is None:
             return self.R_A
-        return (self.R_A * rot_axis_angle(self.rot.axis, self.rot.theta * s_val / self.L)).applyfunc(sp.simplify)
+        return (self.R_A * rot_axis_angle(self.rot.axis, self.rot.theta * s_val / self.L)).applyfunc(simplified)
 
     def omega_A(self, ds: sp.Expr) -> Optional[sp.Matrix]:
         """Angular velocity in frame A: r θ ṡ/L."""
@@ -88,15 +90,15 @@ class Path:
             return None
         if self.rot.axis is None:
             return sp.zeros(3, 1)
-        return (self.rot.axis * self.rot.theta * ds / self.L).applyfunc(sp.simplify)
+        return (self.rot.axis * self.rot.theta * ds / self.L).applyfunc(simplified)
 
 
 def line(s: sp.Symbol, pA: sp.Matrix, pB: sp.Matrix) -> Path:
     d = pB - pA
-    L = sp.sqrt(sp.simplify(sum(x ** 2 for x in d)))
-    if sp.simplify(L) == 0:
+    L = sp.sqrt(simplified(sum(x ** 2 for x in d)))
+    if simplified(L) == 0:
         raise ValueError("the two points coincide (a path of length 0)")
-    return Path(s, "line", (pA + s / L * d).applyfunc(sp.simplify), sp.simplify(L), {"from": pA, "to": pB})
+    return Path(s, "line", (pA + s / L * d).applyfunc(simplified), simplified(L), {"from": pA, "to": pB})
 
 
 def arc(s: sp.Symbol, center: sp.Matrix, radius: sp.Expr, start: sp.Expr, angle: sp.Expr,
@@ -111,22 +113,22 @@ def arc(s: sp.Symbol, center: sp.Matrix, radius: sp.Expr, start: sp.Expr, angle:
         u, v = axes
     sgn = sp.sign(angle) if angle.is_number else sp.Integer(1)
     phi = start + sgn * s / radius
-    L = sp.simplify(radius * sp.Abs(angle)) if angle.is_number else sp.simplify(radius * angle)
+    L = simplified(radius * sp.Abs(angle)) if angle.is_number else simplified(radius * angle)
     p = center + radius * (sp.cos(phi) * u + sp.sin(phi) * v)
     return Path(s, "arc", p, L, {"center": center, "radius": radius, "start": start, "angle": angle})
 
 
 def with_orientation(path: Path, R_A: sp.Matrix, R_B: sp.Matrix) -> Path:
     path.R_A, path.R_B = R_A, R_B
-    path.R_AB = (R_A.T * R_B).applyfunc(sp.simplify)
+    path.R_AB = (R_A.T * R_B).applyfunc(simplified)
     path.rot = axis_angle(path.R_AB)
     return path
 
 
 def is_rotation(R: sp.Matrix) -> bool:
     """RᵀR = I and det R = 1 (exactly, or within 1e-9 for floats)."""
-    E = (R.T * R - sp.eye(3)).applyfunc(sp.simplify)
-    d = sp.simplify(R.det() - 1)
+    E = (R.T * R - sp.eye(3)).applyfunc(simplified)
+    d = simplified(R.det() - 1)
     vals = list(E) + [d]
     if all(x.is_number for x in vals):
         return all(abs(complex(sp.N(x))) < 1e-9 for x in vals)

@@ -38,7 +38,7 @@ from solver.registry import ask_kind
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
 from solver.spec.models import Strict
-from solver.math.simplify import factor_within
+from solver.math.simplify import factor_within, simplified
 
 Scalar = Union[str, int, float]
 ExprT = Union[str, int, float, list[Any]]
@@ -108,7 +108,7 @@ def torque_pieces(motion: Motion, dm: DynamicModel, robot, values: dict, Ginv: O
     """τ(t) = a(t) + f(t) + g(t) on each interval of the motion (the union of the coordinates' breaks)."""
     t = motion.t
     laws = motion.laws
-    same = all(len(law.breaks) == len(laws[0].breaks) and all(sp.simplify(x - y) == 0 for x, y in
+    same = all(len(law.breaks) == len(laws[0].breaks) and all(simplified(x - y) == 0 for x, y in
                                                                  zip(law.breaks, laws[0].breaks)) for law in laws)
     if same:
         spans = [(laws[0].breaks[k], laws[0].breaks[k + 1], [k] * len(laws)) for k in range(len(laws[0].pieces))]
@@ -116,7 +116,7 @@ def torque_pieces(motion: Motion, dm: DynamicModel, robot, values: dict, Ginv: O
         allb: list[sp.Expr] = []
         for law in laws:
             for b in law.breaks:
-                if not any(sp.simplify(b - c) == 0 for c in allb):
+                if not any(simplified(b - c) == 0 for c in allb):
                     allb.append(b)
         try:
             allb.sort(key=lambda b: float(sp.sympify(b).subs(values)))
@@ -178,7 +178,7 @@ def y_exact(a: sp.Expr, f: sp.Expr, g: sp.Expr, U: sp.Expr, values: dict) -> Opt
     y = sp.Symbol("y", positive=True)
     best, val = None, np.inf
     for rhs in (U, -U):
-        if sp.simplify(a) == 0 and sp.simplify(f) == 0:
+        if simplified(a) == 0 and simplified(f) == 0:
             continue
         for c in sp.solve(a * y ** 2 + f * y + g - rhs, y):
             cv = sp.N(c.subs(values), 30)
@@ -193,8 +193,8 @@ def y_exact(a: sp.Expr, f: sp.Expr, g: sp.Expr, U: sp.Expr, values: dict) -> Opt
 def inverse(y: sp.Expr) -> sp.Expr:
     """1/y for y > 0, written sqrt(1/y²) when that is shorter (k = sqrt((τ − g)/(U − g)) rather than
     1/sqrt((U − g)/(τ − g)))."""
-    a = sp.simplify(1 / y)
-    b = sp.sqrt(factor_within(sp.cancel(sp.simplify(1 / y ** 2))))
+    a = simplified(1 / y)
+    b = sp.sqrt(factor_within(sp.cancel(simplified(1 / y ** 2))))
     return b if count_ops(b) < count_ops(a) else a
 
 
@@ -269,7 +269,7 @@ def _input_inverse(robot, problem, ctx) -> Optional[sp.Matrix]:  # type: ignore[
     if G.shape[0] != G.shape[1]:
         raise UserError("torque bounds need a square input map G (the inputs u = G⁻¹τ)",
                         problem.located.place(("robot", "input_map")))
-    return G.inv().applyfunc(sp.simplify)
+    return G.inv().applyfunc(simplified)
 
 
 def _numeric_ready(exprs: list[sp.Expr], values: dict, t: sp.Symbol) -> list[str]:
@@ -285,10 +285,10 @@ def _shape_invariant(motion_T: Motion, Tsym: sp.Symbol) -> bool:
     sig = sp.Symbol("sigma_", positive=True)
     for law in motion_T.laws:
         for p in law.pieces:
-            if Tsym in sp.simplify(p.subs(law.t, sig * Tsym)).free_symbols:
+            if Tsym in simplified(p.subs(law.t, sig * Tsym)).free_symbols:
                 return False
         for b in law.breaks:
-            if Tsym in sp.simplify(sp.sympify(b) / Tsym).free_symbols:
+            if Tsym in simplified(sp.sympify(b) / Tsym).free_symbols:
                 return False
     return True
 
@@ -479,7 +479,7 @@ class _Job:
                 k = law.piece_of(tau)
             except LawError as exc:
                 raise self.fail(("at",), str(exc)) from None
-            v = pieces[k].tau.subs(self.t, tau).applyfunc(sp.simplify)
+            v = pieces[k].tau.subs(self.t, tau).applyfunc(simplified)
             v = self.add("tau" + tag, v, label=f"\\tau({sp.latex(tau)})")
             rows.append({"t": tau, "label": labels[j - 1], "tau": v, "num": substitute(v, self.values)})
         return rows
@@ -521,7 +521,7 @@ class _Job:
         data = self.uniform(pieces, U, motion.T, robot.n)
         self.add("k_joint", sp.Matrix(data["k_joint"]), label="k_i")
         self.add("k", data["k"], label="k")
-        self.add("T_scaled", sp.simplify(data["k"] * motion.T), label="T' = k T")
+        self.add("T_scaled", simplified(data["k"] * motion.T), label="T' = k T")
         self.add("tau_scaled_peak", sp.Matrix(data["scaled"]), label="\\tau_i(k t_i^*)")
         times = self.times(motion.T)
         rows = self.at_rows(pieces, times)
@@ -554,7 +554,7 @@ class _Job:
             if b.end is not None:
                 pc = pieces[b.piece]
                 parts = [getattr(pc, part)[i].subs(self.t, b.end) for part in ("inertial", "friction", "gravity")]
-                y = y_exact(*[sp.simplify(x) for x in parts], U[i], self.values)
+                y = y_exact(*[simplified(x) for x in parts], U[i], self.values)
                 if y is not None:
                     val = inverse(y)
             if val is None:
@@ -573,7 +573,7 @@ class _Job:
             pc = pieces[b.piece]
             tb = b.end if b.end is not None else sp.Float(b.t, 15)
             a, f, g = (getattr(pc, part)[i].subs(self.t, tb) for part in ("inertial", "friction", "gravity"))
-            scaled.append(sp.simplify(a / k ** 2 + f / k + g))
+            scaled.append(simplified(a / k ** 2 + f / k + g))
         knum = _float(sp.sympify(k).subs(self.values))
         return {"binds": binds, "k_joint": k_joint, "k": k, "joint": j, "exact": exact, "k_float": knum,
                 "scaled": scaled}
@@ -601,9 +601,9 @@ class _Job:
                 qv = qv if isinstance(qv, list) else [qv]
                 if len(qv) != robot.n:
                     raise self.fail(base + ("q",), f"q needs {robot.n} values")
-                g = sp.simplify(g_vec[p.joint - 1].subs(dict(zip(robot.q, qv))))
+                g = simplified(g_vec[p.joint - 1].subs(dict(zip(robot.q, qv))))
             u = U[p.joint - 1]
-            a = sp.simplify(tau - g)
+            a = simplified(tau - g)
             nums = [_float(x.subs(probe)) for x in (a, g, u)]
             if abs(nums[1]) > nums[2]:
                 raise self.fail(base, "the gravity torque alone exceeds the bound: no time scaling helps")
@@ -616,7 +616,7 @@ class _Job:
         jmax = int(np.argmax(kn))
         k = k_list[jmax]
         for r in rows:
-            r["scaled"] = sp.simplify((r["tau"] - r["g"]) / k ** 2 + r["g"])
+            r["scaled"] = simplified((r["tau"] - r["g"]) / k ** 2 + r["g"])
             scaled.append(r["scaled"])
         if robot is not None and robot.gravity is not None:
             self.add("g_peak", sp.Matrix(g_list), label="g_j(q(t_j))")
@@ -625,7 +625,7 @@ class _Job:
         T = None
         if self.options.T is not None:
             T = self.ctx.expr("T")
-            self.add("T_scaled", sp.simplify(k * T), label="T' = k T")
+            self.add("T_scaled", simplified(k * T), label="T' = k T")
         self.add("tau_scaled_peak", sp.Matrix(scaled), label="\\tau_j(k t_j)")
         self.sol.step("peaks", rows=rows, k=k, joint=jmax, T=T, gravity=g_vec is not None,
                       unit=sorted(s.name for s in probe if s not in self.values))
@@ -663,7 +663,7 @@ class _Job:
             qi = [law_.pieces[0].subs(self.t, 0) for law_ in base.laws]
             qf = [law_.pieces[-1].subs(self.t, Tf) for law_ in base.laws]
             notes: list[str] = []
-            laws = coordinated_trapezoids(self.t, [sp.simplify(x) for x in qi], [sp.simplify(x) for x in qf], V, A,
+            laws = coordinated_trapezoids(self.t, [simplified(x) for x in qi], [simplified(x) for x in qf], V, A,
                                           notes)
             motion = Motion(self.t, "trapezoidal", laws, laws[0].end, base.names, notes)
             T_min = motion.T
@@ -689,7 +689,7 @@ class _Job:
                     sols = [s for s in sp.solve(sp.Eq(ext.abs, bound[i]), Tf) if s.is_positive is not False]
                     if not sols:
                         raise self.fail(("motion",), f"no duration meets the bound on {base.names[i]}")
-                    cands.append((k, sp.simplify(self.largest(sols)), ext))
+                    cands.append((k, simplified(self.largest(sols)), ext))
                 Ti = self.largest([c[1] for c in cands]) if cands else sp.Integer(0)
                 per.append({"T": Ti, "cands": cands})
                 Ts.append(Ti)
@@ -698,7 +698,7 @@ class _Job:
             how = "replan"
         self.add("T_min", T_min, label="T_{\\min}")
         if T_given is not None:
-            self.add("k", sp.simplify(T_min / T_given), label="k = T_{\\min}/T")
+            self.add("k", simplified(T_min / T_given), label="k = T_{\\min}/T")
         self.law_params(motion)
         shown = motion.subs(self.values)
         self.sol.step("minimum_time", how=how, per=per, T_min=T_min, T=T_given, V=V, A=A, view=motion_view(shown),
@@ -722,10 +722,10 @@ class _Job:
         motion = self.motion(T_min)
         self.law_params(motion)
         if T_given is not None:
-            self.add("k", sp.simplify(T_min / T_given), label="k = T_{\\min}/T")
+            self.add("k", simplified(T_min / T_given), label="k = T_{\\min}/T")
         b = data["binds"][data["joint"]]
         tpk = (b.end if b.end is not None else sp.Float(b.t, 12)) * T_min
-        self.add("t_peak", sp.simplify(tpk), label="t^*")
+        self.add("t_peak", simplified(tpk), label="t^*")
         full = self.torques(motion.subs(self.values), dm, robot, self.values, Ginv)
         times = self.times(T_min)
         rows = self.at_rows(full, times)
@@ -783,7 +783,7 @@ class _Job:
         if missing:
             raise self.fail(("hold",), "give the values of the coordinates held still: " + ", ".join(missing))
         qi, qf = self.ctx.expr("initial"), self.ctx.expr("final")
-        D = sp.simplify(qf - qi)
+        D = simplified(qf - qi)
         if D == 0:
             raise self.fail(("final",), "the final value equals the initial one: nothing to move")
         U = _bounds(self.problem, self.ctx, "torque_max", robot.n)
@@ -796,18 +796,18 @@ class _Job:
         tau = dm.lhs.xreplace(sub)
         if Ginv is not None:
             tau = Ginv.xreplace(sub) * tau
-        tau = tau.applyfunc(lambda e: sp.factor_terms(sp.simplify(e)))
+        tau = tau.applyfunc(lambda e: sp.factor_terms(simplified(e)))
         self.add("tau_path", tau, label="\\tau \\text{ along the motion}")
         sign = sp.sign(D) if D.is_number else sp.Integer(1)
         acc_up, acc_dn, vel, rows = [], [], [], []
         zero = {v: 0, a: 0}
         for i in range(robot.n):
             e = tau[i]
-            bi = sp.simplify(sp.diff(e, a))
-            ci = sp.simplify(sp.diff(e, v, 2).subs(zero) / 2)
-            fi = sp.simplify(sp.diff(e, v).subs(zero))
-            gi = sp.simplify(e.subs(zero))
-            if sp.simplify(e - (bi * a + ci * v ** 2 + fi * v + gi)) != 0:
+            bi = simplified(sp.diff(e, a))
+            ci = simplified(sp.diff(e, v, 2).subs(zero) / 2)
+            fi = simplified(sp.diff(e, v).subs(zero))
+            gi = simplified(e.subs(zero))
+            if simplified(e - (bi * a + ci * v ** 2 + fi * v + gi)) != 0:
                 bi = ci = fi = sp.nan  # not of this form: checked along the motion
             deps = (sp.sympify(bi).free_symbols | sp.sympify(ci).free_symbols | gi.free_symbols) & {x, v, a}
             kind = "none"
@@ -827,17 +827,17 @@ class _Job:
                     if sb < 0:
                         hi, lo = lo, hi
                     up, dn = (hi, -lo) if sign > 0 else (-lo, hi)
-                    acc_up.append(sp.simplify(up))
-                    acc_dn.append(sp.simplify(dn))
+                    acc_up.append(simplified(up))
+                    acc_dn.append(simplified(dn))
             elif ci != 0:
                 kind = "vel"
                 cs = assume_positive(sp.Abs(ci), self.positives)
                 if ci.is_positive or (cs == ci):
-                    vel.append(sp.simplify(sp.sqrt((U[i] - gi) / cs)))
+                    vel.append(simplified(sp.sqrt((U[i] - gi) / cs)))
                 elif ci.is_negative or cs == -ci:
-                    vel.append(sp.simplify(sp.sqrt((U[i] + gi) / cs)))
+                    vel.append(simplified(sp.sqrt((U[i] + gi) / cs)))
                 elif gi == 0:
-                    vel.append(sp.simplify(sp.sqrt(U[i] / cs)))
+                    vel.append(simplified(sp.sqrt(U[i] / cs)))
                 else:
                     kind = "check"
             if kind == "none" and gi != 0:
@@ -859,14 +859,14 @@ class _Job:
         Vb = assume_positive(least(vel), self.positives) if vel else None
         aD = sp.Abs(D) if not (D.is_positive or D.is_negative) else sign * D
         aD = assume_positive(aD, self.positives)
-        sym = sp.simplify(A1 - A2) == 0
-        Vp = sp.simplify(sp.sqrt(2 * aD * A1 * A2 / (A1 + A2)))
-        T_bang = sp.simplify(Vp / A1 + Vp / A2)
+        sym = simplified(A1 - A2) == 0
+        Vp = simplified(sp.sqrt(2 * aD * A1 * A2 / (A1 + A2)))
+        T_bang = simplified(Vp / A1 + Vp / A2)
         coast = False
         T_coast = margin = None
         if Vb is not None:
-            T_coast = sp.simplify(aD / Vb + Vb / (2 * A1) + Vb / (2 * A2))
-            margin = sp.simplify(aD - Vb ** 2 * (1 / A1 + 1 / A2) / 2)
+            T_coast = simplified(aD / Vb + Vb / (2 * A1) + Vb / (2 * A2))
+            margin = simplified(aD - Vb ** 2 * (1 / A1 + 1 / A2) / 2)
             mnum = margin.subs(self.values)
             coast = bool(mnum > 0) if mnum.is_number else None
         T_bang = assume_positive(T_bang, self.positives)
@@ -892,8 +892,8 @@ class _Job:
         # the optimal law of q_j and the torques along it
         t = self.t
         Vuse = Vb if (coast or coast is None) else Vp
-        t1 = sp.simplify(Vuse / A1)
-        t2 = sp.simplify(T_min - Vuse / A2)
+        t1 = simplified(Vuse / A1)
+        t2 = simplified(T_min - Vuse / A2)
         p1 = qi + sign * A1 * t ** 2 / 2
         p3 = qf - sign * A2 * (T_min - t) ** 2 / 2
         if coast or coast is None:

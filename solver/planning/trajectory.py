@@ -14,6 +14,7 @@ import sympy as sp
 from pydantic import Field
 from sympy.matrices.common import ShapeError
 
+from solver.math.simplify import simplified
 from solver.planning.laws import LawError, extremum, less, sample
 from solver.planning.motion import Motion, MotionSpec, read_motion
 from solver.planning.paths import IK_TOL, Path, arc, follow, is_rotation, line, rot_axis_angle, with_orientation
@@ -78,7 +79,7 @@ def assume_positive(e: Any, positives: list[sp.Expr]) -> Any:
     if not isinstance(e, sp.Basic):
         return e
     facts = sp.And(*[sp.Q.positive(p) for p in positives])
-    return sp.simplify(sp.refine(e, facts))
+    return simplified(sp.refine(e, facts))
 
 
 def time_labels(problem, path: tuple) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
@@ -117,9 +118,9 @@ def substitute(x: Any, values: dict) -> Any:
         return None
     y = x.subs(values) if hasattr(x, "subs") else x
     if isinstance(y, sp.MatrixBase):
-        y = y.applyfunc(sp.simplify)
+        y = y.applyfunc(simplified)
         return None if y == x else y
-    y = sp.simplify(y)
+    y = simplified(y)
     return None if y == x else y
 
 
@@ -282,7 +283,7 @@ def build_path(problem, ctx, spec: PathSpec, s: sp.Symbol) -> Path:  # type: ign
             if M.shape != (2, c.shape[0]):
                 raise fail(("axes",), f"axes must be two vectors of {c.shape[0]} components, [u, v]")
             u, v = M[0, :].T, M[1, :].T
-            G = sp.Matrix([[u.dot(u), u.dot(v)], [v.dot(u), v.dot(v)]]).applyfunc(sp.simplify)
+            G = sp.Matrix([[u.dot(u), u.dot(v)], [v.dot(u), v.dot(v)]]).applyfunc(simplified)
             if G != sp.eye(2):
                 raise fail(("axes",), "the axes must be orthonormal (unit length, perpendicular)")
             axes = (u, v)
@@ -327,14 +328,14 @@ def path_results(sol: Solution, path: Path, motion: Motion, times: list[sp.Expr]
         tag = "_at" + (str(j) if len(times) > 1 else "")
         s_v, ds, dds = law.at(tau), law.diff(1).at(tau), law.diff(2).at(tau)
         vals = {
-            "p": path.p.subs(path.s, s_v).applyfunc(sp.simplify),
-            "v": (path.dp.subs(path.s, s_v) * ds).applyfunc(sp.simplify),
-            "acc": (path.ddp.subs(path.s, s_v) * ds ** 2 + path.dp.subs(path.s, s_v) * dds).applyfunc(sp.simplify),
+            "p": path.p.subs(path.s, s_v).applyfunc(simplified),
+            "v": (path.dp.subs(path.s, s_v) * ds).applyfunc(simplified),
+            "acc": (path.ddp.subs(path.s, s_v) * ds ** 2 + path.dp.subs(path.s, s_v) * dds).applyfunc(simplified),
         }
         if path.rot is not None:
             wA = path.omega_A(ds)
             vals["omega_A"] = wA
-            vals["omega"] = (path.R_A * wA).applyfunc(sp.simplify)
+            vals["omega"] = (path.R_A * wA).applyfunc(simplified)
             vals["R"] = path.R(s_v)
         row = {"t": tau, "label": labels[j - 1], "vals": vals, "nums": {}}
         for k, v in vals.items():
@@ -475,7 +476,7 @@ def dh_position(problem, place) -> sp.Matrix:  # type: ignore[no-untyped-def]
     A = dh_chain(rows, dh.get("convention", "standard"))[-1]
     if dh.get("base") is not None:
         A = sp.Matrix(problem.parse_at(base + ("base",))) * A
-    return A[:3, 3].applyfunc(sp.simplify)
+    return A[:3, 3].applyfunc(simplified)
 
 
 # ------------------------------------------------------------------------------------------------ the ask
