@@ -475,3 +475,49 @@ def test_report_in_both_formats():
         assert part.lower() in md.lower(), part
     tex = render(p, sols, "tex")
     assert "\\paragraph{Reduced dynamics.}" in tex and "\\begin{document}" in tex
+
+
+def test_solve_inputs_rows_over_one_denominator():
+    """Rows of [M b] are multiplied by the lcm of their denominators before solving: the solution (pivot inputs,
+    free inputs) and the minimum-norm one satisfy M u = b and equal those of the polynomial system δ M u = δ b;
+    the minimum-norm u is orthogonal to the null space of M."""
+    from solver.interaction.constraints import _clear_rows, solve_inputs
+    q1, q2, a, m = sp.symbols("q1 q2 a m", positive=True)
+    u = list(sp.symbols("u1:4"))
+    d = a + sp.cos(q2) ** 2 + 1
+    P = sp.Matrix([[sp.cos(q1), 2 * sp.sin(q2), a], [0, sp.cos(q2), 1]])
+    c = sp.Matrix([m * sp.sin(q1), a * m])
+    M, b = P / d, c / d
+    assert _clear_rows(M, b) == (P, c)
+    mixed = sp.Matrix([[1 / (2 * d), 1 / (3 * (d + 1)), 0]])
+    X, y = _clear_rows(mixed, sp.Matrix([m / d ** 2]))  # times lcm = 6 d² (d + 1)
+    want = [3 * d * (d + 1), 2 * d ** 2, 0, 6 * m * (d + 1)]
+    assert all(sp.expand(x - w) == 0 for x, w in zip(list(X) + list(y), want))
+    rational = solve_inputs(M, b, u)
+    polynomial = solve_inputs(P, c, u)
+    assert rational.exists and rational.free == polynomial.free == [u[2]]
+    for x, y in zip(list(rational.u) + list(rational.u_min), list(polynomial.u) + list(polynomial.u_min)):
+        assert sp.simplify(x - y) == 0
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        st = dict(zip((q1, q2, a, m, u[2]), rng.uniform(0.2, 1.5, 5)))
+        for sol in (rational.u, rational.u_min):
+            res = (M * sol - b).subs(st).evalf()
+            assert max(abs(float(x)) for x in res) < 1e-12
+        null = np.array(P.nullspace()[0].subs(st).evalf(), dtype=float).ravel()
+        assert abs(np.array(rational.u_min.subs(st).evalf(), dtype=float).ravel() @ null) < 1e-12
+
+
+def test_long_fractions_read_as_products_in_latex():
+    """A long c·(t1 + t2 + ...)/den is written lhs = \\frac{c}{den}\\Big(t1 + ...\\Big): one '=' before the
+    bracket (the coefficient was once printed as 'lhs = \\frac{c}{den} = \\Big(...', which is false)."""
+    import re
+
+    from conftest import PROBLEMS
+    p = load_problem(PROBLEMS / "2018-07-11-ex4.yaml")
+    tex = render(p, solve_problem(p), "tex")
+    heads = [line.split("\\Big(")[0] for line in tex.splitlines() if "\\Big(" in line]
+    assert len(heads) >= 3
+    for head in heads:
+        assert len(re.findall(r"(?<![<>\\])=", head)) == 1, head
+    assert "\\lambda = \\frac{1}{a_1 + 2 a_2 \\cos {q_{2}}}\\Big(a_3 u_{1}" in tex

@@ -420,11 +420,52 @@ class Inputs:
     exists: bool
 
 
+def _powers(d: sp.Expr) -> tuple[sp.Integer, dict[sp.Expr, int]]:
+    """d = k Π bᵉ (k an integer, e positive integers; a power with another exponent is a base of its own)."""
+    k, bases = sp.Integer(1), {}
+    for f in sp.Mul.make_args(d):
+        if f.is_Integer:
+            k *= f
+        else:
+            base, e = (f.base, int(f.exp)) if f.is_Pow and f.exp.is_Integer and f.exp > 0 else (f, 1)
+            if base.is_Add:  # 2 a + 2 -> 2 (a + 1): the same base wherever it occurs
+                c, base = base.primitive()
+                if c.is_Integer:
+                    k *= c ** e
+                else:
+                    base = c * base
+            bases[base] = bases.get(base, 0) + e
+    return k, bases
+
+
+def _clear_rows(M: sp.Matrix, b: sp.Matrix) -> tuple[sp.Matrix, sp.Matrix]:
+    """Each row of [M b] with fractions n_j/d_j multiplied by L = lcm(d_j) (integer lcm, highest power of each
+    factor): the same solutions (and the same minimum-norm one), with entries that expand and tidy fast."""
+    M, b = M.copy(), b.copy()
+    for i in range(M.rows):
+        cells = [(X, j) for X in (M, b) for j in range(X.cols) if X[i, j] != 0]
+        parts = [(X, j, *sp.fraction(X[i, j])) for X, j in cells]
+        if not parts or all(d == 1 for *_, d in parts) or any(d.is_number and not d.is_Integer for *_, d in parts):
+            continue
+        factored = [_powers(d) for *_, d in parts]
+        k = sp.ilcm(*[int(c) for c, _ in factored]) if len(factored) > 1 else int(factored[0][0])
+        top: dict[sp.Expr, int] = {}
+        for _, bases in factored:
+            for base, e in bases.items():
+                top[base] = max(top.get(base, 0), e)
+        if not top:
+            continue
+        for (X, j, n, _), (c, bases) in zip(parts, factored):
+            X[i, j] = n * (k // int(c)) * sp.Mul(*[base ** (e - bases.get(base, 0)) for base, e in top.items()])
+    return M, b
+
+
 def solve_inputs(M: sp.Matrix, b: sp.Matrix, u: list[sp.Symbol]) -> Inputs:
     """All u with M u = b: the first independent columns of M (pivots, by the generic rank) solved through the
     adjugate of their block, u_p = M_p⁻¹(b − M_f u_f), the other inputs free; and the minimum-norm solution
     Mᵀ(M Mᵀ)⁻¹ b when there is more than one. Not solvable (b outside the range of M, almost everywhere):
     exists = False."""
+    M, b = _clear_rows(M, b)
     r, m = M.shape
     pivots: list[int] = []
     for j in range(m):
