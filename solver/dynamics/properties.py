@@ -38,7 +38,7 @@ from solver.dynamics.model import (
     derive,
     require_model,
 )
-from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy, tidy_matrix
+from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy, tidy_expanded, tidy_matrix
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
 from solver.spec.errors import UserError
@@ -504,9 +504,9 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
 def cartesian_inertia(J: sp.Matrix, B: sp.Matrix) -> sp.Matrix:
     """M_p = J⁻ᵀ B J⁻¹ = adj(J)ᵀ B adj(J) / det(J)² for a square J: polynomial numerators (expanded and tidied
     once) over one denominator, each entry then written by `tidy` (no general simplification)."""
-    d = tidy(sp.expand(J.det()))
+    d = tidy_expanded(J.det())
     adj = J.adjugate()
-    N = (adj.T * B * adj).applyfunc(lambda x: tidy(sp.expand(x)))
+    N = (adj.T * B * adj).applyfunc(tidy_expanded)
     return tidy_matrix(N / d ** 2)
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Literal, Optional, Union
@@ -443,12 +444,11 @@ def _clear_rows(M: sp.Matrix, b: sp.Matrix) -> tuple[sp.Matrix, sp.Matrix]:
     factor): the same solutions (and the same minimum-norm one), with entries that expand and tidy fast."""
     M, b = M.copy(), b.copy()
     for i in range(M.rows):
-        cells = [(X, j) for X in (M, b) for j in range(X.cols) if X[i, j] != 0]
-        parts = [(X, j, *sp.fraction(X[i, j])) for X, j in cells]
+        parts = [(X, j, *sp.fraction(X[i, j])) for X in (M, b) for j in range(X.cols) if X[i, j] != 0]
         if not parts or all(d == 1 for *_, d in parts) or any(d.is_number and not d.is_Integer for *_, d in parts):
             continue
         factored = [_powers(d) for *_, d in parts]
-        k = sp.ilcm(*[int(c) for c, _ in factored]) if len(factored) > 1 else int(factored[0][0])
+        k = math.lcm(*[int(c) for c, _ in factored])
         top: dict[sp.Expr, int] = {}
         for _, bases in factored:
             for base, e in bases.items():
