@@ -478,3 +478,17 @@ def test_force_gains_designed_for_given_poles():
     m, k_e = p.names["m"], p.names["k_e"]
     assert sp.expand(poly - m * (s + 1) * (s + 2) * (s + 3)) == 0  # the gains are in the closed loop
     assert sp.simplify(g[2] - 6 * m) == 0  # k_v = 6 m (the s² coefficient)
+
+
+def test_conditions_of_long_sums_by_their_terms_signs() -> None:
+    """A condition that is a long sum of monomials in positive symbols with positive coefficients always holds;
+    with a negative term it is kept (the sign of its terms decides, not sympy's slow assumptions)."""
+    from solver.math.equivalence import normalize_condition
+    xs = sp.symbols("a b c d e f g h k", positive=True)
+    pos = sum(x * y for x in xs for y in xs if x.name <= y.name)
+    assert normalize_condition(pos) == 1
+    assert normalize_condition(-pos) == -1
+    mixed = pos - 3 * xs[0] * xs[1] * xs[2]
+    assert normalize_condition(mixed) == mixed
+    r = sp.Symbol("r", real=True)  # a symbol of any sign: not decided
+    assert normalize_condition(pos + r) == pos + r

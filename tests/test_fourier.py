@@ -202,3 +202,31 @@ def test_tidy_of_a_distance_gradient_keeps_the_distance() -> None:
         assert t.atoms(sp.Pow) & {d, 1 / d} and not t.has(sp.pi)
         num = sp.fraction(sp.together(t))[0]
         assert not any(p.base.free_symbols and not p.exp.is_Integer for p in num.atoms(sp.Pow))  # √ only below
+
+
+@pytest.mark.parametrize("dom", [ZZ_])
+def test_irreducible_is_a_proof(dom) -> None:  # type: ignore[no-untyped-def]
+    """``irreducible`` (specialization to one variable, content checked) never says True of a reducible
+    polynomial, and proves the irreducible ones of degree ≥ 2 in every generator that Wang's algorithm finds."""
+    from solver.math.fourier import irreducible
+    proved = 0
+    for p in _random_products(dom, 7, 300):
+        content, prim = p.primitive()
+        if prim.is_ground:
+            continue
+        factors = prim.factor_list()[1]
+        single = len(factors) == 1 and factors[0][1] == 1
+        if irreducible(prim):
+            assert single, p
+            proved += 1
+    assert proved > 20
+
+
+def test_irreducible_on_known_polynomials() -> None:
+    from sympy.polys.rings import ring
+
+    from solver.math.fourier import irreducible
+    R, x, y, z = ring("x,y,z", ZZ_)
+    assert irreducible(x**2 * y**2 + z**2 * x + y**3 + 1)
+    assert not irreducible((x**2 + y**2 + z) * (x**2 * z + y**2 + 1))      # a product
+    assert not irreducible((y**2 + z**2 + 1) * x**2 + (y**2 + z**2 + 1))  # content y² + z² + 1 in x (and in z)

@@ -19,6 +19,8 @@ conditions (lists of expressions, each meaning ``expr > 0``) as sets after remov
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import random
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -298,7 +300,7 @@ def set_equiv(got: list[sp.Matrix], want: list[sp.Matrix], angles: list[int] | N
     return Verdict(CORRECT)
 
 
-def _numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+def numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
     """expr = n/d with n, d expanded polynomials: through the field of rational functions of its generators
     (sparse polynomial arithmetic), or sympy's together/expand where the field does not take it."""
     from sympy.polys.fields import sfield
@@ -314,8 +316,13 @@ def normalize_condition(expr: sp.Expr) -> sp.Expr:
     """The condition ``expr > 0`` in a canonical form: the numerator and denominator factored, every factor known
     to be positive (from the symbols' assumptions: masses, stiffnesses, ...) and every positive number removed,
     the remaining factors multiplied (n/d > 0 iff n·d > 0). Returns 1 for a condition that always holds, -1 for
-    one that never does."""
-    num, den = _numer_denom(sp.sympify(expr))
+    one that never does. Memoized (the same Routh entries recur across the asks of a problem)."""
+    return _normalize_condition(sp.sympify(expr))
+
+
+@lru_cache(maxsize=512)
+def _normalize_condition(expr: sp.Expr) -> sp.Expr:
+    num, den = numer_denom(expr)
     if num == 0:
         return sp.Integer(-1)  # 0 > 0 never holds
     sign, kept = 1, []
@@ -324,15 +331,35 @@ def normalize_condition(expr: sp.Expr) -> sp.Expr:
         if coeff < 0:
             sign = -sign
         for f, k in factors:
-            if f.is_positive:
-                continue
-            if f.is_negative:
-                sign = -sign if k % 2 else sign
-                continue
-            kept.append(f ** k)  # a factor of the denominator has the sign of the same factor in the numerator
+            known = _sign(f)
+            if known is None:
+                kept.append(f ** k)  # a factor of the denominator has the sign of the same factor in the numerator
+            elif known < 0 and k % 2:
+                sign = -sign
     if not kept:
         return sp.Integer(sign)
     return sign * sp.Mul(*kept)
+
+
+def _sign(f: sp.Expr) -> int | None:
+    """+1 / -1 when f is known to be positive / negative from its symbols' assumptions, None otherwise. A long
+    sum is decided by its terms' signs alone (all of one sign in positive symbols), where sympy's assumption
+    system would take long to find no more."""
+    if f.is_Add and len(f.args) > 8:
+        if not all(x.is_positive for x in f.free_symbols):
+            return None
+        signs = set()
+        for t in f.args:  # monomials c·Π xᵢ^kᵢ in positive symbols have the sign of c
+            c, m = t.as_coeff_Mul()
+            if not all(_power_of_symbol(x) for x in sp.Mul.make_args(m)):
+                return None
+            signs.add(c > 0)
+        return (1 if True in signs else -1) if len(signs) == 1 else None
+    return 1 if f.is_positive else -1 if f.is_negative else None
+
+
+def _power_of_symbol(x: sp.Expr) -> bool:
+    return x.is_Symbol or (x.is_Pow and x.base.is_Symbol and x.exp.is_Integer)
 
 
 def _same_polynomial(a: sp.Expr, b: sp.Expr) -> bool:

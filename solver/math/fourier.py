@@ -250,6 +250,9 @@ def factor_list_fast(p: PolyElement) -> tuple:
         prim = R.from_dict({tuple(a - b for a, b in zip(m, mono)): c for m, c in prim.iterterms()})
     while not prim.is_ground:
         i = next((j for j in range(R.ngens) if prim.degree(j) == 1), None)
+        if i is None and irreducible(prim):
+            factors.append((prim, 1))
+            break
         if i is None:
             c, rest = prim.factor_list()
             factors.extend(rest)
@@ -264,6 +267,46 @@ def factor_list_fast(p: PolyElement) -> tuple:
         factors.append((h, 1))
         prim = g
     return content, factors
+
+
+def irreducible(p: PolyElement, tries: int = 2) -> bool:
+    """A sufficient test (True proves it, False decides nothing) that ``p`` over ZZ, primitive, is irreducible:
+    for the generator x of least degree d ≥ 1, if the coefficients of p in x have no common factor and
+    p(x, a₂, ..., aₙ) at integers a (leading coefficient ≠ 0 there) is irreducible of degree d over Q, then p is:
+    every factor of p has positive degree in x, so p = f g would give p(x, a) = f(x, a) g(x, a) (Hilbert). Costs
+    a few sparse gcds and one univariate factorization, where Wang's multivariate algorithm costs far more."""
+    from sympy.polys.factortools import dup_factor_list
+    R = p.ring
+    if p.is_ground or R.ngens < 2:
+        return False
+    degs = [(p.degree(j), j) for j in range(R.ngens) if p.degree(j) >= 1]
+    d, i = min(degs)
+    coeffs: dict[int, dict] = {}
+    for m, c in p.iterterms():
+        coeffs.setdefault(m[i], {})[m[:i] + (0,) + m[i + 1:]] = c
+    content = None
+    for part in sorted(coeffs.values(), key=len):
+        g = R.from_dict(part)
+        content = g if content is None else content.gcd(g)
+        if content.is_ground:
+            break
+    if content is None or not content.is_ground:
+        return False
+    for t in range(tries):
+        point = [0 if j == i else 2 + (7 * j + 13 * t * t + 5 * t) % 29 for j in range(R.ngens)]
+        uni = [ZZ(0)] * (d + 1)
+        for m, c in p.iterterms():
+            v = c
+            for j, e in enumerate(m):
+                if e and j != i:
+                    v *= point[j] ** e
+            uni[d - m[i]] += v
+        if uni[0] == 0:
+            continue
+        _, fl = dup_factor_list(uni, ZZ)
+        if len(fl) == 1 and fl[0][1] == 1 and len(fl[0][0]) == d + 1:
+            return True
+    return False
 
 
 def _flip(f: PolyElement) -> bool:
@@ -394,5 +437,5 @@ def factor_list_expr(expr: sp.Expr) -> tuple[sp.Expr, list[tuple[sp.Expr, int]]]
         return sp.factor_list(expr)
     if (R.domain != ZZ and R.domain != QQ) or any(g.is_number for g in R.symbols):  # sqrt(2), pi: sympy's way
         return sp.factor_list(expr)
-    c, fl = factor_list_fast(p)
-    return R.domain.to_sympy(c), [(f.as_expr(), e) for f, e in fl]
+    c, fl = factor_small(p)
+    return QQ.to_sympy(QQ.convert(c)), [(f.as_expr(), e) for f, e in fl]
