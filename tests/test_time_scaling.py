@@ -270,3 +270,17 @@ def test_report_of_a_scaling_in_both_formats():
     md, tex = render(p, sols, "md"), render(p, sols, "tex")
     assert "not feasible" in md and "1.105" in md
     assert "\\paragraph{Uniform time scaling.}" in tex and "\\begin{itemize}" in tex
+
+
+def test_light_tidying_does_not_spread_a_denominator() -> None:
+    """A sum in a denominator (or under a root) is not expanded over the numerator: the time-optimal torque of
+    2019-09-11-ex2 once grew from 53 to 4685 operations."""
+    from solver.math.opcount import count_ops
+    from solver.planning.time_scaling import _light
+    t, m, R, d, I, a = sp.symbols("t m_2 R d I_c alpha", positive=True)
+    J = I + m * (R - d) ** 2
+    x = -m * (R - d) * (2 * t - 2 * (a * m * (R - d) + J) / sp.sqrt(m * (R - d))) ** 2 / (4 * J ** 2)
+    y = _light(x)
+    assert sp.simplify(y - x) == 0 and count_ops(y) <= count_ops(x)
+    p = _light((t + 1) ** 2 * m)  # a polynomial is still expanded, its common factor pulled out
+    assert p == m * (t ** 2 + 2 * t + 1)

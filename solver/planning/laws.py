@@ -26,6 +26,7 @@ import sympy as sp
 
 from solver.math.simplify import simplified
 from solver.math.opcount import count_ops
+from solver.math.search import golden_min
 
 SIZE_LIMIT = 400  # count_ops above which extrema are searched numerically
 GRID = 801        # samples per piece for numeric searches
@@ -370,8 +371,6 @@ def extremum(law: Law, values: dict) -> Optional[Extremum]:
 
 
 def _numeric_extremum(law: Law, values: dict) -> Extremum:
-    from scipy.optimize import minimize_scalar
-
     fns, bks = law.numeric_pieces(values)
     best: tuple = (bks[0], 0.0, 0.0, 0)  # (t, |f|, f, piece)
     for k, fn in enumerate(fns):
@@ -382,10 +381,9 @@ def _numeric_extremum(law: Law, values: dict) -> Extremum:
         cand = (float(grid[j]), float(abs(vals[j])), float(vals[j]))
         lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, GRID - 1)]
         if hi > lo:
-            r = minimize_scalar(lambda x: -abs(float(fn(np.array([x]))[0])), bounds=(lo, hi), method="bounded",
-                                options={"xatol": 1e-9 * max(1.0, b - a)})
-            if -float(r.fun) > cand[1]:
-                cand = (float(r.x), -float(r.fun), float(fn(np.array([r.x]))[0]))
+            x, fx = golden_min(lambda x: -abs(float(fn(np.array([x]))[0])), lo, hi, 1e-12 * max(1.0, b - a))
+            if -fx > cand[1]:
+                cand = (x, -fx, float(fn(np.array([x]))[0]))
         if cand[1] > best[1]:
             best = cand + (k,)
     k = best[3] if len(best) > 3 else 0
