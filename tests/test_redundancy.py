@@ -351,3 +351,23 @@ def test_symbolic_false_gives_only_the_jacobian_and_its_generic_rank():
     assert int(r["rank"].value) == 2 and r["singular"].value is False
     assert r["J"].value == sp.Matrix([[1, 0, -sp.Symbol("l", positive=True) * sp.sin(sp.Symbol("q3", real=True))],
                                       [0, 1, sp.Symbol("l", positive=True) * sp.cos(sp.Symbol("q3", real=True))]])
+
+
+@pytest.mark.parametrize("shape", [(2, 4), (3, 2), (1, 3)])
+def test_exact_pseudoinverse_in_a_number_field_meets_the_penrose_conditions(shape) -> None:  # type: ignore[no-untyped-def]
+    """Exact mode computes J^+ of full-rank matrices with entries in Q(√2, √3) by J^T (J J^T)^-1 in the number
+    field: A P A = A, P A P = P, A P and P A symmetric, exactly; a rank-deficient matrix takes sympy's pinv."""
+    from solver.kinematics.redundancy import Arith
+    ar = Arith("exact")
+    r2, r3 = sp.sqrt(2), sp.sqrt(3)
+    pool = [1, r2, r3, sp.Rational(1, 2), -r2 / 2, 3 - r3, r2 * r3, sp.Rational(-7, 5)]
+    m, n = shape
+    A = sp.Matrix(m, n, lambda i, j: pool[(3 * i + 5 * j + i * j) % len(pool)])
+    P = ar.pinv_mp(A)
+    for E in (A * P * A - A, P * A * P - P, (A * P).T - A * P, (P * A).T - P * A):
+        assert all(sp.expand(sp.radsimp(x)) == 0 for x in E)
+    assert all(not x.has(sp.Pow) or all(p.exp == sp.Rational(1, 2) for p in x.atoms(sp.Pow)) for x in P)
+    D = sp.Matrix([[1, r2, 0], [r2, 2, 0]])  # rank 1
+    Q = ar.pinv_mp(D)
+    assert all(sp.expand(sp.radsimp(x)) == 0 for x in D * Q * D - D)
+    assert ar.rank(D) == 1 and ar.det(sp.Matrix([[1, r2], [r2, 2]])) == 0
