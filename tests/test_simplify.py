@@ -42,8 +42,25 @@ def test_factor_rational_is_sympys_factor():
               1 / (1 / (x + 1) + 1), ((x + y) / (x - y)) ** -2 * (x + y) ** 3, (a + b) ** -3 * (a + b) ** 2 * c,
               (m1 * x + m2) / (2 * m1 * x + 2 * m2) + a / (3 * a * b + 3 * a), sp.Rational(3, 4) * x / (6 * x**2)]:
         assert _factor_rational(e) == sp.factor(e), e
+    # sin/cos of symbols are generators, as sp.factor takes them (also with the angle outside them)
+    rng = random.Random(5)
+    atoms = [sp.sin(a), sp.cos(a), sp.sin(b), sp.cos(b), c, x, a]
+    def trig_poly(k: int) -> sp.Expr:
+        return sum(rng.randint(-3, 3) * sp.Mul(*rng.sample(atoms, rng.randint(1, 3))) for _ in range(k))
+    checked = 0
+    for _ in range(120):
+        e = trig_poly(rng.randint(1, 4)) * trig_poly(rng.randint(1, 3))
+        if rng.random() < 0.4:
+            e = e / (trig_poly(rng.randint(1, 3)) or 1)
+        e = sp.expand(sp.together(e)) if rng.random() < 0.5 else e
+        if e.is_number or e.has(sp.zoo, sp.nan):
+            continue
+        assert _factor_rational(e) == sp.factor(e), e
+        checked += 1
+    assert checked > 80
     # outside its domain it declines
-    assert _factor_rational(sp.sin(a) * b + b) is None
+    assert _factor_rational(sp.sin(a + b) * b + b) is None
+    assert _factor_rational(sp.tan(a) * b + b) is None
     assert _factor_rational(sp.sqrt(a) + 1) is None
     assert _factor_rational(sp.Float(0.5) * a + a * b) is None
 

@@ -166,7 +166,9 @@ def _nice_large(p):  # type: ignore[no-untyped-def]
 def _with_phase(a: sp.Expr, b: sp.Expr, theta: sp.Expr) -> sp.Expr | None:
     """a cos θ + b sin θ as one shifted sinusoid when a/b is a number and the phase a rational multiple of π:
     (√2/2)(cos q - sin q) -> cos(q + π/4). Used only for expressions written with such offsets."""
-    rho = sp.simplify(a / b)
+    if not _proportional(a, b):
+        return None
+    rho = simplified(a / b)
     if not rho.is_number or not rho.is_real:
         return None
     amp = sp.radsimp(sp.simplify(b * sp.sqrt(rho**2 + 1)))
@@ -177,6 +179,25 @@ def _with_phase(a: sp.Expr, b: sp.Expr, theta: sp.Expr) -> sp.Expr | None:
     if best is None:
         return None
     return _nice(amp) * best[0](theta + best[1])
+
+
+def _proportional(a: sp.Expr, b: sp.Expr) -> bool:
+    """False when a/b is not a number: different symbols, or different values of a/b at two points (floats;
+    True means "maybe", for the exact test)."""
+    syms = a.free_symbols | b.free_symbols
+    if a.free_symbols != b.free_symbols:
+        return False
+    if not syms:
+        return True
+    ordered = sorted(syms, key=lambda x: x.name)
+    vals = []
+    for k in (0, 1):
+        point = {x: sp.Float(0.37 + 0.61 * j + 0.29 * k * (j + 1) ** 0.5) for j, x in enumerate(ordered)}
+        try:
+            vals.append(complex(a.xreplace(point) / b.xreplace(point)))
+        except (TypeError, ZeroDivisionError):
+            return True
+    return abs(vals[0] - vals[1]) <= 1e-9 * max(1.0, abs(vals[0]))
 
 
 def _product_form(expr: sp.Expr, angles: list[sp.Symbol]) -> sp.Expr:
@@ -226,7 +247,7 @@ def _fraction(e: sp.Expr, R) -> tuple:  # type: ignore[no-untyped-def]
     (q1² + d²)³ stays the cube of its base, whose factors are found on the base alone)."""
     if e.is_Rational:
         return R(e), {}
-    if e.is_Symbol:
+    if e.is_Symbol or isinstance(e, (sp.sin, sp.cos)):  # a generator of R (raises if it is not one)
         return R(e), {}
     if e.is_Add:
         parts = [_fraction(a, R) for a in e.args]
@@ -267,10 +288,29 @@ def _fraction(e: sp.Expr, R) -> tuple:  # type: ignore[no-untyped-def]
 
 
 def _over_QQ(x: sp.Expr) -> bool:
-    """Whether x is a rational function of its symbols with rational coefficients (no functions, radicals,
-    floats)."""
-    return bool(x.free_symbols) and not x.atoms(sp.Function) and not x.atoms(sp.Float) and all(
-        p.exp.is_Integer for p in x.atoms(sp.Pow))
+    """Whether x is a rational function with rational coefficients of its symbols and of sin/cos of symbols
+    (generators, as sp.factor takes them; no other functions, radicals, floats)."""
+    return bool(x.free_symbols) and not x.atoms(sp.Float) and all(
+        p.exp.is_Integer for p in x.atoms(sp.Pow)) and all(
+        isinstance(f, (sp.sin, sp.cos)) and f.args[0].is_Symbol for f in x.atoms(sp.Function))
+
+
+def _generators(x: sp.Expr) -> list[sp.Expr]:
+    """The generators sp.factor would take, in its order: the symbols outside sin/cos and the sin/cos atoms."""
+    from sympy.polys.polyutils import _sort_gens
+    trig = x.atoms(sp.sin, sp.cos)
+    inner = {f.args[0] for f in trig}
+    bare = {s for s in x.free_symbols if s not in inner or _outside_trig(x, s)}
+    return _sort_gens(list(bare | trig))
+
+
+def _outside_trig(x: sp.Expr, s: sp.Symbol) -> bool:
+    """Whether the symbol s occurs in x outside the arguments of sin and cos."""
+    if x == s:
+        return True
+    if isinstance(x, (sp.sin, sp.cos)):
+        return False
+    return any(_outside_trig(a, s) for a in x.args)
 
 
 def _factors(p) -> tuple:  # type: ignore[no-untyped-def]
@@ -292,11 +332,11 @@ def _factor_rational(x: sp.Expr) -> sp.Expr | None:
     by :func:`fourier.factor_small` (factor_list_fast: gcds where linear in a generator), the irreducible factors
     common to the numerator and the denominator cancelled, in sympy's generator order; None for anything else."""
     from sympy.core.mul import _keep_coeff
-    from sympy.polys.polyutils import _sort_gens
     from sympy.polys.rings import ring
     if not _over_QQ(x):
         return None
-    R = ring(tuple(_sort_gens(list(x.free_symbols))), sp.QQ)[0]
+    gens = _generators(x)
+    R = ring(tuple(gens), sp.QQ)[0]
     try:
         n, bases = _fraction(x, R)
     except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError, RecursionError):
