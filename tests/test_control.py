@@ -365,3 +365,19 @@ def test_adaptive_latex_report_compiles(tmp_path):
     run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", out.name], cwd=tmp_path,
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stdout[-2000:]
+
+
+def test_task_space_check_with_and_without_the_model() -> None:
+    """cartesian._check: J q̈ + J̇ q̇ = a_r with q̈ = B⁻¹ rhs, or q̈ = rhs itself when B is None (a redundant task's
+    u = B a + n, whose q̈ is a): true for the right acceleration, false for a perturbed one."""
+    from solver.control.cartesian import _check
+    q1, q2, dq1, dq2, l1, l2, m, ar1 = sp.symbols("q1 q2 dq1 dq2 l1 l2 m ar1")
+    J = sp.Matrix([[-l1 * sp.sin(q1) - l2 * sp.sin(q1 + q2), -l2 * sp.sin(q1 + q2)]])
+    Jdq = sp.Matrix([-l1 * sp.cos(q1) * dq1 ** 2 - l2 * sp.cos(q1 + q2) * (dq1 + dq2) ** 2])
+    ar = sp.Matrix([ar1])
+    a = J.T * (J * J.T).inv() * (ar - Jdq)          # the pseudoinverse solution
+    assert _check(None, a, J, Jdq, ar)
+    assert not _check(None, a + sp.Matrix([0, sp.Rational(1, 10)]), J, Jdq, ar)
+    B = sp.Matrix([[m + 2, sp.cos(q2)], [sp.cos(q2), 1]])
+    assert _check(B, B * a, J, Jdq, ar)
+    assert not _check(B, B * a + sp.Matrix([1, 0]), J, Jdq, ar)
