@@ -34,6 +34,7 @@ from pydantic import Field, model_validator
 from solver.dynamics.equilibria import equilibria
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
+from solver.math.fourier import factor_list_expr
 from solver.math.opcount import count_ops
 from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy, tidy_expanded
 from solver.math.sweep import numeric_values
@@ -179,7 +180,7 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     if d.is_number:
         return tidy(n / d)
     if count_ops(d) <= MAX_CANCEL_OPS and count_ops(n) <= MAX_CANCEL_OPS * 10:
-        coeff, factors = sp.factor_list(d)
+        coeff, factors = factor_list_expr(d)  # sympy's factor_list, faster
         rest = sp.sympify(coeff)
         divided = False
         for f, e in factors:
