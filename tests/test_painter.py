@@ -88,3 +88,36 @@ def test_compiled_templates_follow_their_source(tmp_path):
     assert render(problem, sols, "md", template_dir=tmp_path) == "ONE 2004-03-25-ex1\n"
     page.write_text("TWO {{ problem.id }}\n")
     assert render(problem, sols, "md", template_dir=tmp_path) == "TWO 2004-03-25-ex1\n"
+
+
+@pytest.mark.parametrize("bad", [0, 1])
+def test_painter_failure_in_either_half_is_reported(tmp_path, bad):
+    """With several figures the painter draws every other one in a forked copy: a failure on either side is
+    reported, and no process is left behind."""
+    sols = [_solution("one"), _solution("two")]
+    painter = Painter("md")
+    pid = painter.pid
+    jobs = painter.write(sols, tmp_path / "r.md", "md")
+    (tmp_path / "r-1-one.png" if bad == 0 else tmp_path / "r-2-two.png").mkdir()  # a folder where a file goes
+    assert len(jobs) == 2
+    with pytest.raises(RuntimeError, match="drawing the figures failed"):
+        painter.wait()
+    assert not Path(f"/proc/{pid}").exists()
+
+
+def test_sweep_on_the_grid_equals_lambdify():
+    """sweep evaluates node by node with numpy (no generated code); the values are lambdify's, and a function
+    it does not know goes to lambdify."""
+    import numpy as np
+    import sympy as sp
+
+    from solver.math.sweep import sweep
+    x, a, b = sp.symbols("x a b")
+    grid = np.linspace(-3, 3, 41)
+    fixed = {a: 0.7, b: -1.3}
+    for e in [a * sp.cos(x) ** 2 + b * sp.sin(2 * x) / (2 + sp.cos(x)), sp.sqrt(1 + x ** 2) * sp.exp(-x / 4),
+              sp.atan2(b * sp.sin(x), a + sp.cos(x)) + sp.Abs(x - a) ** sp.Rational(3, 2), 1 / sp.sqrt(a + x ** 2),
+              sp.Max(x, a) + sp.pi * x, a * b + 0 * x]:
+        ref = sp.lambdify(x, e.subs(fixed), "numpy")(grid)
+        got = sweep(e, x, grid, fixed)
+        assert np.allclose(got, np.broadcast_to(ref, grid.shape), rtol=1e-13, atol=1e-13), e

@@ -77,6 +77,7 @@ def draw(fig: Figure, path: Path) -> None:
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     f.tight_layout()
+    f.set_layout_engine(None)  # laid out: savefig need not lay it out again (a whole extra pass of the text)
     kwargs: dict = {"metadata": {"CreationDate": None}} if path.suffix == ".pdf" else {}
     if any(p.sketch is not None for p in fig.panels):
         kwargs["bbox_inches"] = "tight"  # the legend sits above the drawing
@@ -131,14 +132,60 @@ def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
         os.closerange(keep[1] + 1, 1 << 16)
         _warm_up(fmt)
         data = read_all(jobs_fd)
-        for name, panels, path in (pickle.loads(data) if data else []):
-            draw(Figure(name, "", lambda p=panels: p), Path(path))
+        _draw_two_ways(pickle.loads(data) if data else [])
     except BaseException as exc:  # noqa: BLE001 - reported to the parent
         status = f"{exc.__class__.__name__}: {exc}".encode()[:2000] or b"failed"
     try:
         write_all(status_fd, status)
     finally:
         os._exit(0)
+
+
+def _draw_all(jobs: list) -> None:
+    for name, panels, path in jobs:
+        draw(Figure(name, "", lambda p=panels: p), Path(path))
+
+
+def _draw_two_ways(jobs: list) -> None:
+    """Draw the (name, panels, path) jobs, every other one in a forked copy of this warmed-up painter (the other
+    core: the report is written by then); RuntimeError with the copy's message if it failed."""
+    if len(jobs) < 2:
+        _draw_all(jobs)
+        return
+    try:
+        r, w = os.pipe()
+    except OSError:
+        _draw_all(jobs)
+        return
+    try:
+        pid = os.fork()
+    except OSError:
+        os.close(r)
+        os.close(w)
+        _draw_all(jobs)
+        return
+    if pid == 0:  # the copy: the odd jobs
+        os.close(r)
+        status = b"ok"
+        try:
+            _draw_all(jobs[1::2])
+        except BaseException as exc:  # noqa: BLE001 - reported to the painter
+            status = f"{exc.__class__.__name__}: {exc}".encode()[:2000] or b"failed"
+        try:
+            write_all(w, status)
+        finally:
+            os._exit(0)
+    os.close(w)
+    try:
+        _draw_all(jobs[0::2])
+    finally:
+        try:
+            status = read_all(r)
+        finally:
+            os.close(r)
+            os.waitpid(pid, 0)
+    if status != b"ok":
+        raise RuntimeError(status.decode(errors="replace") or "crashed")
 
 
 class Painter:
