@@ -284,3 +284,46 @@ def test_null_directions_are_the_null_space_up_to_a_factor():
     for M in others:
         assert _null_directions(M) == M.nullspace(simplify=True)
     assert len(_null_directions(others[1])) == 2
+
+
+def test_cleared_sparse_equals_the_sympy_path():
+    """cleared() takes the numerators from the sparse field of rational functions: the sympy path's (cancel, lcm,
+    gcd) direction, with integer coefficients and no common factor (where sympy's gcd over Q left a content
+    such as 1/4), on random vectors of rational functions."""
+    from solver.control import visual_servoing as vs
+    x, y, z = sp.symbols("x y z")
+    rng = random.Random(3)
+    atoms = [x, y, z, x * y, y * z, sp.Integer(1)]
+
+    def poly() -> sp.Expr:
+        return sum(sp.Rational(rng.randint(-6, 6), rng.randint(1, 4)) * rng.choice(atoms) for _ in range(3))
+
+    def sympy_path(vec: sp.Matrix) -> list[sp.Expr]:
+        fr = [sp.fraction(sp.cancel(sp.together(e))) for e in vec]
+        den = sp.Integer(1)
+        for _, d in fr:
+            den = sp.lcm(den, d)
+        nums = [sp.expand(sp.cancel(e * den)) for e in vec]
+        g = sp.Integer(0)
+        for e in nums:
+            if e != 0:
+                g = sp.gcd(g, e)
+        return [sp.cancel(e / g) for e in nums] if g not in (0, 1) else nums
+
+    checked = 0
+    for _ in range(40):
+        common = poly() or x
+        vec = sp.Matrix([common * poly() / (poly() or 1) if rng.random() < 0.7 else 0 for _ in range(3)])
+        if all(e == 0 for e in vec):
+            continue
+        fast = vs._cleared_sparse(vec)
+        ref = sympy_path(vec)
+        assert fast is not None
+        k = next(i for i, e in enumerate(ref) if e != 0)  # the same direction: fast = c·ref, c a number
+        c = sp.cancel(fast[k] / ref[k])
+        assert c.is_Rational and c != 0 and all(sp.expand(a - c * b) == 0 for a, b in zip(fast, ref)), (vec, fast)
+        polys = [sp.Poly(e, x, y, z) for e in fast if e != 0]  # integer coefficients, no common integer factor
+        assert all(p.domain == sp.ZZ for p in polys) and sp.gcd_list([p.content() for p in polys]) == 1
+        checked += 1
+    assert checked > 30
+    assert vs._cleared_sparse(sp.Matrix([sp.cos(x), 1])) is None  # outside the field: the sympy path

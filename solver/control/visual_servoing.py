@@ -24,7 +24,7 @@ import numpy as np
 import sympy as sp
 from pydantic import BaseModel, Field, model_validator
 
-from solver.math.simplify import factor_within, rational_matrix, tidy
+from solver.math.simplify import factor_within, is_zero, rational_matrix, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
@@ -146,23 +146,54 @@ def content_free(vec: sp.Matrix) -> sp.Matrix:
 def cleared(vec: sp.Matrix) -> sp.Matrix:
     """vec times the lcm of its denominators, divided by the gcd of the numerators, with the last non-zero entry's
     leading coefficient positive (a canonical representative of the direction)."""
-    fr = [sp.fraction(sp.cancel(sp.together(x))) for x in vec]  # gcds only: no multivariate factoring
-    den = sp.Integer(1)
-    for _, d in fr:
-        den = sp.lcm(den, d)
-    nums = [sp.expand(sp.cancel(x * den)) for x in vec]
-    g = sp.Integer(0)
-    for x in nums:
-        if x != 0:
-            g = sp.gcd(g, x)
-    if g != 0 and g != 1:
-        nums = [sp.cancel(x / g) for x in nums]
+    nums = _cleared_sparse(vec)
+    if nums is None:
+        fr = [sp.fraction(sp.cancel(sp.together(x))) for x in vec]  # gcds only: no multivariate factoring
+        den = sp.Integer(1)
+        for _, d in fr:
+            den = sp.lcm(den, d)
+        nums = [sp.expand(sp.cancel(x * den)) for x in vec]
+        g = sp.Integer(0)
+        for x in nums:
+            if x != 0:
+                g = sp.gcd(g, x)
+        if g != 0 and g != 1:
+            nums = [sp.cancel(x / g) for x in nums]
     last = [x for x in nums if x != 0]
     if last:
         lead = sp.Poly(last[-1], *sorted(last[-1].free_symbols, key=str)).LC() if last[-1].free_symbols else last[-1]
         if lead.is_number and lead < 0:
             nums = [-x for x in nums]
     return sp.Matrix([_shorter_factored(x) if x.free_symbols else x for x in nums])
+
+
+def _cleared_sparse(vec: sp.Matrix) -> list[sp.Expr] | None:
+    """The numerators of :func:`cleared` (times the lcm of the denominators, over the gcd of the numerators, with
+    integer coefficients and no common integer factor) in the sparse field of rational functions of the
+    symbols; None where the entries are not such functions (then sympy's cancel/lcm/gcd do it)."""
+    from math import lcm
+    dM = rational_matrix(vec) if len(vec) else None
+    if dM is None or not dM.domain.is_FractionField:
+        return None
+    R = dM.domain.field.ring
+    fr = [dM[i, 0].element for i in range(vec.rows)]
+    den = R.one
+    for f in fr:
+        if f:
+            den = den.lcm(f.denom)
+    nums = [f.numer * den.exquo(f.denom) if f else R.zero for f in fr]
+    if not R.domain.is_ZZ:  # one common integer multiplier: integer coefficients
+        m = lcm(*[int(c.denominator) for p in nums for c in p.itercoeffs()] or [1])
+        Z = R.clone(domain=sp.ZZ)
+        nums = [Z.from_dict({k: int(c * m) for k, c in p.iterterms()}) for p in nums]
+        R = Z
+    g = R.zero
+    for p in nums:
+        if p:
+            g = p if not g else g.gcd(p)
+    if g and g != R.one:
+        nums = [p.exquo(g) for p in nums]
+    return [p.as_expr() for p in nums]
 
 
 def _factored(x: sp.Expr, budget: float = 1.0) -> sp.Expr:
@@ -484,9 +515,15 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
     return sol
 
 
+def _zero(x: sp.Expr) -> bool:
+    """x ≡ 0: the exact test of solver.math.simplify where it decides, else sympy's simplify."""
+    z = is_zero(x)
+    return z if z is not None else sp.simplify(x) == 0
+
+
 def _single_row(col: sp.Matrix) -> int:
     """The (1-based) row of the only entry of ``col`` not identically zero, 0 if none or several."""
-    nz = [i for i, x in enumerate(col) if sp.simplify(x) != 0]
+    nz = [i for i, x in enumerate(col) if not _zero(x)]
     return nz[0] + 1 if len(nz) == 1 else 0
 
 

@@ -19,11 +19,10 @@ conditions (lists of expressions, each meaning ``expr > 0``) as sets after remov
 """
 from __future__ import annotations
 
-from functools import lru_cache
-
 import random
 from dataclasses import dataclass, field
 from fractions import Fraction
+from functools import lru_cache
 from typing import Any
 
 import sympy as sp
