@@ -158,9 +158,10 @@ def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
     return n, 0
 
 
+@lru_cache(maxsize=4096)
 def _num_den(e: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
-    """fraction(together(e)); (e, 1) at once for a polynomial with integer coefficients (no negative power, no
-    fraction: together would only pull common factors out, which the expansion that follows undoes)."""
+    """fraction(together(e)), memoized; (e, 1) at once for a polynomial with integer coefficients (no negative
+    power, no fraction: together would only pull common factors out, which the expansion that follows undoes)."""
     if not any(p.exp.is_negative for p in e.atoms(sp.Pow)) and all(r.is_Integer for r in e.atoms(sp.Rational)):
         return e, sp.Integer(1)
     return sp.fraction(sp.together(e))
@@ -209,8 +210,9 @@ def _short_denominator(d: sp.Expr) -> sp.Expr:
     return short if count_ops(short) <= count_ops(d) else d
 
 
+@lru_cache(maxsize=4096)
 def _common(e: sp.Expr) -> sp.Expr:
-    """Common factors pulled out (factor_terms), the arguments of sin/cos kept expanded (2 q1 + 2 q2)."""
+    """Memoized: common factors pulled out (factor_terms), the arguments of sin/cos kept expanded (2 q1 + 2 q2)."""
     return sp.factor_terms(e).replace(lambda x: isinstance(x, (sp.sin, sp.cos)) and not x.args[0].is_Add
                                       and not x.args[0].is_Symbol, lambda x: x.func(sp.expand(x.args[0])))
 

@@ -400,8 +400,13 @@ def _rational(expr: sp.Expr) -> sp.Expr:
 def tidy_expanded(expr: sp.Expr) -> sp.Expr:
     """tidy(sp.expand(expr)) without expanding: for a trigonometric polynomial (a product of large sums, a power
     of a determinant) the canonical Fourier form is computed from the tree by sparse ring arithmetic, which gives
-    the same coefficients as from the expanded sum (the form is canonical); anything else is expanded and tidied."""
-    expr = sp.sympify(expr)
+    the same coefficients as from the expanded sum (the form is canonical); anything else is expanded and tidied.
+    Memoized (the constrained reduction tidies the same products several times)."""
+    return _tidy_expanded(sp.sympify(expr))
+
+
+@lru_cache(maxsize=4096)
+def _tidy_expanded(expr: sp.Expr) -> sp.Expr:
     if expr.free_symbols and not expr.is_Atom:  # (floats: NotTrigPolynomial, sympy's rounded products then)
         angles = angle_symbols(expr)
         try:
