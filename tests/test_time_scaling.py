@@ -284,3 +284,16 @@ def test_light_tidying_does_not_spread_a_denominator() -> None:
     assert sp.simplify(y - x) == 0 and count_ops(y) <= count_ops(x)
     p = _light((t + 1) ** 2 * m)  # a polynomial is still expanded, its common factor pulled out
     assert p == m * (t ** 2 + 2 * t + 1)
+
+
+def test_torques_shown_only_when_each_row_fits_the_page():
+    """The time-optimal torques are written only when every row (the piece and its interval's ends) is short:
+    2021-02-04-ex2's are; 2019-09-11-ex2's τ₂ pieces are short but their intervals (T* − V/A in the parameters)
+    make rows too wide for the page, so its report gives the bounds and the figure instead."""
+    from solver.publish.render import render
+    from solver.solve import solve_problem
+    from solver.spec import load_problem
+    for name, shown in (("2021-02-04-ex2", True), ("2019-09-11-ex2", False)):
+        p = load_problem(PROBLEMS / f"{name}.yaml")
+        text = render(p, solve_problem(p), "tex")
+        assert ("The time-optimal torques:" in text) is shown, name

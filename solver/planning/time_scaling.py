@@ -323,7 +323,9 @@ def motion_view(motion: Motion, pieces: Optional[list[Piece]] = None) -> dict:
                   "symbols": [sp.Symbol(n, real=True) for n in motion.names]}
     if pieces:
         taus = [law_view(tau_law(pieces, i, motion.t)) for i in range(len(pieces[0].tau))]
-        if all(count_ops(p) < 60 for v in taus for p, _, _ in v["pieces"]):
+        # each row "τ(t) = piece, t ∈ [a, b]" must fit the page width: the piece and its interval's ends together
+        if all(count_ops(p) < 60 and count_ops(p) + count_ops(a) + count_ops(b) < 80
+               for v in taus for p, a, b in v["pieces"]):
             view["taus"] = taus
     return view
 
