@@ -298,18 +298,6 @@ def test_cleared_sparse_equals_the_sympy_path():
     def poly() -> sp.Expr:
         return sum(sp.Rational(rng.randint(-6, 6), rng.randint(1, 4)) * rng.choice(atoms) for _ in range(3))
 
-    def sympy_path(vec: sp.Matrix) -> list[sp.Expr]:
-        fr = [sp.fraction(sp.cancel(sp.together(e))) for e in vec]
-        den = sp.Integer(1)
-        for _, d in fr:
-            den = sp.lcm(den, d)
-        nums = [sp.expand(sp.cancel(e * den)) for e in vec]
-        g = sp.Integer(0)
-        for e in nums:
-            if e != 0:
-                g = sp.gcd(g, e)
-        return [sp.cancel(e / g) for e in nums] if g not in (0, 1) else nums
-
     checked = 0
     for _ in range(40):
         common = poly() or x
@@ -317,7 +305,7 @@ def test_cleared_sparse_equals_the_sympy_path():
         if all(e == 0 for e in vec):
             continue
         fast = vs._cleared_sparse(vec)
-        ref = sympy_path(vec)
+        ref = vs._cleared_sympy(vec)
         assert fast is not None
         k = next(i for i, e in enumerate(ref) if e != 0)  # the same direction: fast = c·ref, c a number
         c = sp.cancel(fast[k] / ref[k])

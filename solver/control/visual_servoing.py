@@ -148,23 +148,28 @@ def cleared(vec: sp.Matrix) -> sp.Matrix:
     leading coefficient positive (a canonical representative of the direction)."""
     nums = _cleared_sparse(vec)
     if nums is None:
-        fr = [sp.fraction(sp.cancel(sp.together(x))) for x in vec]  # gcds only: no multivariate factoring
-        den = sp.Integer(1)
-        for _, d in fr:
-            den = sp.lcm(den, d)
-        nums = [sp.expand(sp.cancel(x * den)) for x in vec]
-        g = sp.Integer(0)
-        for x in nums:
-            if x != 0:
-                g = sp.gcd(g, x)
-        if g != 0 and g != 1:
-            nums = [sp.cancel(x / g) for x in nums]
+        nums = _cleared_sympy(vec)
     last = [x for x in nums if x != 0]
     if last:
         lead = sp.Poly(last[-1], *sorted(last[-1].free_symbols, key=str)).LC() if last[-1].free_symbols else last[-1]
         if lead.is_number and lead < 0:
             nums = [-x for x in nums]
     return sp.Matrix([_shorter_factored(x) if x.free_symbols else x for x in nums])
+
+
+def _cleared_sympy(vec: sp.Matrix) -> list[sp.Expr]:
+    """The numerators of :func:`cleared` by sympy's cancel, lcm and gcd (any entries; gcds only, no multivariate
+    factoring)."""
+    fr = [sp.fraction(sp.cancel(sp.together(x))) for x in vec]
+    den = sp.Integer(1)
+    for _, d in fr:
+        den = sp.lcm(den, d)
+    nums = [sp.expand(sp.cancel(x * den)) for x in vec]
+    g = sp.Integer(0)
+    for x in nums:
+        if x != 0:
+            g = sp.gcd(g, x)
+    return [sp.cancel(x / g) for x in nums] if g != 0 and g != 1 else nums
 
 
 def _cleared_sparse(vec: sp.Matrix) -> list[sp.Expr] | None:

@@ -6,6 +6,7 @@ import os
 import pickle
 import signal
 from pathlib import Path
+from typing import Callable, NoReturn
 
 from solver.results import Figure, RobotPose, Sketch, Solution
 from solver.sandbox import read_all, write_all
@@ -124,8 +125,7 @@ def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
     """The painter process: warm up, read the pickled (name, panels, path) list, draw, answer b"ok" or the
     error; never returns. Its other inherited descriptors are closed first (a parent reading to EOF, like the
     sandbox, must not wait for it)."""
-    status = b"ok"
-    try:
+    def work() -> None:
         keep = sorted((jobs_fd, status_fd))
         os.closerange(3, keep[0])
         os.closerange(keep[0] + 1, keep[1])
@@ -133,6 +133,14 @@ def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
         _warm_up(fmt)
         data = read_all(jobs_fd)
         _draw_two_ways(pickle.loads(data) if data else [])
+    _run_and_exit(work, status_fd)
+
+
+def _run_and_exit(work: Callable[[], None], status_fd: int) -> NoReturn:
+    """In a forked process: run ``work``, write b"ok" or its error to ``status_fd``, exit without cleanup."""
+    status = b"ok"
+    try:
+        work()
     except BaseException as exc:  # noqa: BLE001 - reported to the parent
         status = f"{exc.__class__.__name__}: {exc}".encode()[:2000] or b"failed"
     try:
@@ -166,15 +174,7 @@ def _draw_two_ways(jobs: list) -> None:
         return
     if pid == 0:  # the copy: the odd jobs
         os.close(r)
-        status = b"ok"
-        try:
-            _draw_all(jobs[1::2])
-        except BaseException as exc:  # noqa: BLE001 - reported to the painter
-            status = f"{exc.__class__.__name__}: {exc}".encode()[:2000] or b"failed"
-        try:
-            write_all(w, status)
-        finally:
-            os._exit(0)
+        _run_and_exit(lambda: _draw_all(jobs[1::2]), w)
     os.close(w)
     try:
         _draw_all(jobs[0::2])
