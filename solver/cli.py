@@ -83,14 +83,15 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
           details: bool = typer.Option(False, "--details", help="JSON: also the intermediate results (per-body "
                                        "quantities) and the expressions of the steps")) -> None:
     """Solve a problem and print the step-by-step solution."""
-    from solver.publish.figures import Painter
-    from solver.publish.render import render
-    from solver.solve import solve_problem
-    from solver.spec import load_problem
+    from solver.publish.figures import Painter  # (no sympy: the helper is forked before it is imported)
 
     def work() -> tuple[str, int]:
-        # figures are drawn by a helper process that warms matplotlib up while the problem is solved
+        # figures are drawn by a helper process that warms matplotlib up while sympy is imported and the problem
+        # solved
         painter = Painter(format.value) if output and format is not Fmt.json else None
+        from solver.publish.render import render
+        from solver.solve import solve_problem
+        from solver.spec import load_problem
         try:
             problem = load_problem(spec)
             solutions = solve_problem(problem)

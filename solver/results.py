@@ -4,7 +4,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
-import sympy as sp
+# sympy is imported where a value is classified (kind_of), not here: the figure helper imports this module
+# (Figure, Panel, ...) before sympy, to warm matplotlib up while the main process imports sympy
 
 
 @dataclass
@@ -86,6 +87,7 @@ class Solution:
 
 def kind_of(value: Any) -> str:
     """The result kind of a value."""
+    import sympy as sp
     if isinstance(value, bool):
         return "bool"
     if isinstance(value, sp.MatrixBase):

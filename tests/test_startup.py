@@ -87,6 +87,18 @@ def test_solve_imports_its_kinds_and_no_plotting_without_figures():
     assert not any(m in modules for m in (*HEAVY, "numpy"))  # numpy only to sample figures
 
 
+def test_the_figure_helper_is_forked_before_sympy_is_imported():
+    """`solve -o` forks the figure helper first thing in the worker, so that it warms matplotlib up while the
+    worker imports sympy: importing the Painter (solver.publish.figures, solver.results) must not import sympy."""
+    r = subprocess.run([sys.executable, "-c", "import sys; from solver.publish.figures import Painter; "
+                        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('sympy', 'numpy')))"],
+                       capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
+    src = (ROOT / "solver" / "cli.py").read_text()
+    body = src[src.index("def work() -> tuple[str, int]:"):]
+    assert body.index("Painter(") < body.index("from solver.spec import load_problem")
+
+
 def test_help_imports_no_maths():
     code, modules, out = imported("--help")
     assert code == 0 and "check" in out
