@@ -28,13 +28,30 @@ def _rational(rng: random.Random) -> sp.Expr:
     return e + _poly(rng, 2) / (_poly(rng, 2) or 1) if rng.random() < 0.5 else sp.expand(e)
 
 
+def _reference_factor(e: sp.Expr) -> sp.Expr | None:
+    """sp.factor(e), or None past 5 s of CPU: Wang's algorithm, which sympy's factor uses, can take minutes on a
+    few polynomials for some orderings of the generators, which follow the process's hash seed (a CI run once
+    spent 4 minutes on one of these random cases)."""
+    from solver.math.budget import BudgetExceeded, cpu_budget
+    try:
+        with cpu_budget(5.0):
+            return sp.factor(e)
+    except BudgetExceeded:
+        return None
+
+
 def test_factor_rational_is_sympys_factor():
     rng = random.Random(11)
+    compared = 0
     for _ in range(150):
         e = _rational(rng)
         fast = _factor_rational(e)
         assert fast is not None
-        assert fast == sp.factor(e), e
+        ref = _reference_factor(e)
+        if ref is not None:
+            assert fast == ref, e
+            compared += 1
+    assert compared >= 140
     # denominators that are powers and quotients of sums, common factors to cancel, a model's entry
     q1, q2, d, D, Iy = sp.symbols("q1 q2 d D Iy")
     base = (q1 - q2) ** 2 + (D - 2 * d) ** 2
@@ -53,9 +70,10 @@ def test_factor_rational_is_sympys_factor():
         if rng.random() < 0.4:
             e = e / (trig_poly(rng.randint(1, 3)) or 1)
         e = sp.expand(sp.together(e)) if rng.random() < 0.5 else e
-        if e.is_number or e.has(sp.zoo, sp.nan):
+        ref = None if e.is_number or e.has(sp.zoo, sp.nan) else _reference_factor(e)
+        if ref is None:
             continue
-        assert _factor_rational(e) == sp.factor(e), e
+        assert _factor_rational(e) == ref, e
         checked += 1
     assert checked > 80
     # outside its domain it declines
