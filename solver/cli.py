@@ -89,10 +89,10 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
         # figures are drawn by a helper process that warms matplotlib up while sympy is imported and the problem
         # solved
         painter = Painter(format.value) if output and format is not Fmt.json else None
-        from solver.publish.render import render
-        from solver.solve import solve_problem
-        from solver.spec import load_problem
         try:
+            from solver.publish.render import render
+            from solver.solve import solve_problem
+            from solver.spec import load_problem
             problem = load_problem(spec)
             solutions = solve_problem(problem)
             figures = painter.write(solutions, output, format.value) if painter and output else []
