@@ -24,7 +24,7 @@ import numpy as np
 import sympy as sp
 from pydantic import BaseModel, Field, model_validator
 
-from solver.math.simplify import factor_within, is_zero, rational_matrix, tidy
+from solver.math.simplify import factor_within, rational_matrix, tidy, zero_or_simplified
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
@@ -520,15 +520,9 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
     return sol
 
 
-def _zero(x: sp.Expr) -> bool:
-    """x ≡ 0: the exact test of solver.math.simplify where it decides, else sympy's simplify."""
-    z = is_zero(x)
-    return z if z is not None else sp.simplify(x) == 0
-
-
 def _single_row(col: sp.Matrix) -> int:
     """The (1-based) row of the only entry of ``col`` not identically zero, 0 if none or several."""
-    nz = [i for i, x in enumerate(col) if not _zero(x)]
+    nz = [i for i, x in enumerate(col) if not zero_or_simplified(x)]
     return nz[0] + 1 if len(nz) == 1 else 0
 
 

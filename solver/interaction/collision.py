@@ -26,7 +26,7 @@ from pydantic import Field
 from solver.dynamics.model import DynamicModel, derive, has_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.rigid import dh_chain
-from solver.math.simplify import factor_within, is_zero, tidy, tidy_matrix, velocity_terms
+from solver.math.simplify import factor_within, is_zero, tidy, tidy_matrix, velocity_terms, zero_or_simplified
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -189,16 +189,6 @@ def contact_jacobian(point: sp.Matrix, q: list[sp.Symbol]) -> sp.Matrix:
     return tidy_matrix(point.jacobian(q))
 
 
-def _zero(e: sp.Expr) -> bool:
-    """Exactly zero (canonical trigonometric form, else sympy's simplification)."""
-    if e == 0:
-        return True
-    z = is_zero(e)
-    if z is None:
-        return sp.simplify(e) == 0
-    return bool(z)
-
-
 def _content_free(v: sp.Matrix) -> sp.Matrix:
     """A vector up to a scalar factor: denominators cleared, common factors removed, first non-zero entry
     without a leading minus sign."""
@@ -228,7 +218,7 @@ def null_basis(M: sp.Matrix, rank: int) -> list[sp.Matrix]:
     m = M.cols
     if rank >= m:
         return []
-    rows = [M.row(i).T for i in range(M.rows) if not all(_zero(x) for x in M.row(i))]
+    rows = [M.row(i).T for i in range(M.rows) if not all(zero_or_simplified(x) for x in M.row(i))]
     if rank == 0 or not rows:
         return [sp.eye(m)[:, j] for j in range(m)]
     if m == 2:
@@ -237,7 +227,7 @@ def null_basis(M: sp.Matrix, rank: int) -> list[sp.Matrix]:
     if m == 3 and rank == 2:
         for a, b in combinations(rows, 2):
             c = a.cross(b).applyfunc(tidy)
-            if not all(_zero(x) for x in c):
+            if not all(zero_or_simplified(x) for x in c):
                 return [_content_free(c)]
     ns = M.applyfunc(tidy).nullspace(simplify=True)
     return [_content_free(v) for v in ns]
@@ -246,7 +236,7 @@ def null_basis(M: sp.Matrix, rank: int) -> list[sp.Matrix]:
 def last_independent(M: sp.Matrix, count: int) -> list[int]:
     """Indices of ``count`` rows of M, independent at generic points, taken from the last rows first (the
     equations of the joints nearest to the contact, as a teacher solves them)."""
-    rows = [i for i in range(M.rows) if not all(_zero(x) for x in M.row(i))]
+    rows = [i for i in range(M.rows) if not all(zero_or_simplified(x) for x in M.row(i))]
     for combo in combinations(sorted(rows, reverse=True), count):
         if generic_rank(M.extract(sorted(combo), list(range(M.cols)))) == count:
             return sorted(combo)
@@ -276,13 +266,13 @@ def identify_with_location(point: sp.Matrix, q: list[sp.Symbol], F: sp.Matrix, r
     last independent ones); then ρ = (r_k − j_{a,k}ᵀF)/(j_{b,k}ᵀF) from the last equation k with j_{b,k} ≠ 0.
     None when the point is not affine in ρ or the combinations do not determine F."""
     m = F.rows
-    if any(not _zero(x) for x in point.diff(rho, 2)):
+    if any(not zero_or_simplified(x) for x in point.diff(rho, 2)):
         return None
     b = point.diff(rho)
     a = (point - rho * b).applyfunc(tidy)
     Ja = a.jacobian(q)[:, :link]
     Jb = b.jacobian(q)[:, :link].applyfunc(tidy)
-    combos = Jb.nullspace(simplify=True) if any(not _zero(x) for x in Jb) else \
+    combos = Jb.nullspace(simplify=True) if any(not zero_or_simplified(x) for x in Jb) else \
         [sp.eye(link)[:, j] for j in range(link)]
     if len(combos) < m:
         return None
@@ -293,12 +283,12 @@ def identify_with_location(point: sp.Matrix, q: list[sp.Symbol], F: sp.Matrix, r
         return None
     A2, rhs = A.extract(rows, list(range(m))), (C * r[:link, 0]).extract(rows, [0])
     Fs = (A2.adjugate() * rhs / tidy(A2.det())).applyfunc(lambda x: _tidy_quotient(factor_within(sp.cancel(x))))
-    ks = [k for k in range(link) if not all(_zero(x) for x in Jb[:, k])]
+    ks = [k for k in range(link) if not all(zero_or_simplified(x) for x in Jb[:, k])]
     if not ks:
         return None
     k = ks[-1]
     den = (Jb[:, k].T * Fs)[0]
-    if _zero(den):
+    if zero_or_simplified(den):
         return None
     loc = (r[k] - (Ja[:, k].T * Fs)[0]) / den
     return Fs, _tidy_quotient(factor_within(sp.cancel(sp.together(loc))))
@@ -726,7 +716,7 @@ def _contact(c: _Ctx, k: int, spec: Contact) -> ContactCase:
             R = body.rotation
     if R is not None and m == 2:
         if R.shape == (3, 3):
-            if any(not _zero(x) for x in (R[2, 0], R[2, 1], R[0, 2], R[1, 2])):
+            if any(not zero_or_simplified(x) for x in (R[2, 0], R[2, 1], R[0, 2], R[1, 2])):
                 R = None  # not a rotation in the plane of motion: no planar link frame
             else:
                 R = R[:2, :2]
@@ -767,12 +757,12 @@ def _analyze(c: _Ctx, cc: ContactCase, r: sp.Matrix, K: sp.Matrix, dm: DynamicMo
                        for a, b in combinations(range(i), 2)]
         d["minors"] = [x for x in d["minors"] if x[1] != 0]
     d["zero_cols"] = list(range(i + 1, n + 1))
-    nonzero = [j + 1 for j in range(n) if not _zero(tau[j])]
+    nonzero = [j + 1 for j in range(n) if not zero_or_simplified(tau[j])]
     d["detected"] = bool(nonzero)
     d["isolated"] = max(nonzero) if nonzero else 0
     col = Jc[:, i - 1]
     d["col"] = col
-    d["col_zero"] = all(_zero(x) for x in col)
+    d["col_zero"] = all(zero_or_simplified(x) for x in col)
     d["misisolated"] = [] if (d["col_zero"] or i == 1) else null_basis(col.T, 1)
     d["identifiable"] = rank == m
     d["det"] = tidy(Jc.det()) if Jc.rows == Jc.cols else None
@@ -871,7 +861,7 @@ def _numbers(c: _Ctx, cc: ContactCase, spec: Contact, K: sp.Matrix, kE: sp.Expr 
         text = c.vector(P + ("residual",), c.n, "the residual").subs(subs).applyfunc(_decimal)
         at["source"] = "residual"
     elif spec.torque is not None:
-        if any(not _zero(state.get(v, 0)) for v in c.dq):
+        if any(not zero_or_simplified(state.get(v, 0)) for v in c.dq):
             raise c.fail(P + ("torque",), "torque: describes a static equilibrium, but the at: state has a non-zero "
                                           "velocity", "give residual: (the residual's value) instead")
         u = _torque_law(c, cc, spec, dm, subs)
@@ -927,7 +917,7 @@ def _estimate_with_location(point: sp.Matrix, q: list[sp.Symbol], subs: dict, ta
                             m: int, link: int) -> tuple[sp.Matrix, sp.Expr] | None:
     """Numeric (F, ρ) with J_c(ρ)ᵀ F = τ_ext for a point affine in ρ (J_c = J_a + ρ J_b): F by least squares from
     the ρ-free combinations of the first ``link`` equations (the null space of J_b), then ρ by least squares."""
-    if any(not _zero(x) for x in point.diff(loc, 2)):
+    if any(not zero_or_simplified(x) for x in point.diff(loc, 2)):
         return None
     b = point.diff(loc)
     a = point - loc * b

@@ -586,6 +586,14 @@ def is_zero(expr: sp.Expr) -> bool | None:
     return True if z else (False if canonical else None)
 
 
+def zero_or_simplified(expr: sp.Expr) -> bool:
+    """expr ≡ 0: :func:`is_zero` where it decides, else sympy's ``simplify(expr) == 0``."""
+    if expr == 0:
+        return True
+    z = is_zero(expr)
+    return bool(z) if z is not None else sp.simplify(expr) == 0
+
+
 def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:
     """``expr`` as terms coefficient·monomial of the velocities ``v``, highest degree first, each coefficient
     tidied: ‖v_c‖² -> [(l1² + q2²) q̇1², 2 l1 q̇1 q̇2, q̇2²]."""
