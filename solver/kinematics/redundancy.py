@@ -216,10 +216,17 @@ def _number_field_matrix(M: sp.Matrix) -> Any:
         return None
     if not (K.is_QQ or K.is_ZZ or K.is_AlgebraicField):
         return None
-    if K.is_ZZ:
-        K, els = sp.QQ, [sp.QQ.convert(x, sp.ZZ) for x in els]
     m, n = M.shape
-    return DomainMatrix([els[i * n:(i + 1) * n] for i in range(m)], (m, n), K)
+    return DomainMatrix([els[i * n:(i + 1) * n] for i in range(m)], (m, n), K).to_field()
+
+
+def _field_inverse(dM: Any) -> Any:
+    """dM⁻¹ over its field, or None when dM is singular (one elimination)."""
+    from sympy.polys.matrices.exceptions import DMNonInvertibleMatrixError
+    try:
+        return dM.inv()
+    except DMNonInvertibleMatrixError:
+        return None
 
 
 def _exact_zero(e: sp.Expr) -> bool:
@@ -285,9 +292,8 @@ class Arith:
                 return sp.diag(*[1 / M[i, i] for i in range(M.shape[0])])
             return (M.adjugate() / sp.cancel(M.det())).applyfunc(sp.cancel)
         dM = _number_field_matrix(M)
-        if dM is not None and dM.rank() == M.rows:  # exactly in Q(√2, ...); a singular M: sympy's error below
-            return self.clean(dM.inv().to_Matrix())
-        return self.clean(M.inv())
+        inv = _field_inverse(dM) if dM is not None else None  # exactly in Q(√2, ...); singular: sympy's error below
+        return self.clean(inv.to_Matrix() if inv is not None else M.inv())
 
     def det(self, M: sp.Matrix) -> sp.Expr:
         if self.mode == "float":
@@ -315,9 +321,9 @@ class Arith:
             if dM is not None:  # full rank: Mᵀ(M Mᵀ)⁻¹ or (MᵀM)⁻¹Mᵀ, exactly in Q(√2, ...), ~100x faster
                 m, n = M.shape
                 Mt = dM.transpose()
-                G = dM * Mt if m <= n else Mt * dM
-                if G.rank() == min(m, n):
-                    return self.clean((Mt * G.inv() if m <= n else G.inv() * Mt).to_Matrix())
+                Gi = _field_inverse(dM * Mt if m <= n else Mt * dM)
+                if Gi is not None:
+                    return self.clean((Mt * Gi if m <= n else Gi * Mt).to_Matrix())
         return self.clean(M.pinv())
 
     def chol_factor(self, W: sp.Matrix) -> sp.Matrix:
