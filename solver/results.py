@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
 # sympy is imported where a value is classified (kind_of), not here: the figure helper imports this module
-# (Figure, Panel, ...) before sympy, to warm matplotlib up while the main process imports sympy
+# (Figure, Panel, ...) before sympy, to warm matplotlib up while the solving worker imports sympy
 
 
 @dataclass
