@@ -711,33 +711,37 @@ def _factor_half_tangent(e: sp.Expr, angles: list[sp.Symbol]) -> tuple[sp.Expr, 
         sub[sp.cos(x)] = (1 - t**2) / (1 + t**2)
         sub[sp.sin(x)] = 2 * t / (1 + t**2)
     P = sp.expand(sp.expand_trig(e))
-    R = P.xreplace(sub)
-    if any(R.has(x) for x in angles):
-        return None
-    num, den = sp.fraction(sp.together(R))
-    num = sp.expand(num)
-    # den = c · Π (1 + t_i²)^{m_i}
-    m = [0] * len(ts)
-    dc, dfac = sp.factor_list(den)
-    for f, k in dfac:
-        hit = [i for i, t in enumerate(ts) if sp.expand(f - (1 + t**2)) == 0]
-        if not hit:
+    fast = _half_tangent_numerator(P, angles, ts)
+    if fast is not None:
+        const, facs, m, deg_total = fast
+    else:
+        R = P.xreplace(sub)
+        if any(R.has(x) for x in angles):
             return None
-        m[hit[0]] += k
-    const, facs = sp.factor_list(num)
-    const = const / dc
-    deg_total = [sp.degree(num, t) if num.has(t) else 0 for t in ts]
+        num, den = sp.fraction(sp.together(R))
+        num = sp.expand(num)
+        # den = c · Π (1 + t_i²)^{m_i}
+        m = [0] * len(ts)
+        dc, dfac = sp.factor_list(den)
+        for f, k in dfac:
+            hit = [i for i, t in enumerate(ts) if sp.expand(f - (1 + t**2)) == 0]
+            if not hit:
+                return None
+            m[hit[0]] += k
+        const, facs0 = sp.factor_list(num)
+        const = const / dc
+        deg_total = [sp.degree(num, t) if num.has(t) else 0 for t in ts]
+        facs = [(f, k, [sp.degree(f, t) if f.has(t) else 0 for t in ts]) for f, k in facs0]
     slack = [2 * mi - di for mi, di in zip(m, deg_total)]
     pieces: list[tuple[sp.Expr, list[int], int]] = []  # (F, k per variable, multiplicity)
     odd: list[tuple[sp.Expr, list[int]]] = []
-    for f, k in facs:
-        if not any(f.has(t) for t in ts):
+    for f, k, d in facs:
+        if not any(d):
             if f.free_symbols:
                 pieces.append((f, [0] * len(ts), k))
             else:
                 const *= f**k
             continue
-        d = [sp.degree(f, t) if f.has(t) else 0 for t in ts]
         if any(di % 2 for di in d):
             odd += [(f, d)] * k
         else:
@@ -792,8 +796,122 @@ def _factor_half_tangent(e: sp.Expr, angles: list[sp.Symbol]) -> tuple[sp.Expr, 
     return tidy(const2), out
 
 
+def _half_tangent_numerator(P: sp.Expr, angles: list[sp.Symbol], ts: list[sp.Symbol]
+                            ) -> tuple[sp.Expr, list[tuple[sp.Expr, int, list[int]]], list[int], list[int]] | None:
+    """P (expanded, a polynomial in the cos/sin of the angles with polynomial coefficients) as N(t)/Π(1 + t_i²)^{m_i}
+    with t_i = tan(x_i/2), m_i the largest degree of a term in (cos x_i, sin x_i): each term c^a s^b becomes
+    (1 - t²)^a (2t)^b (1 + t²)^{m-a-b}, computed in a sparse polynomial ring (no rational-function arithmetic on
+    expressions). Returns (constant, [(factor, multiplicity, degree in each t_i)], m, degree of N in each t_i), the
+    factors those of ``sp.factor_list(N)`` in its order; None when P is not of that shape (the caller then takes
+    the general path)."""
+    index = {x: i for i, x in enumerate(angles)}
+    k = len(angles)
+    parsed: list[tuple[sp.Rational, list[int], list[int], dict[sp.Symbol, int]]] = []
+    params: set[sp.Symbol] = set()
+    for term in sp.Add.make_args(P):
+        coeff, a, b, other = sp.Integer(1), [0] * k, [0] * k, {}
+        for f in sp.Mul.make_args(term):
+            if f.is_Rational:
+                coeff *= f
+                continue
+            base, ex = f.as_base_exp()
+            if not (ex.is_Integer and ex > 0):
+                return None
+            if isinstance(base, (sp.cos, sp.sin)) and base.args[0] in index:
+                (a if isinstance(base, sp.cos) else b)[index[base.args[0]]] += int(ex)
+            elif base.is_Symbol and base not in index:
+                other[base] = other.get(base, 0) + int(ex)
+                params.add(base)
+            else:
+                return None
+        parsed.append((coeff, a, b, other))
+    if len(parsed) < 2:
+        return None  # (a monomial: factor_list takes its factors one by one)
+    m = [max(pa[i] + pb[i] for _, pa, pb, _ in parsed) for i in range(k)]
+    from sympy.polys.polyutils import _sort_gens
+    gens = list(_sort_gens(list(ts) + sorted(params, key=str)))
+    R = sp.polys.rings.PolyRing(gens, sp.QQ, sp.polys.orderings.lex)
+    gi = {g: R.gens[j] for j, g in enumerate(gens)}
+    powers: dict[tuple[int, int, int], Any] = {}
+
+    def block(i: int, a: int, b: int) -> Any:  # (1 - t²)^a (2t)^b (1 + t²)^{m-a-b}
+        key = (i, a, b)
+        if key not in powers:
+            t = gi[ts[i]]
+            powers[key] = (1 - t**2) ** a * (2 * t) ** b * (1 + t**2) ** (m[i] - a - b)
+        return powers[key]
+
+    num = R.zero
+    for coeff, a, b, other in parsed:
+        term = R(sp.QQ(int(coeff.p), int(coeff.q)))
+        for s_, e_ in other.items():
+            term *= gi[s_] ** e_
+        for i in range(k):
+            if m[i]:
+                term *= block(i, a[i], b[i])
+        num += term
+    if len(num) < 2:
+        return None  # (zero, or a monomial: as above)
+    den = 1
+    for c in num.values():
+        den = sp.ilcm(den, int(c.denominator))
+    lead = den
+    terms = {mono: int(c * den) for mono, c in num.items()}
+    # as sp.factor_list(N) does it: together() pulls the monomial content Π g^{e_g} out first (each g a factor of
+    # its own), and the rest is factored over the generators it has
+    low = [min(mo[j] for mo in terms) for j in range(len(gens))]
+    terms = {tuple(x - y for x, y in zip(mo, low)): c for mo, c in terms.items()}
+    used = [j for j in range(len(gens)) if any(mo[j] for mo in terms)]
+    rest = sp.Poly.from_dict({tuple(mo[j] for j in used): c for mo, c in terms.items()},
+                             *[gens[j] for j in used], domain=sp.ZZ)
+    const, rest_facs = rest.factor_list()
+    monomial = sp.Mul(*[gens[j] ** low[j] for j in range(len(gens)) if low[j]])
+    facs: list[tuple[sp.Poly, int]] = []
+    for f in sp.Mul.make_args(monomial):
+        if f != 1:
+            g, e_ = f.as_base_exp()
+            facs.append((sp.Poly(g, g), int(e_)))
+    facs += rest_facs
+
+    def key(fe: tuple[sp.Poly, int]) -> tuple:
+        rep = fe[0].rep.to_list()
+        return (len(rep), len(fe[0].gens), fe[1], str(fe[0].domain), rep)
+
+    out = []
+    for f, e_ in sorted(facs, key=key):
+        degs = dict(zip(f.gens, f.degree_list()))
+        out.append((f.as_expr(), e_, [degs.get(t, 0) for t in ts]))
+    deg_total = [max(mo[gens.index(t)] for mo in num.keys()) if t in gens else 0 for t in ts]
+    return sp.Rational(const) / lead, out, m, deg_total
+
+
 def _from_half_tangent(F: sp.Expr, ts: list[sp.Symbol], angles: list[sp.Symbol], k: list[int]) -> sp.Expr:
-    """F(t) / Π (1 + t_i²)^{k_i} as a trigonometric polynomial."""
+    """F(t) / Π (1 + t_i²)^{k_i} as a trigonometric polynomial: t^{2a+b} / (1 + t²)^k = ((1 - cos x)/2)^a
+    (sin x / 2)^b ((1 + cos x)/2)^{k-a-b}, summed in a sparse ring of (cos x_i, sin x_i, parameters)."""
+    params = sorted(F.free_symbols - set(ts), key=str)
+    if all(p.is_Symbol for p in params):
+        P = sp.Poly(F, *ts, *params)
+        if P.domain in (sp.ZZ, sp.QQ):
+            n = len(angles)
+            cs = [f(x) for x in angles for f in (sp.cos, sp.sin)]
+            R = sp.polys.rings.PolyRing(cs + params, sp.QQ, sp.polys.orderings.lex)
+            half = sp.QQ(1, 2)
+            blocks: dict[tuple[int, int, int], Any] = {}
+            total = R.zero
+            for mono, coeff in P.terms():
+                term = R(sp.QQ.from_sympy(coeff))
+                for i in range(n):
+                    a, b = divmod(int(mono[i]), 2)
+                    key = (i, a, b)
+                    if key not in blocks:
+                        c, s_ = R.gens[2 * i], R.gens[2 * i + 1]
+                        blocks[key] = (half - half * c) ** a * (half * s_) ** b * (half + half * c) ** int(k[i] - a - b)
+                    term *= blocks[key]
+                for j, e_ in enumerate(mono[n:]):
+                    if e_:
+                        term *= R.gens[2 * n + j] ** e_
+                total += term
+            return tidy(total.as_expr())
     P = sp.Poly(F, *ts)
     total = sp.Integer(0)
     for mono, coeff in P.terms():

@@ -1,0 +1,44 @@
+"""trig_factors: the half-tangent factorization computed in a sparse ring gives exactly the factors (and their
+order) of the general path through sympy expressions, and they multiply back to the input."""
+from __future__ import annotations
+
+import random
+
+import pytest
+import sympy as sp
+
+import solver.math.trigsolve as T
+
+q1, q2, q3 = sp.symbols("q1 q2 q3", real=True)
+a, b, l = sp.symbols("a b l", positive=True)
+ATOMS = [sp.cos(q1), sp.sin(q1), sp.cos(q2), sp.sin(q2), sp.cos(q1 + q2), sp.sin(q1 + q2), sp.cos(2 * q1),
+         sp.sin(q2) ** 2, sp.cos(q3), a, b, l, sp.Rational(1, 2), 3]
+
+
+def _cases(n: int, seed: int) -> list[sp.Expr]:
+    rng = random.Random(seed)
+    out = [sp.expand(l**2 * sp.sin(q2) * (a + b * sp.cos(q2))),             # monomial content in t and in l
+           sp.expand((1 - sp.cos(q2)) * (1 + sp.cos(q2))),                   # sin²: factors paired at π
+           sp.expand(a * sp.cos(q1) ** 2 / 3 + a * sp.sin(q1) ** 2 / 3)]   # a/3 (rational content)
+    while len(out) < n:
+        fs = [sum(rng.choice([-2, -1, 1, 2, sp.Rational(1, 3)]) * sp.Mul(*rng.sample(ATOMS, rng.randint(1, 2)))
+                  for _ in range(rng.randint(1, 3))) for _ in range(rng.randint(1, 2))]
+        e = sp.expand(sp.Mul(*fs))
+        if e.free_symbols & {q1, q2, q3}:
+            out.append(e)
+    return out
+
+
+@pytest.mark.parametrize("e", _cases(24, 5))
+def test_ring_path_equals_general_path(e: sp.Expr, monkeypatch: pytest.MonkeyPatch) -> None:
+    fast = T.trig_factors(e)
+    const, facs = fast
+    assert sp.expand(sp.expand_trig(const * sp.Mul(*[f**k for f, k in facs]) - e)) == 0 or \
+        T.tidy(sp.expand(const * sp.Mul(*[f**k for f, k in facs]) - e)) == 0
+    monkeypatch.setattr(T, "_half_tangent_numerator", lambda *args: None)
+    assert T.trig_factors(e) == fast
+
+
+def test_sin_squared_is_one_factor() -> None:
+    const, facs = T.trig_factors(sp.expand(l * (1 - sp.cos(q2) ** 2)))
+    assert const * sp.Mul(*[f**k for f, k in facs]) == l * sp.sin(q2) ** 2
