@@ -521,3 +521,26 @@ def test_long_fractions_read_as_products_in_latex():
     for head in heads:
         assert len(re.findall(r"(?<![<>\\])=", head)) == 1, head
     assert "\\lambda = \\frac{1}{a_1 + 2 a_2 \\cos {q_{2}}}\\Big(a_3 u_{1}" in tex
+
+
+@pytest.mark.parametrize("d", [
+    "-l1*(cos(q2) - 1)*(cos(q2) + 1)",
+    "(1 - cos(q2))*(cos(q2) + 1)*(p1**2 + p2**2)",
+    "-L**2*(cos(q2) - 1)*(cos(q2) + 1)*sin(q2)",
+    "a*(cos(q1) - 1)**2*(cos(q1) + 1)**2*sin(q2)",
+    "-(1 - cos(q1))**3*(cos(q1) + 1)**3",
+    "(cos(q1) - 1)*(cos(q1) + 1)*(cos(q2) - 1)*(cos(q2) + 1)*sin(q1)",
+])
+def test_paired_sines_is_the_trigsimp_form(d):
+    """(cos x - 1)^k (cos x + 1)^k -> (-1)^k sin^{2k} x without trigsimp, as trigsimp writes it."""
+    from solver.interaction.constraints import _paired_sines
+    from solver.math.simplify import factor_within, tidy
+    e = sp.sympify(d, locals={n: sp.Symbol(n, real=True) for n in ("q1", "q2")})
+    assert _paired_sines(e) == factor_within(sp.trigsimp(tidy(sp.expand(e))))
+
+
+@pytest.mark.parametrize("d", ["(cos(q2) - 1)*(cos(q2) + 1)**2", "(cos(q1) - 1)*(cos(q2) + 1)", "l1*sin(q2)",
+                               "(cos(q1 + q2) - 1)*(cos(q1 + q2) + 1)", "(cos(q2) - 2)*(cos(q2) + 2)"])
+def test_paired_sines_declines_other_products(d):
+    from solver.interaction.constraints import _paired_sines
+    assert _paired_sines(sp.sympify(d)) is None

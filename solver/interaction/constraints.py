@@ -120,11 +120,19 @@ def _atom_power(terms: list[sp.Expr], f: sp.Expr) -> int:
     return k or 0
 
 
-@lru_cache(maxsize=1024)
+_TERMS: dict[tuple[sp.Expr, bool], tuple[sp.Expr, ...]] = {}
+
+
 def _expanded_terms(n: sp.Expr, trig: bool) -> tuple[sp.Expr, ...]:
     """The terms of n expanded (with trig: sin/cos of sums expanded too); memoized: :func:`ratio` tries each
-    factor of the denominator on the same numerator."""
-    return sp.Add.make_args(sp.expand(sp.expand(sp.expand_trig(n)) if trig else n))
+    factor of the denominator on the same numerator, and :func:`_divide_out` records the terms of the quotients
+    it builds (already expanded)."""
+    key = (n, trig)
+    if key not in _TERMS:
+        if len(_TERMS) > 1024:
+            _TERMS.clear()
+        _TERMS[key] = sp.Add.make_args(sp.expand(sp.expand(sp.expand_trig(n)) if trig else n))
+    return _TERMS[key]
 
 
 def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
@@ -142,7 +150,11 @@ def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
         if atom:
             j = min(_atom_power(terms, f), e)
             if j:
-                return sp.Add(*[t / f ** j for t in terms]), j
+                quotient = tuple(t / f ** j for t in terms)  # (distinct expanded terms stay distinct and expanded)
+                out = sp.Add(*quotient)
+                for form in ([False, True] if trig else [False]):  # (no sum of angles left in the trig form)
+                    _TERMS[(out, form)] = quotient
+                return out, j
             continue
         out, j = sp.Add(*terms), 0
         while j < e:
@@ -202,10 +214,59 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     return _common(n) / _common(d)
 
 
+def _paired_sines(d: sp.Expr) -> sp.Expr | None:
+    """A product whose only trigonometric factors are sin x and pairs (cos x - 1)^k (cos x + 1)^k (signs as they
+    come) with (cos x - 1)(cos x + 1) = -sin²x applied; None for any other product (no pair, or another
+    trigonometric factor)."""
+    out, pairs, sines = sp.Integer(1), {}, {}
+    for f in sp.Mul.make_args(d):
+        base, ex = f.as_base_exp()
+        if not base.has(sp.sin, sp.cos):
+            out *= f
+            continue
+        if not (ex.is_Integer and ex > 0):
+            return None
+        if isinstance(base, sp.sin) and base.args[0].is_Symbol:
+            sines[base.args[0]] = sines.get(base.args[0], 0) + int(ex)
+            continue
+        unit = _unit_cos(base)
+        if unit is None:
+            return None
+        x, sign, kind = unit
+        out *= sign ** int(ex)
+        pairs.setdefault(x, {"+": 0, "-": 0})[kind] += int(ex)
+    if not pairs:
+        return None
+    for x, k in pairs.items():
+        if k["+"] != k["-"]:
+            return None
+        out *= (-1) ** k["+"]
+        sines[x] = sines.get(x, 0) + 2 * k["+"]
+    for x, k in sines.items():
+        out *= sp.sin(x) ** k
+    return out
+
+
+def _unit_cos(f: sp.Expr) -> tuple[sp.Symbol, int, str] | None:
+    """f = sign·(cos x + 1) -> (x, sign, "+"), f = sign·(cos x - 1) -> (x, sign, "-"); None otherwise."""
+    if not (f.is_Add and len(f.args) == 2):
+        return None
+    one, c = f.args if f.args[0].is_Number else f.args[::-1]
+    sign = -1 if c.could_extract_minus_sign() else 1
+    c = sign * c
+    if one not in (1, -1) or not isinstance(c, sp.cos) or not c.args[0].is_Symbol:
+        return None
+    return c.args[0], sign, "+" if one * sign == 1 else "-"
+
+
 @lru_cache(maxsize=4096)
 def _short_denominator(d: sp.Expr) -> sp.Expr:
     """A small trigonometric denominator in its shortest form ((1 - cos q)(1 + cos q) -> sin(q)^2); memoized:
-    the entries of a matrix over one determinant share it, and trigsimp is slow."""
+    the entries of a matrix over one determinant share it, and trigsimp is slow (the common case, pairs
+    (cos x ∓ 1) and sines times parameters, without it)."""
+    paired = _paired_sines(d)
+    if paired is not None:
+        return paired
     short = factor_within(sp.trigsimp(tidy(sp.expand(d))))
     return short if count_ops(short) <= count_ops(d) else d
 
