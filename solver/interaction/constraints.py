@@ -306,9 +306,16 @@ def _ops(*mats: sp.Matrix | None) -> int:
 
 
 def _zero(e: sp.Expr) -> bool:
-    """Identically zero: the randomized exact test (rational points, trigonometric identities exact), else
-    30-digit evaluation at random points (:mod:`solver.math.equivalence`)."""
+    """Identically zero: a product when one of its factors is (analytic functions have no zero divisors), a
+    power b^r (r > 0) when b is, b^r (r < 0) never; otherwise the randomized exact test (rational points,
+    trigonometric identities exact), else 30-digit evaluation at random points (:mod:`solver.math.equivalence`);
+    a factor such as ((xA - xB)² + (yA - yB)²)^(-7/2), outside the exact test, no longer sends a large product to
+    the numeric one."""
     from solver.math.equivalence import exact_zero, numeric_zero
+    if e.is_Mul:
+        return any(_zero(f) for f in e.args if not f.is_number)
+    if e.is_Pow and e.exp.is_number:
+        return bool(e.exp.is_positive) and _zero(e.base)
     z = exact_zero(e)
     if z is None:
         z = numeric_zero(e)
