@@ -143,3 +143,17 @@ def test_simplified_is_memoized_simplify():
     assert simplified(f) == sp.Float("0.5", 30) and _simplified.cache_info().misses == misses
     M = sp.Matrix([[sp.sin(t) ** 2 + sp.cos(t) ** 2]])
     assert simplified(M) == sp.Matrix([[1]])
+
+
+def test_identically_zero_decides_each_kind_of_expression():
+    """identically_zero (the checks of the control chapter): exact randomized test, canonical form, simplify."""
+    from solver.math.equivalence import identically_zero
+    q1, q2, x = sp.symbols("q1 q2 x", real=True)
+    a = sp.Symbol("a", positive=True)
+    assert identically_zero(sp.sin(q1 + q2) - sp.sin(q1) * sp.cos(q2) - sp.cos(q1) * sp.sin(q2))
+    assert not identically_zero(sp.sin(q1 + q2) - sp.sin(q1) * sp.cos(q2))
+    assert identically_zero(a * (sp.cos(q1) ** 2 + sp.sin(q1) ** 2) / (a + x ** 2) - a / (a + x ** 2))
+    assert identically_zero(sp.Float(0.5) * x - x / 2)                  # floats: canonical form
+    assert not identically_zero(sp.Float(0.5) * x - x / 3)
+    assert identically_zero(sp.tanh(x) - (sp.exp(2 * x) - 1) / (sp.exp(2 * x) + 1))   # hyperbolic: rewritten
+    assert not identically_zero(sp.sqrt(x ** 2 + 1) - x)

@@ -20,14 +20,8 @@ from dataclasses import dataclass
 import sympy as sp
 
 from solver.dynamics.model import christoffel, factorization, is_skew_bdot_2s
-from solver.math.simplify import is_zero, tidy
-
-
-def _zero(x: sp.Expr) -> bool:
-    z = is_zero(sp.expand(x))
-    if z is None:
-        z = sp.simplify(x) == 0
-    return bool(z)
+from solver.math.equivalence import identically_zero as _zero
+from solver.math.simplify import tidy
 
 
 @dataclass

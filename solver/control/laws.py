@@ -22,7 +22,8 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
-from solver.math.simplify import is_zero, tidy
+from solver.math.equivalence import identically_zero as _zero
+from solver.math.simplify import tidy
 from solver.registry import PROPERTY_CHECKS, PropertyVerdict, ask_kind, property_check
 from solver.results import Result, Solution
 from solver.spec.errors import UserError
@@ -222,13 +223,6 @@ def _input_inverse(problem, dm, ctx, law: str) -> sp.Matrix | None:  # type: ign
         raise UserError(f"{law} needs an invertible input map G, but det G = 0", place,
                         "check robot.input_map")
     return G.inv().applyfunc(sp.simplify)
-
-
-def _zero(x: sp.Expr) -> bool:
-    z = is_zero(sp.expand(x))
-    if z is None:
-        z = sp.simplify(x) == 0
-    return bool(z)
 
 
 def reference_law(problem, law: str, dm, K: dict) -> tuple[sp.Matrix, sp.Matrix]:  # type: ignore[no-untyped-def]

@@ -31,6 +31,7 @@ from pydantic import Field, field_validator
 
 from solver.control.gravity_bound import GradientBound, box_of, gradient_bound, matrix_function, maximize, spectral
 from solver.dynamics.model import derive, require_model
+from solver.math.equivalence import identically_zero as _zero
 from solver.math.simplify import factor_within, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -196,27 +197,6 @@ def _vec(problem, ctx, path: tuple, what: str) -> sp.Matrix:  # type: ignore[no-
     if any(isinstance(v, list) for v in vals):
         raise UserError(f"{what} must be a vector (a flat list)", problem.located.place(ctx.path + path))
     return sp.Matrix([sp.sympify(v) for v in vals])
-
-
-def _zero(x: sp.Expr) -> bool:
-    """x ≡ 0: randomized exact evaluation (solver.math.equivalence), else the canonical forms."""
-    from solver.math.equivalence import exact_zero
-    x = sp.sympify(x)
-    if x == 0:
-        return True
-    if not x.atoms(sp.Float):
-        z = exact_zero(x)
-        if z is not None:
-            return z
-    x = sp.expand(x)
-    if x == 0:
-        return True
-    if x.has(sp.tanh, sp.sinh, sp.cosh, sp.log):   # outside the trigonometric canonical form
-        return sp.simplify(x.rewrite(sp.exp)) == 0
-    z = is_zero(x)
-    if z is None:
-        z = sp.simplify(x) == 0
-    return bool(z)
 
 
 def _numeric(x: Any) -> bool:

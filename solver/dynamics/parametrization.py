@@ -39,7 +39,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
-from solver.math.equivalence import equivalent
+from solver.math.equivalence import equivalent, exact_zero
 from solver.math.simplify import is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -255,8 +255,12 @@ def independent_rows(M: sp.Matrix, gen: Generic, order: list[int] | None = None)
 
 
 def _zero_exact(x: sp.Expr) -> bool:
+    """x ≡ 0, exactly: a non-zero value at a rational point (randomized exact test) proves x ≢ 0 at once, the
+    common case of a pivot; zero is confirmed by cancellation (and simplify)."""
     if x == 0:
         return True
+    if not x.atoms(sp.Float) and exact_zero(x) is False:
+        return False
     c = sp.cancel(sp.together(x))
     if c == 0:
         return True

@@ -94,6 +94,28 @@ def numeric_zero(expr: sp.Expr, trials: int = 6, seed: int | None = None,
     return True if seen else None
 
 
+def identically_zero(x: sp.Expr) -> bool:
+    """x ≡ 0, for the checks of a derivation (closed loops, Lyapunov derivatives, residuals): the randomized exact
+    test where x has no floats (a proof when it finds a non-zero value; Schwartz-Zippel otherwise), else the
+    canonical trigonometric form, else sympy's simplify (hyperbolic functions rewritten as exponentials)."""
+    x = sp.sympify(x)
+    if x == 0:
+        return True
+    if not x.atoms(sp.Float):
+        z = exact_zero(x)
+        if z is not None:
+            return z
+    x = sp.expand(x)
+    if x == 0:
+        return True
+    if x.has(sp.tanh, sp.sinh, sp.cosh, sp.log):   # outside the trigonometric canonical form
+        return sp.simplify(x.rewrite(sp.exp)) == 0
+    z = is_zero(x)
+    if z is None:
+        z = sp.simplify(x) == 0
+    return bool(z)
+
+
 class NotRational(Exception):
     """The expression cannot be evaluated exactly in rational arithmetic."""
 
