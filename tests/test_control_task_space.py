@@ -342,3 +342,22 @@ def test_exact_zero_with_angles_outside_sin_cos():
     assert exact_zero(a * (x - 1) * sp.sin(2 * x) - 2 * a * (x - 1) * sp.sin(x) * sp.cos(x)) is True
     assert exact_zero(x * sp.cos(x) - x) is False
     assert exact_zero(x * sp.tan(x) * sp.cos(x) / (x + 1) - x * sp.sin(x) / (x + 1)) is True
+
+
+def test_exact_check_of_a_task_law_proves_right_and_wrong_laws():
+    """_check_exact: J B⁻¹ rhs + J̇ q̇ = a in rational arithmetic (sin, cos rational at the points)."""
+    from solver.control.cartesian import _check, _check_exact
+    q1, q2, dq1, dq2 = sp.symbols("q1 q2 dq1 dq2", real=True)
+    m, l, u1, u2 = sp.symbols("m l u1 u2", positive=True)
+    B = sp.Matrix([[m * l**2 * (3 + 2 * sp.cos(q2)), m * l**2 * (1 + sp.cos(q2))],
+                   [m * l**2 * (1 + sp.cos(q2)), m * l**2]])
+    rhs = sp.Matrix([u1 - m * sp.sin(q2) * dq2, u2 + m * sp.sin(q2) * dq1**2])
+    J = sp.Matrix([[-l * sp.sin(q1) - l * sp.sin(q1 + q2), -l * sp.sin(q1 + q2)],
+                   [l * sp.cos(q1) + l * sp.cos(q1 + q2), l * sp.cos(q1 + q2)]])
+    Jdq = sp.Matrix([-l * sp.cos(q1) * dq1**2, -l * sp.sin(q1 + q2) * dq2**2])
+    a = (J * B.inv() * rhs + Jdq).applyfunc(sp.cancel)
+    assert _check_exact(B, rhs, J, Jdq, a) is True
+    assert _check_exact(B, rhs, J, Jdq, a + sp.Matrix([0, l * sp.cos(q2) ** 2 / 10 ** 9])) is False
+    assert _check_exact(B, rhs, J, Jdq, a + sp.Matrix([0, sp.sin(q1) ** 2 + sp.cos(q1) ** 2 - 1])) is True
+    assert _check_exact(B, rhs, J, Jdq, a * sp.Float(1.0)) is None      # floats: the 40-digit check
+    assert _check(B, rhs, J, Jdq, a) and not _check(B, rhs, J, Jdq, a + sp.Matrix([0, 1]))

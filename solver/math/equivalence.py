@@ -19,11 +19,12 @@ conditions (lists of expressions, each meaning ``expr > 0``) as sets after remov
 """
 from __future__ import annotations
 
+import itertools
 import random
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import lru_cache
-from typing import Any
+from typing import Any, Iterator
 
 import sympy as sp
 
@@ -212,19 +213,26 @@ def _bare_symbols(expr: sp.Expr) -> set[sp.Symbol]:
     return out
 
 
-def exact_zero(expr: sp.Expr, trials: int = 3, seed: int | None = None) -> bool | None:
-    """Randomized exact zero test (see module doc): True (zero at every point), False (a point where it is
-    provably non-zero), None (not evaluable in rational arithmetic)."""
-    angles = _by_name(set(angle_symbols(expr)))
-    params = _by_name(expr.free_symbols - set(angles))
-    bare = _by_name(_bare_symbols(expr) & set(angles))   # angles also outside sin/cos: independent values
+def random_points(exprs: list[sp.Expr], seed: int | None = None) -> Iterator[RationalPoint]:
+    """Random points (an endless supply) where every expression of ``exprs`` can be evaluated exactly: each
+    parameter a random rational (positive where it is declared so), each angle a random rational tangent of its
+    half, an angle also outside sin/cos an independent rational there (see the module doc)."""
+    angles = _by_name(set().union(*(angle_symbols(e) for e in exprs)))
+    params = _by_name(set().union(*(e.free_symbols for e in exprs)) - set(angles))
+    bare = _by_name(set().union(*(_bare_symbols(e) for e in exprs)) & set(angles))
     rng = random.Random(SEED if seed is None else seed)
-    done = 0
-    for _ in range(trials * 3):
+    while True:
         values = {s: _random_rational(rng, bool(s.is_positive or s.is_nonnegative)) for s in params}
         trig = {x: _random_rational(rng, False) for x in angles}
         values.update({x: _random_rational(rng, False) for x in bare})
-        point = RationalPoint(values, trig)
+        yield RationalPoint(values, trig)
+
+
+def exact_zero(expr: sp.Expr, trials: int = 3, seed: int | None = None) -> bool | None:
+    """Randomized exact zero test (see module doc): True (zero at every point), False (a point where it is
+    provably non-zero), None (not evaluable in rational arithmetic)."""
+    done = 0
+    for point in itertools.islice(random_points([expr], seed), trials * 3):
         try:
             v = point.value(expr)
         except ZeroDivisionError:
