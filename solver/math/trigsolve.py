@@ -852,11 +852,10 @@ def _half_tangent_numerator(P: sp.Expr, angles: list[sp.Symbol], ts: list[sp.Sym
         num += term
     if len(num) < 2:
         return None  # (zero, or a monomial: as above)
-    den = 1
+    lead = 1  # (the coefficients' common denominator: N·lead over ZZ, as sympy's numerator of together)
     for c in num.values():
-        den = sp.ilcm(den, int(c.denominator))
-    lead = den
-    terms = {mono: int(c * den) for mono, c in num.items()}
+        lead = sp.ilcm(lead, int(c.denominator))
+    terms = {mono: int(c * lead) for mono, c in num.items()}
     # as sp.factor_list(N) does it: together() pulls the monomial content Π g^{e_g} out first (each g a factor of
     # its own), and the rest is factored over the generators it has
     low = [min(mo[j] for mo in terms) for j in range(len(gens))]
@@ -889,29 +888,32 @@ def _from_half_tangent(F: sp.Expr, ts: list[sp.Symbol], angles: list[sp.Symbol],
     """F(t) / Π (1 + t_i²)^{k_i} as a trigonometric polynomial: t^{2a+b} / (1 + t²)^k = ((1 - cos x)/2)^a
     (sin x / 2)^b ((1 + cos x)/2)^{k-a-b}, summed in a sparse ring of (cos x_i, sin x_i, parameters)."""
     params = sorted(F.free_symbols - set(ts), key=str)
-    if all(p.is_Symbol for p in params):
+    try:
         P = sp.Poly(F, *ts, *params)
-        if P.domain in (sp.ZZ, sp.QQ):
-            n = len(angles)
-            cs = [f(x) for x in angles for f in (sp.cos, sp.sin)]
-            R = sp.polys.rings.PolyRing(cs + params, sp.QQ, sp.polys.orderings.lex)
-            half = sp.QQ(1, 2)
-            blocks: dict[tuple[int, int, int], Any] = {}
-            total = R.zero
-            for mono, coeff in P.terms():
-                term = R(sp.QQ.from_sympy(coeff))
-                for i in range(n):
-                    a, b = divmod(int(mono[i]), 2)
-                    key = (i, a, b)
-                    if key not in blocks:
-                        c, s_ = R.gens[2 * i], R.gens[2 * i + 1]
-                        blocks[key] = (half - half * c) ** a * (half * s_) ** b * (half + half * c) ** int(k[i] - a - b)
-                    term *= blocks[key]
-                for j, e_ in enumerate(mono[n:]):
-                    if e_:
-                        term *= R.gens[2 * n + j] ** e_
-                total += term
-            return tidy(total.as_expr())
+    except sp.PolynomialError:  # (a radical of a parameter, say: the general path below)
+        P = None
+    if P is not None and P.domain in (sp.ZZ, sp.QQ):
+        n = len(angles)
+        cs = [f(x) for x in angles for f in (sp.cos, sp.sin)]
+        R = sp.polys.rings.PolyRing(cs + params, sp.QQ, sp.polys.orderings.lex)
+        half = sp.QQ(1, 2)
+        blocks: dict[tuple[int, int, int], Any] = {}
+        total = R.zero
+        for mono, coeff in P.terms():
+            term = R(sp.QQ.from_sympy(coeff))
+            for i in range(n):
+                a, b = divmod(int(mono[i]), 2)
+                key = (i, a, b)
+                if key not in blocks:
+                    c, s_ = R.gens[2 * i], R.gens[2 * i + 1]
+                    blocks[key] = ((half - half * c) ** a * (half * s_) ** b
+                                   * (half + half * c) ** int(k[i] - a - b))
+                term *= blocks[key]
+            for j, e_ in enumerate(mono[n:]):
+                if e_:
+                    term *= R.gens[2 * n + j] ** e_
+            total += term
+        return tidy(total.as_expr())
     P = sp.Poly(F, *ts)
     total = sp.Integer(0)
     for mono, coeff in P.terms():
