@@ -136,3 +136,18 @@ def test_memoized_printers_print_as_sympy_does() -> None:
         memo = R.Latex({}, {})
         memo(k)  # fills the memo first
         assert memo(e) == plain.printer.doprint(e) or memo(e) == plain(e)
+
+
+def test_list_items_over_several_lines_stay_one_item():
+    """A statement's item wrapped over indented lines is one item in LaTeX and HTML (the exams' statements are
+    written so); a line that is not indented after the list ends it."""
+    from solver.publish.render import md2html, md2tex
+    text = ("Answer:\n\n- a) the Jacobian and\n  its singularities;\n- b) the *algorithmic*\n  singularities"
+            " $\\det J = 0$.\nThen the rest.")
+    tex = md2tex(text)
+    assert tex.count("\\begin{itemize}") == 1 and tex.count("\\item ") == 2
+    assert "\\item a) the Jacobian and its singularities;" in tex
+    assert "\\item b) the \\emph{algorithmic} singularities $\\det J = 0$." in tex
+    assert tex.index("\\end{itemize}") < tex.index("Then the rest.")
+    html = md2html("- a) the Jacobian and\n  its singularities;\n- b) the rest")
+    assert html == "<ul><li>a) the Jacobian and its singularities;</li><li>b) the rest</li></ul>"

@@ -227,10 +227,26 @@ def _one_line_math(text: str) -> str:
     return re.sub(r"\$\$.*?\$\$|\$[^$]*\$", lambda m: " ".join(m.group(0).split("\n")), str(text), flags=re.S)
 
 
+_ITEM = re.compile(r"\s*[-*] ")
+
+
+def _joined_items(lines: list[str]) -> list[str]:
+    """Lines with each list item whole: an indented line under an item ('- b) ... can be executed' then
+    '  separately, ...') continues it, as in Markdown."""
+    out: list[str] = []
+    for line in lines:
+        if out and line[:1].isspace() and line.strip() and not _ITEM.match(line) and _ITEM.match(out[-1]):
+            out[-1] += " " + line.strip()
+        else:
+            out.append(line)
+    return out
+
+
 def md2tex(text: str) -> str:
-    """Markdown with $...$ math to LaTeX: math kept, **bold**/*italic*, '- ' lists, text escaped."""
+    """Markdown with $...$ math to LaTeX: math kept, **bold**/*italic*, '- ' lists (items over several indented
+    lines), text escaped."""
     out_lines, in_list = [], False
-    for line in _one_line_math(text).strip().splitlines():
+    for line in _joined_items(_one_line_math(text).strip().splitlines()):
         item = re.match(r"\s*[-*] (.*)", line)
         if item and not in_list:
             out_lines.append("\\begin{itemize}")
@@ -288,7 +304,7 @@ def md2html(text: str) -> str:
     blocks = re.split(r"\n\s*\n", _one_line_math(text).strip())
     html_out = []
     for block in blocks:
-        lines = block.splitlines()
+        lines = _joined_items(block.splitlines())
         head = re.match(r"(#{1,6}) (.*)", block)
         image = re.fullmatch(r"!\[(.*)\]\(([^)\s]+)\)", block.strip(), re.S)
         if image:  # a figure on its own line (its caption may hold math, so before the math split)
