@@ -406,7 +406,6 @@ class _Regulation:
     def solve(self) -> Solution:
         o, r, dm, n = self.options, self.robot, self.dm, self.n
         self.q, self.dq, self.ddq = list(r.q), list(r.dq), list(r.ddq)
-        q, dq = sp.Matrix(self.q), sp.Matrix(self.dq)
         self._check_options()
         self.revolute = {c for c, j in zip(self.q, r.joints) if j == "R"} if r.joints else set()
         self.ranges = self._ranges()
@@ -581,7 +580,7 @@ class _Regulation:
                       forces=bool(self.options.external), uhat=None)
 
     def _cartesian(self) -> None:
-        n, q, dq = self.n, sp.Matrix(self.q), sp.Matrix(self.dq)
+        n, dq = self.n, sp.Matrix(self.dq)
         f = _vec(self.problem, self.ctx, ("task",), "task")
         m = f.rows
         if self.options.pd is not None:

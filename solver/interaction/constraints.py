@@ -1263,7 +1263,6 @@ def check_reduction(problem, results, name, value, other, options) -> PropertyVe
     dm = derive(robot)
     q, dq, ddq = list(robot.q), list(robot.dq), list(robot.ddq)
     G = dm.G if dm.G is not None else sp.eye(n)
-    nvec = dm.c + dm.g + (dm.Fv * sp.Matrix(dq) if dm.Fv is not None else sp.zeros(n, 1))
     r = n - k
     v = sp.Matrix([sp.Dummy(f"v{i}") for i in range(r)])
     dv = sp.Matrix([sp.Dummy(f"dv{i}") for i in range(r)])

@@ -256,7 +256,6 @@ def decoupled(B, nvec, G, Ja, Jadot, Jt, T, Y, u, a, af, q, dq, trials: int = 3)
     """Substituting u in B q̈ + n = G u − J_tᵀ Y λ with q̈ = J_a⁻¹(T σ − J̇_a q̇) and solving for (σ, λ) gives
     σ = a and λ = a_f: checked at random states and parameters (30 digits)."""
     rng = random.Random(11)
-    n = B.rows
     syms = set().union(*[M.free_symbols for M in (B, nvec, G, Ja, Jadot, Jt, u)]) | set(a) | set(af)
     for _ in range(trials):
         pt = {s: sp.Rational(rng.randint(150, 950), 311) * (1 if (s.is_positive or rng.random() < .5) else -1)
