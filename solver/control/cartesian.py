@@ -15,9 +15,7 @@ it the law is evaluated at the ``at:`` state.
 """
 from __future__ import annotations
 
-import itertools
 import random
-from fractions import Fraction
 from typing import Any
 
 import sympy as sp
@@ -372,50 +370,35 @@ def _vanishes(exprs: list, digits: int = 40, tol: float | None = None, scale: li
     return True
 
 
-def _solve_fractions(A: list[list[Fraction]], b: list[Fraction]) -> list[Fraction]:
-    """x with A x = b, exactly (Gauss-Jordan over Q); ZeroDivisionError when A is singular."""
-    n = len(b)
-    M = [row[:] + [v] for row, v in zip(A, b)]
-    for c in range(n):
-        p = next((r for r in range(c, n) if M[r][c] != 0), None)
-        if p is None:
-            raise ZeroDivisionError("singular")
-        M[c], M[p] = M[p], M[c]
-        for r in range(n):
-            if r != c and M[r][c] != 0:
-                f = M[r][c] / M[c][c]
-                M[r] = [x - f * y for x, y in zip(M[r], M[c])]
-    return [M[i][n] / M[i][i] for i in range(n)]
-
-
 def _check_exact(B: sp.Matrix | None, rhs: sp.Matrix, J: sp.Matrix, Jdq: sp.Matrix, a: sp.Matrix) -> bool | None:
-    """:func:`_check` in exact rational arithmetic at random points where sin/cos are rational
-    (:func:`solver.math.equivalence.random_points`): a non-zero residual proves the law wrong, zero at three
-    points proves it right (Schwartz-Zippel); None when an entry is not a rational function of the values
-    (floats, radicals)."""
-    from solver.math.equivalence import NotRational, random_points
+    """:func:`_check` by the randomized exact test (:func:`solver.math.equivalence.exact_test`: points where sin
+    and cos are rational, B q̈ = rhs solved over Q): a non-zero residual proves the law wrong, zero at three points
+    proves it right (Schwartz-Zippel); None when an entry is not a rational function of the values (floats,
+    radicals)."""
+    from sympy.polys.matrices import DomainMatrix
+    from sympy.polys.matrices.exceptions import DMNonInvertibleMatrixError
+
+    from solver.math.equivalence import exact_test
     mats = [M for M in (B, rhs, J, Jdq, a) if M is not None]
     exprs = [sp.sympify(x) for M in mats for x in M]
     if any(x.atoms(sp.Float) for x in exprs):
         return None
-    done = 0
-    for point in itertools.islice(random_points(exprs, seed=5), 9):
-        try:
-            val = [[[point.value(M[i, j]) for j in range(M.cols)] for i in range(M.rows)] for M in mats]
-            Bv, rest = (val[0], val[1:]) if B is not None else (None, val)
-            rv, Jv, Jdv, av = rest
-            ddq = _solve_fractions(Bv, [r[0] for r in rv]) if Bv is not None else [r[0] for r in rv]
-        except ZeroDivisionError:
-            continue  # a singular B or a pole: another point
-        except NotRational:
-            return None
-        for i in range(len(Jv)):
-            if sum((Jv[i][j] * ddq[j] for j in range(len(ddq))), Fraction(0)) + Jdv[i][0] - av[i][0] != 0:
-                return False
-        done += 1
-        if done == 3:
-            return True
-    return None
+
+    def at(point, M: sp.Matrix) -> DomainMatrix:  # type: ignore[no-untyped-def]
+        """M at the point, over Q."""
+        values = [[point.value(M[i, j]) for j in range(M.cols)] for i in range(M.rows)]
+        return DomainMatrix([[sp.QQ(v.numerator, v.denominator) for v in row] for row in values], M.shape, sp.QQ)
+
+    def residuals(point):  # type: ignore[no-untyped-def]
+        ddq = at(point, rhs)
+        if B is not None:
+            try:
+                ddq = at(point, B).lu_solve(ddq)
+            except DMNonInvertibleMatrixError:
+                raise ZeroDivisionError("B singular here") from None
+        return (at(point, J) * ddq + at(point, Jdq) - at(point, a)).to_Matrix()
+
+    return exact_test(residuals, exprs, trials=3, seed=5)
 
 
 def _check(B: sp.Matrix | None, rhs: sp.Matrix, J: sp.Matrix, Jdq: sp.Matrix, a: sp.Matrix) -> bool:

@@ -24,12 +24,12 @@ import random
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import lru_cache
-from typing import Any, Iterator
+from typing import Any, Callable, Iterable, Iterator
 
 import sympy as sp
 
 from solver.math.fourier import NotTrigPolynomial, factor_list_expr, split_angle
-from solver.math.simplify import angle_symbols, is_zero
+from solver.math.simplify import angle_symbols, is_zero, zero_or_simplified
 
 CORRECT, INCORRECT, UNDECIDED = "correct", "incorrect", "undecided"
 SEED = 2024  # every random point derives from it (symbols taken in name order): a run is reproducible
@@ -107,14 +107,9 @@ def identically_zero(x: sp.Expr) -> bool:
         if z is not None:
             return z
     x = sp.expand(x)
-    if x == 0:
-        return True
     if x.has(sp.tanh, sp.sinh, sp.cosh, sp.log):   # outside the trigonometric canonical form
         return sp.simplify(x.rewrite(sp.exp)) == 0
-    z = is_zero(x)
-    if z is None:
-        z = sp.simplify(x) == 0
-    return bool(z)
+    return zero_or_simplified(x)
 
 
 class NotRational(Exception):
@@ -228,23 +223,32 @@ def random_points(exprs: list[sp.Expr], seed: int | None = None) -> Iterator[Rat
         yield RationalPoint(values, trig)
 
 
-def exact_zero(expr: sp.Expr, trials: int = 3, seed: int | None = None) -> bool | None:
-    """Randomized exact zero test (see module doc): True (zero at every point), False (a point where it is
-    provably non-zero), None (not evaluable in rational arithmetic)."""
+def exact_test(residuals: Callable[[RationalPoint], Iterable[Any]], exprs: list[sp.Expr], trials: int = 3,
+               seed: int | None = None) -> bool | None:
+    """The randomized exact test of any identity: ``residuals(point)`` (exact values at one point of
+    :func:`random_points` of ``exprs``) all zero at ``trials`` points -> True, one non-zero -> False (a proof),
+    None when a value is not rational (NotRational); a point where an evaluation divides by zero (a pole, a
+    singular matrix) is skipped, up to 3·trials draws."""
     done = 0
-    for point in itertools.islice(random_points([expr], seed), trials * 3):
+    for point in itertools.islice(random_points(exprs, seed), trials * 3):
         try:
-            v = point.value(expr)
+            values = list(residuals(point))
         except ZeroDivisionError:
-            continue  # a pole of the expression: try another point
+            continue  # a pole: try another point
         except NotRational:
             return None
-        if v != 0:
+        if any(v != 0 for v in values):
             return False
         done += 1
         if done == trials:
             return True
     return None
+
+
+def exact_zero(expr: sp.Expr, trials: int = 3, seed: int | None = None) -> bool | None:
+    """Randomized exact zero test (see module doc): True (zero at every point), False (a point where it is
+    provably non-zero), None (not evaluable in rational arithmetic)."""
+    return exact_test(lambda point: [point.value(expr)], [expr], trials, seed)
 
 
 def scalar_equiv(a: sp.Expr, b: sp.Expr, rel_tol: float | None = None, abs_tol: float = 0.0) -> Verdict:
