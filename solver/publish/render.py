@@ -247,14 +247,14 @@ def md2tex(text: str) -> str:
     lines), text escaped."""
     out_lines, in_list = [], False
     for line in _joined_items(_one_line_math(text).strip().splitlines()):
-        item = re.match(r"\s*[-*] (.*)", line)
+        item = _ITEM.match(line)
         if item and not in_list:
             out_lines.append("\\begin{itemize}")
             in_list = True
         elif not item and in_list:
             out_lines.append("\\end{itemize}")
             in_list = False
-        body = item.group(1) if item else line
+        body = line[item.end():] if item else line
         parts = re.split(r"(\$\$.*?\$\$|\$[^$]*\$)", body)
         conv = []
         for k, part in enumerate(parts):
@@ -312,8 +312,8 @@ def md2html(text: str) -> str:
         elif head and len(lines) == 1:
             n = len(head.group(1))
             html_out.append(f"<h{n}>{inline(head.group(2))}</h{n}>")
-        elif all(re.match(r"\s*[-*] ", ln) for ln in lines):
-            items = "".join("<li>" + inline(re.sub(r"^\s*[-*] ", "", ln)) + "</li>" for ln in lines)
+        elif all(_ITEM.match(ln) for ln in lines):
+            items = "".join("<li>" + inline(ln[_ITEM.match(ln).end():]) + "</li>" for ln in lines)
             html_out.append(f"<ul>{items}</ul>")
         elif all(ln.strip().startswith("|") for ln in lines) and len(lines) >= 2:
             rows = [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in lines]
