@@ -87,6 +87,44 @@ def test_solve_imports_its_kinds_and_no_plotting_without_figures():
     assert not any(m in modules for m in (*HEAVY, "numpy"))  # numpy only to sample figures
 
 
+def test_solve_does_not_import_sympy_units_for_simplify():
+    """sympy's simplify and solve import sympy.physics.units (0.1 s) to look for physical quantities: solve and
+    render answer that import with a stub (solver.math.nounits). These two problems call sp.simplify and
+    sp.solve."""
+    for name in ("2009-09-10-ex2.yaml", "2005-04-05-ex1.yaml"):
+        code, modules, out = imported("solve", str(PROBLEMS / name), "--format", "tex")
+        assert code == 0 and "\\begin{document}" in out, out[-500:]
+        assert not any(m == "sympy.physics" or m.startswith("sympy.physics.") for m in modules), name
+
+
+NOUNITS = """
+import sys
+import sympy as sp
+from solver.math.nounits import without_units
+x = sp.Symbol("x")
+with without_units():
+    assert sp.simplify(sp.sin(x)**2 + sp.cos(x)**2) == 1
+    assert sp.solve(x**2 - 4, x) == [-2, 2]
+    assert "sympy.physics" not in sys.modules
+assert "sympy.physics.units" not in sys.modules
+with without_units():
+    from sympy.physics import units as inside  # sympy.physics imported inside the block: unloaded on leaving
+    assert "stand-in" in inside.__doc__
+assert not any(m.startswith("sympy.physics") for m in sys.modules) and not hasattr(sp, "physics")
+from sympy.physics.units import Quantity, meter
+assert isinstance(meter, Quantity) and sp.simplify(2 * meter - meter) == meter
+with without_units():  # the real package is loaded: left alone
+    assert sys.modules["sympy.physics.units"].Quantity is Quantity
+    assert sp.simplify(2 * meter - meter) == meter
+print("ok")
+"""
+
+
+def test_without_units_is_undone_on_leaving_the_block():
+    r = subprocess.run([sys.executable, "-c", NOUNITS], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "ok", r.stdout + r.stderr
+
+
 def test_the_figure_helper_is_forked_before_sympy_is_imported():
     """`solve -o` forks the figure helper first thing in the worker, so that it warms matplotlib up while the
     worker imports sympy: importing the Painter (solver.publish.figures, solver.results) must not import sympy."""

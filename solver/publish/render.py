@@ -12,6 +12,7 @@ import sympy as sp
 from sympy.printing.latex import LatexPrinter
 from sympy.printing.str import StrPrinter
 
+from solver.math.nounits import without_units
 from solver.results import Result, Solution
 from solver.spec.texmath import safe_math
 from solver.spec.problem import Problem
@@ -539,19 +540,21 @@ def render(problem: Problem, solutions: list[Solution], fmt: str, fragment: bool
            template_dir: Path | None = None, assets: dict[str, str] | None = None, details: bool = False) -> str:
     """The report of ``problem`` in ``fmt`` (md | tex | json); ``details``: JSON with the intermediate results
     (per-body quantities) and the steps' expressions."""
-    if fmt == "json":
-        return json.dumps(to_json(problem, solutions, details), indent=2, ensure_ascii=False) + "\n"
-    env = _env(fmt, template_dir, problem.latex_names, ranks(problem))
-    page = env.get_template(f"page.{fmt}.j2")
-    return page.render(problem=problem, solutions=solutions, fragment=fragment, assets=assets or {},
-                       symbols=[(problem.symbols[k], v) for k, v in problem.meanings.items()])
+    with without_units():  # results computed on demand by the templates may simplify
+        if fmt == "json":
+            return json.dumps(to_json(problem, solutions, details), indent=2, ensure_ascii=False) + "\n"
+        env = _env(fmt, template_dir, problem.latex_names, ranks(problem))
+        page = env.get_template(f"page.{fmt}.j2")
+        return page.render(problem=problem, solutions=solutions, fragment=fragment, assets=assets or {},
+                           symbols=[(problem.symbols[k], v) for k, v in problem.meanings.items()])
 
 
 def render_template(problem: Problem, name: str, fmt: str, template_dir: Path | None = None, **ctx: Any) -> str:
     """Render template ``name`` (of format ``fmt``) with ``problem``'s symbol printing, e.g. the solutions
     part of a handout."""
     env = _env(fmt, template_dir, problem.latex_names, ranks(problem))
-    return env.get_template(name).render(problem=problem, **ctx)
+    with without_units():
+        return env.get_template(name).render(problem=problem, **ctx)
 
 
 def latex_printer(problem: Problem) -> Latex:
