@@ -7,6 +7,7 @@ from __future__ import annotations
 import random
 import shutil
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -167,6 +168,14 @@ def test_stability_proof_and_counterexample():
     x, y, z = sp.symbols("x y z", positive=True)
     assert lti.amgm_certificate(x**2 + y**2 - x * y)
     assert not lti.amgm_certificate(x**2 + y**2 - 2 * x * y)  # >= 0 only
+    assert lti.amgm_certificate(x**2 + y**2 + z**2 - x * y - y * z)
+    # -x z is covered by no pair (x², z² are not terms): not proved, and decided without the linear program
+    assert not lti.amgm_certificate(x**2 + y**2 + x * z**2 - x * z)
+    r = subprocess.run([sys.executable, "-c", "import sys, sympy as sp; from solver.interaction import linear; "
+                        "x, y, z = sp.symbols('x y z', positive=True); "
+                        "print(linear.amgm_certificate(x**2 + y**2 + x*z**2 - x*z), 'scipy.optimize' in sys.modules)"],
+                       capture_output=True, text=True, cwd=PROBLEMS.parent, timeout=120)
+    assert r.stdout.split() == ["False", "False"], r.stdout + r.stderr
     verdict, _ = lti.stable_for_all([x * y + 1, x**2 + y**2 - x * y + z])
     assert verdict is True
     verdict, w = lti.stable_for_all([x - 2 * y])

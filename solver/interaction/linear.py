@@ -273,10 +273,9 @@ def always_positive(c: sp.Expr) -> bool | None:
 def amgm_certificate(p: sp.Expr, max_terms: int = 400) -> bool:
     """Whether the polynomial p (in positive symbols) is > 0 by an AM-GM certificate: every negative term −c·m is
     covered by pairs of positive terms a·x, b·y with x·y = m² (a x + b y ≥ 2√(ab)·m), found by a linear program
-    (scipy) and re-checked in exact rational arithmetic. A sufficient test: False means "not proved"."""
+    (scipy; not run when some negative term has no pair) and re-checked in exact rational arithmetic. A
+    sufficient test: False means "not proved"."""
     from fractions import Fraction
-
-    from scipy.optimize import linprog
 
     gens = sorted(p.free_symbols, key=lambda x: x.name)
     P = sp.Poly(p, *gens)
@@ -295,7 +294,7 @@ def amgm_certificate(p: sp.Expr, max_terms: int = 400) -> bool:
             y = tuple(2 * a - b for a, b in zip(m, x))
             if min(y) >= 0 and y in pos and x <= y:
                 pairs.append((m, x, y))
-    if not pairs:
+    if len({m for m, _, _ in pairs}) < len(neg):  # a negative term no pair covers: the program is infeasible
         return False
     pl, nl = list(pos), list(neg)
     # variables t_k >= 0: pair k uses t_k of x and of y (t_k of x when x == y) and covers 2 t_k (t_k) of m
@@ -307,6 +306,7 @@ def amgm_certificate(p: sp.Expr, max_terms: int = 400) -> bool:
         A_ub.append([-(1.0 if px == py else 2.0) if pm == m else 0.0 for (pm, px, py) in pairs])
         b_ub.append(-float(neg[m]))
     cost = [(1.0 if px == py else 2.0) for (_, px, py) in pairs]  # use as little as possible: keep slack
+    from scipy.optimize import linprog  # (here: its import costs a quarter of a second)
     res = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=[(0, None)] * len(pairs), method="highs")
     if res.status != 0:
         return False
