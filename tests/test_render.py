@@ -151,3 +151,16 @@ def test_list_items_over_several_lines_stay_one_item():
     assert tex.index("\\end{itemize}") < tex.index("Then the rest.")
     html = md2html("- a) the Jacobian and\n  its singularities;\n- b) the rest")
     assert html == "<ul><li>a) the Jacobian and its singularities;</li><li>b) the rest</li></ul>"
+
+
+def test_an_entry_zero_at_the_reference_is_not_drawn_flat():
+    """b12 = f(q3) sin q2 vanishes for every q3 with q2 = 0: the q3 panel leaves it out (a flat line on the axis
+    read as a result) and the caption says so; it is still drawn against q2."""
+    p = load_problem(PROBLEMS / "2017-05-29-final-ex3b.yaml")
+    sols = solve_problem(p)
+    fig = next(f for f in sols[0].figures if f.name == "inertia")
+    by_axis = {panel.xlabel: [c.label for c in panel.curves] for panel in fig.panels}
+    assert by_axis == {"$q_{2}$": ["$b_{12}$", "$b_{13}$"], "$q_{3}$": ["$b_{22}$"]}
+    assert "Not drawn (zero at these values of the other coordinates): $b_{12}$ against $q_{3}$." in fig.caption
+    for panel in fig.panels:
+        assert all(max(abs(y) for y in c.y) > 0.1 for c in panel.curves)

@@ -98,13 +98,25 @@ def coordinate_figure(name: str, caption: str, entries: list[tuple[str, sp.Expr]
                       ranges: dict[sp.Symbol, tuple[float, float]], latex: dict[sp.Symbol, str],
                       points: int = 181) -> Figure | None:
     """One panel per coordinate q_j on which some entry depends: each entry plotted against q_j, the other
-    coordinates at ``reference`` (default 0). None when no entry depends on a coordinate."""
+    coordinates at ``reference`` (default 0). An entry that vanishes identically there (b₁₂ = f(q₃) sin q₂ against
+    q₃ with q₂ = 0) is not drawn as a flat line: the caption names it. None when nothing is left to draw."""
     q = robot.q
     state = set(q) | set(robot.dq) | set(robot.ddq)
     fixed, unit = numeric_values([e for _, e in entries], values, state)
     fixed.update({s: reference.get(s, 0.0) for s in state})
-    columns = [(j, qj, [(label, e) for label, e in entries if qj in e.free_symbols]) for j, qj in enumerate(q)]
-    columns = [c for c in columns if c[2]]
+    exact = {s: sp.Integer(0) if v == 0 else sp.Float(v) for s, v in fixed.items() if s in state}
+    columns, flat = [], {}  # flat: {label: coordinates against which it vanishes}
+    for j, qj in enumerate(q):
+        deps = []
+        for label, e in entries:
+            if qj not in e.free_symbols:
+                continue
+            if e.xreplace({s: v for s, v in exact.items() if s != qj}) == 0:
+                flat.setdefault(label, []).append(f"${latex.get(qj, sp.latex(qj))}$")
+            else:
+                deps.append((label, e))
+        if deps:
+            columns.append((j, qj, deps))
     if not columns:
         return None
 
@@ -122,4 +134,7 @@ def coordinate_figure(name: str, caption: str, entries: list[tuple[str, sp.Expr]
     note = " Other coordinates at 0" if not others else " Other coordinates at the reference state"
     note += "." if not unit else (", parameters without a numeric value set to 1 ("
                                  + ", ".join(f"${latex.get(s, sp.latex(s))}$" for s in unit) + ").")
+    if flat:
+        note += " Not drawn (zero at these values of the other coordinates): " + ", ".join(
+            f"{label} against {' and '.join(axes)}" for label, axes in flat.items()) + "."
     return Figure(name, caption + note, sample)
