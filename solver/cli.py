@@ -90,9 +90,11 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
         # solved
         painter = Painter(format.value) if output and format is not Fmt.json else None
         try:
-            from solver.publish.render import render
-            from solver.solve import solve_problem
-            from solver.spec import load_problem
+            from solver.registry import frozen_imports
+            with frozen_imports():
+                from solver.publish.render import render
+                from solver.solve import solve_problem
+                from solver.spec import load_problem
             problem = load_problem(spec)
             solutions = solve_problem(problem)
             figures = painter.write(solutions, output, format.value) if painter and output else []

@@ -125,6 +125,21 @@ def test_without_units_is_undone_on_leaving_the_block():
     assert r.returncode == 0 and r.stdout.strip() == "ok", r.stdout + r.stderr
 
 
+def test_heavy_imports_run_without_the_collector_and_are_frozen():
+    """frozen_imports: no cyclic collection while importing, the imported objects frozen after (a full collection
+    then skips them), the collector enabled again; `solve` imports sympy inside it."""
+    code = ("import gc, sys; from solver.registry import frozen_imports\n"
+            "with frozen_imports():\n"
+            "    inside = gc.isenabled()\n"
+            "    import sympy\n"
+            "print(inside, gc.isenabled(), gc.get_freeze_count() > 100000)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.stdout.split() == ["False", "True", "True"], r.stdout + r.stderr
+    src = (ROOT / "solver" / "cli.py").read_text()
+    body = src[src.index("def work() -> tuple[str, int]:"):]
+    assert body.index("with frozen_imports():") < body.index("from solver.publish.render import render")
+
+
 def test_the_figure_helper_is_forked_before_sympy_is_imported():
     """`solve -o` forks the figure helper first thing in the worker, so that it warms matplotlib up while the
     worker imports sympy: importing the Painter (solver.publish.figures, solver.results) must not import sympy."""
