@@ -14,7 +14,8 @@ mass matrix, `trigsimp(expand(.))` of the forcing / torque):
   - `rne`: roboticstoolbox-python's symbolic recursive Newton-Euler `DHRobot.rne` (run with the Python of
     --rtb-python, default .venv-bench/bin/python beside this repository, when it has roboticstoolbox).
 Times are CPU seconds (the machine is shared; wall times vary with its load); every run is a separate
-process capped at --cap wall seconds. All models are evaluated at --points random states
+process capped at --cap wall seconds, whose imports are frozen (gc.freeze, as `robosolve solve` does) before
+its clock starts. All models are evaluated at --points random states
 and parameter values; `agree` is the largest relative difference of the torques from robosolve's.
 
     python benchmarks/dynamics.py [--robots 2R,3R,4R,S3R,PUMA] [--cap 60] [--peers lagrange,kane,rne] [--points 3]
@@ -23,6 +24,7 @@ and parameter values; `agree` is the largest relative difference of the torques 
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import random
@@ -134,6 +136,7 @@ def work_robosolve(name: str, points: list[dict]) -> dict:
     from solver.spec import load_problem_text
     load_all()  # the library's modules imported (the CLI column counts the imports)
     import sympy.tensor.tensor  # noqa: F401  sympy imports it at the first matrix sum; the peers' imports have it
+    gc.freeze()  # what the imports made, out of the collector's sight (as `robosolve solve` does; every worker)
     t0 = clock()
     problem = load_problem_text(spec_text(name, describe(name)))
     t1 = clock()
@@ -178,6 +181,7 @@ def work_mechanics(name: str, points: list[dict], method: str, simplify: bool) -
                                          inertia)
     desc = describe(name)
     n = len(desc["rows"])
+    gc.freeze()
     t0 = clock()
     q = dynamicsymbols(f"q1:{n + 1}")
     N, O, frames, centres = _frames(desc, q)
@@ -220,6 +224,7 @@ def work_rne(name: str, points: list[dict], simplify: bool) -> dict:
     import sympy as sp
     desc = describe(name)
     n = len(desc["rows"])
+    gc.freeze()
     t0 = clock()
     links = []
     for (a, al, d, th), (m, c, I) in zip(desc["rows"], desc["links"]):
