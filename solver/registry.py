@@ -139,7 +139,7 @@ def get_kind(name: str) -> AskKind:
 @contextmanager
 def frozen_imports() -> Iterator[None]:
     """Heavy imports (sympy, the chapters) without the cyclic garbage collector, their objects then frozen
-    (``gc.freeze``): importing creates about a million long-lived objects and no garbage, and every later full
+    (``gc.freeze``): importing creates 1.2–1.6·10⁵ long-lived container objects and no garbage, and every later full
     collection would traverse them all (40–60 ms each, one to three per solve) and, in a forked worker, touch
     and copy their memory pages. For the commands' processes, not for a program that imports the library."""
     enabled = gc.isenabled()
