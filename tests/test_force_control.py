@@ -501,3 +501,46 @@ def test_conditions_of_long_sums_by_their_terms_signs() -> None:
     assert normalize_condition(mixed) == mixed
     r = sp.Symbol("r", real=True)  # a symbol of any sign: not decided
     assert normalize_condition(pos + r) == pos + r
+
+
+@pytest.mark.parametrize("seed, damping", [(5, 1.0), (6, 1.0), (7, -0.05)])
+def test_the_exact_response_matches_numerical_integration(seed, damping):
+    """lti.simulate (the matrix exponential of the state matrix on the time grid) against scipy's solve_ivp on
+    random loops M ẍ + D ẋ + K x + r = 0 with an integral state ẇ = c − x₁ (A2 singular there); stable, and
+    with negative damping."""
+    rng = np.random.default_rng(seed)
+    L = rng.uniform(-1, 1, (2, 2))
+    M = L @ L.T + np.eye(2)
+    D = damping * (np.diag(rng.uniform(1, 3, 2)) + 0.2 * rng.uniform(-1, 1, (2, 2)))
+    K = rng.uniform(-1, 2, (2, 3)) + np.array([[4, 0, 0], [0, 4, 0]])
+    r, c = rng.uniform(-1, 1, 2), 0.7
+    x = list(sp.symbols("x1 x2 w"))
+    A2 = sp.Matrix(3, 3, lambda i, j: M[i, j] if i < 2 and j < 2 else 0)
+    A1 = sp.Matrix(3, 3, lambda i, j: D[i, j] if i < 2 and j < 2 else (1 if (i, j) == (2, 2) else 0))
+    A0 = sp.Matrix(3, 3, lambda i, j: K[i, j] if i < 2 else (1 if j == 0 else 0))
+    r0 = sp.Matrix([r[0], r[1], -c])
+    loop = lti.LinearLoop(x, [], [], A2, A1, A0, r0)
+    x0, v0 = [0.3, -0.2, 0.1], [0.5, 0.0, 0.0]
+    t, X, V = lti.simulate(loop, {}, x0, v0, 6.0, points=121)
+
+    def rhs(_t, y):  # (x1, x2, w, ẋ1, ẋ2)
+        q, w, v = y[:2], y[2], y[3:]
+        acc = np.linalg.solve(M, -D @ v - K @ np.array([q[0], q[1], w]) - r)
+        return np.concatenate([v, [c - q[0]], acc])
+    ref = solve_ivp(rhs, (0.0, 6.0), np.array(x0 + v0[:2]), t_eval=t, rtol=1e-11, atol=1e-13, method="DOP853")
+    scale = max(1.0, float(np.max(np.abs(ref.y))))
+    assert np.max(np.abs(X - ref.y[:3])) < 1e-8 * scale
+    assert np.max(np.abs(V[:2] - ref.y[3:])) < 1e-8 * scale
+    assert np.max(np.abs(V[2] - (c - ref.y[0]))) < 1e-8 * scale
+
+
+def test_the_response_figure_needs_no_numerical_integrator():
+    """Sampling the force-control response figures imports no scipy.integrate (0.2 s of import)."""
+    code = ("import sys; from solver.spec import load_problem; from solver.solve import solve_problem\n"
+            "sols = solve_problem(load_problem(sys.argv[1]))\n"
+            "figs = [f for s in sols for f in s.figures]\n"
+            "print(len(figs), sum(len(f.panels) for f in figs) > 0, 'scipy.integrate' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code, str(PROBLEMS / "2018-01-11-ex3.yaml")], capture_output=True,
+                       text=True, cwd=PROBLEMS.parent, timeout=300)
+    n, drawn, imported = r.stdout.split()
+    assert int(n) >= 1 and drawn == "True" and imported == "False", r.stdout + r.stderr

@@ -1155,7 +1155,7 @@ def _numbers(c: Ctx, exprs: list) -> tuple[dict[sp.Symbol, float], list[sp.Symbo
 
 
 def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
-    """The contact force and the coordinates under the closed loop (linear model, scipy solve_ivp), with the
+    """The contact force and the coordinates under the closed loop (linear model, its exact response), with the
     predicted steady state."""
     loop = an.loop
     ct = S.contact
