@@ -459,14 +459,12 @@ def simulate(loop: LinearLoop, subs: dict[sp.Symbol, float], x0: Sequence[float]
     k = rhs(np.zeros(m))  # ẏ = K y + k: k at y = 0, the columns of K from the unit vectors
     Kt = np.zeros((m + 1, m + 1))
     Kt[:m, m] = k
-    for j in range(m):
-        Kt[:m, j] = rhs(np.eye(m)[j]) - k
+    for j, unit in enumerate(np.eye(m)):
+        Kt[:m, j] = rhs(unit) - k
     t = np.linspace(0.0, t_end, points)
     step = expm(Kt * (t[1] - t[0])) if points > 1 else np.eye(m + 1)
     Y = np.empty((m + 1, points))
     Y[:, 0] = np.append(y0, 1.0)
     for j in range(1, points):
         Y[:, j] = step @ Y[:, j - 1]
-    X = Y[:n]
-    V = np.array([rhs(Y[:m, j])[:n] for j in range(points)]).T
-    return t, X, V
+    return t, Y[:n], (Kt @ Y)[:n]  # ẋ: the first rows of ẏ = K y + k
