@@ -554,3 +554,36 @@ def test_zero_of_a_product_with_a_radical_factor():
     assert _zero(sp.Mul(sp.sin(q) ** 2 + sp.cos(q) ** 2 - 1, r, evaluate=False))
     assert not _zero(x * sp.cos(q) * r)
     assert not _zero(sp.sqrt(x ** 2 + 1) * (sp.sin(q) ** 2 + sp.cos(q) ** 2))
+
+
+@pytest.mark.parametrize("n, d", [
+    ("a1*sin(q2)**3*cos(q1) + a2*sin(q2)*cos(q1 + q2)", "sin(q2)**2*sin(q1 + q2)"),
+    ("v**2*(sin(q1)*cos(q2) + 2*sin(q1 + q2)) - tau*cos(q1)", "(128*sin(q2)**7*sin(q1 + q2))"),
+    ("(a1 + a2*cos(q2))*cos(q1)", "-3*a2*cos(q1)*sin(q2)**2"),
+    ("l1*sin(q2)**2 + l2*sin(q2)*cos(q2)", "2*l1*sin(q2)"),
+    ("dq1**2*a2*sin(q2)", "a1*cos(q2)**2"),
+])
+def test_ratio_over_a_product_of_sines_keeps_it(n, d, monkeypatch):
+    """A denominator c Π bᵉ (b a symbol, sin or cos) is already factored: ratio keeps it and cancels its factors
+    without the Fourier form, factor_list or trigsimp, and gives what the general path gives (or a shorter form
+    of it)."""
+    import solver.interaction.constraints as C
+    loc = {x: sp.Symbol(x, real=True) for x in ("q1", "q2", "a1", "a2", "l1", "l2", "v", "tau", "dq1")}
+    ne, de = sp.sympify(n, locals=loc), sp.sympify(d, locals=loc)
+    calls, trigsimp = [], sp.trigsimp
+    monkeypatch.setattr(C, "factor_list_expr", lambda e: calls.append(e) or sp.factor_list(e))
+    monkeypatch.setattr(C.sp, "trigsimp", lambda e, **kw: calls.append(e) or trigsimp(e, **kw))
+    fast = C.ratio(ne, de)
+    assert calls == []
+    monkeypatch.setattr(C, "_monomial", lambda e: None)
+    C._short_denominator.cache_clear()
+    general = C.ratio(ne, de)
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        at = {x: sp.Float(rng.uniform(0.2, 1.3)) for x in (ne / de).free_symbols}
+        exact = float((ne / de).xreplace(at))
+        assert abs(float(fast.xreplace(at)) - exact) < 1e-9 * max(1, abs(exact))
+        assert abs(float(general.xreplace(at)) - exact) < 1e-9 * max(1, abs(exact))
+    assert sp.count_ops(fast) <= sp.count_ops(general)
+    assert sp.Mul.make_args(sp.fraction(fast)[1]) and all(
+        not f.is_Add for f in sp.Mul.make_args(sp.fraction(fast)[1]))

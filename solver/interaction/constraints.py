@@ -187,13 +187,14 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     n = tidy_expanded(n1 * d2)
     if n == 0:
         return sp.Integer(0)
-    d = tidy_expanded(n2 * d1)
+    mono = _monomial(n2 * d1)  # c Π bᵉ (sin q2⁷ sin(q1 + q2)): factored already, and shorter than its Fourier form
+    d = n2 * d1 if mono is not None else tidy_expanded(n2 * d1)
     if d == 1:
         return n
     if d.is_number:
         return tidy(n / d)
     if count_ops(d) <= MAX_CANCEL_OPS and count_ops(n) <= MAX_CANCEL_OPS * 10:
-        coeff, factors = factor_list_expr(d)  # sympy's factor_list, faster
+        coeff, factors = mono if mono is not None else factor_list_expr(d)  # (sympy's factor_list, faster)
         rest = sp.sympify(coeff)
         divided = False
         for f, e in factors:
@@ -205,13 +206,28 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
         if divided:  # (n is tidy already otherwise)
             n = tidy_expanded(n)
         d = rest
-        if d.has(sp.sin, sp.cos) and count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
+        if mono is None and d.has(sp.sin, sp.cos) and count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
             d = _short_denominator(d)
         if d.is_number:
             return tidy(n / d)
     if d.could_extract_minus_sign():
         n, d = -n, -d
     return _common(n) / _common(d)
+
+
+def _monomial(d: sp.Expr) -> tuple[sp.Rational, list[tuple[sp.Expr, int]]] | None:
+    """d = c Π bᵉ with c rational, each b a symbol or a sine/cosine and e a positive integer: (c, [(b, e)]);
+    None for anything else (a sum, a sum as a factor, another function, a radical)."""
+    c, factors = sp.Integer(1), []
+    for f in sp.Mul.make_args(d):
+        if f.is_Rational:
+            c *= f
+            continue
+        b, e = f.as_base_exp()
+        if not (e.is_Integer and e > 0 and (b.is_Symbol or isinstance(b, (sp.sin, sp.cos)))):
+            return None
+        factors.append((b, int(e)))
+    return c, factors
 
 
 def _paired_sines(d: sp.Expr) -> sp.Expr | None:
