@@ -114,10 +114,10 @@ def factorization(C: list[sp.Matrix], dq: list[sp.Symbol]) -> sp.Matrix:
 
 
 def is_skew_bdot_2s(B: sp.Matrix, S: sp.Matrix, robot: Robot) -> bool:
-    """N = Ḃ - 2S, checked N + Nᵀ ≡ 0 exactly."""
+    """N = Ḃ - 2S, checked N + Nᵀ ≡ 0 exactly (N + Nᵀ is symmetric: its upper triangle)."""
     Bdot = sum((B.diff(qk) * dqk for qk, dqk in zip(robot.q, robot.dq)), sp.zeros(*B.shape))
     N = Bdot - 2 * S
-    return all(is_zero(x) for x in (N + N.T))
+    return all(is_zero(N[i, j] + N[j, i]) for i in range(N.rows) for j in range(i, N.cols))
 
 
 def gravity_vector(U: sp.Expr, q: list[sp.Symbol]) -> sp.Matrix:
