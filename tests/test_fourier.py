@@ -230,3 +230,32 @@ def test_irreducible_on_known_polynomials() -> None:
     assert irreducible(x**2 * y**2 + z**2 * x + y**3 + 1)
     assert not irreducible((x**2 + y**2 + z) * (x**2 * z + y**2 + 1))      # a product
     assert not irreducible((y**2 + z**2 + 1) * x**2 + (y**2 + z**2 + 1))  # content y² + z² + 1 in x (and in z)
+
+
+@settings(max_examples=80, deadline=None)
+@given(exprs)
+def test_product_cost_bound_is_a_lower_bound(e: sp.Expr) -> None:
+    """fourier_expr skips printing the product form when this bound is already no shorter than the Fourier form:
+    the bound must never exceed the product form's count (otherwise a shorter form could be missed)."""
+    from solver.math.fourier import product_cost_bound, product_groups
+    from solver.math.opcount import count_ops
+    coeffs = fourier_coefficients(e, ANGLES)
+    if not coeffs:
+        return
+    groups = product_groups(coeffs, ANGLES)
+    assert product_cost_bound(groups) <= count_ops(product_form(coeffs, ANGLES, groups))
+
+
+def test_product_form_not_printed_when_it_cannot_be_shorter(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """A long trigonometric polynomial whose product form is longer: fourier_expr returns the Fourier form without
+    building the product form (whose coefficients are factored one by one); a short one still gets it."""
+    import solver.math.simplify as S
+    calls = []
+    monkeypatch.setattr(S, "product_form", lambda *x: calls.append(x) or product_form(*x))
+    long = sum((a + k * b) * sp.cos(k * q1 - q2) for k in range(1, 6))
+    coeffs = fourier_coefficients(long, [q1, q2])
+    out = S.fourier_expr(coeffs, [q1, q2])
+    assert calls == [] and out.has(sp.cos(5 * q1 - q2)) and same_function(out, long)
+    assert S.count_ops(product_form(coeffs, [q1, q2])) >= S.count_ops(out)
+    short = (a - b) * sp.sin(2 * q2) / 2
+    assert S.fourier_expr(fourier_coefficients(short, [q2]), [q2]).has(sp.sin(q2) * sp.cos(q2)) and len(calls) == 1

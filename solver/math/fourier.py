@@ -406,9 +406,10 @@ def _cos_sin(k: tuple[int, ...]) -> tuple[PolyElement, PolyElement]:
     return ca * cb - sa * sb, sa * cb + ca * sb
 
 
-def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]], angles: list[sp.Symbol]) -> sp.Expr:
-    """The same function written over monomials in cos/sin of single angles (c₂ s₂, c₁ c₂ s₃, ...), each
-    coefficient through :func:`nice_poly`; multiple angles by Chebyshev: cos(n x) = T_n(c), sin(n x) = s U_{n-1}(c)."""
+def product_groups(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]],
+                   angles: list[sp.Symbol]) -> dict[tuple[int, ...], PolyElement]:
+    """The same function over monomials in cos/sin of single angles: {exponents of (c₁..c_m, s₁..s_m): its
+    coefficient}; multiple angles by Chebyshev: cos(n x) = T_n(c), sin(n x) = s U_{n-1}(c)."""
     R = next(iter(coeffs.values()))[0].ring
     Rt = _trig_ring(len(angles))  # the trigonometric monomials alone; coefficients stay in R
     groups: dict[tuple[int, ...], PolyElement] = {}
@@ -421,9 +422,30 @@ def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]],
                 acc = groups.get(mono)
                 term = coeff * R.domain.convert(c, Rt.domain)
                 groups[mono] = term if acc is None else acc + term
+    return {k: g for k, g in groups.items() if g}
+
+
+def product_cost_bound(groups: dict[tuple[int, ...], PolyElement]) -> int:
+    """A lower bound of count_ops of the product form of ``groups``, without printing it: one +/- between terms,
+    and per term c·Π fᵉ (f = cos/sin of one angle) the count of Π fᵉ (one per sin/cos, per power, per product)
+    plus one for a coefficient other than ±1 (a product, a quotient or a minus sign), whatever form the coefficient
+    takes; nothing for the constant term."""
+    bound = len(groups) - 1
+    for key, g in groups.items():
+        factors = sum(1 for e in key if e)
+        if factors:  # (the constant term may count nothing: 3)
+            bound += 2 * factors - 1 + sum(1 for e in key if e > 1) + (not (g.is_ground and abs(g.LC) == 1))
+    return bound
+
+
+def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]], angles: list[sp.Symbol],
+                 groups: dict[tuple[int, ...], PolyElement] | None = None) -> sp.Expr:
+    """The same function written over monomials in cos/sin of single angles (c₂ s₂, c₁ c₂ s₃, ...), each
+    coefficient through :func:`nice_poly` (``groups``: :func:`product_groups`, when already computed)."""
+    if groups is None:
+        groups = product_groups(coeffs, angles)
     trig = [sp.cos(x) for x in angles] + [sp.sin(x) for x in angles]
-    return sp.Add(*[nice_poly(g) * sp.Mul(*[f ** e for f, e in zip(trig, key)])
-                    for key, g in groups.items() if g])
+    return sp.Add(*[nice_poly(g) * sp.Mul(*[f ** e for f, e in zip(trig, key)]) for key, g in groups.items()])
 
 
 def factor_list_expr(expr: sp.Expr) -> tuple[sp.Expr, list[tuple[sp.Expr, int]]]:

@@ -18,7 +18,8 @@ from functools import lru_cache
 
 import sympy as sp
 
-from solver.math.fourier import NotTrigPolynomial, factor_small, fourier_coefficients, nice_poly, product_form
+from solver.math.fourier import (NotTrigPolynomial, factor_small, fourier_coefficients, nice_poly,
+                                  product_cost_bound, product_form, product_groups)
 from solver.math.budget import BudgetExceeded, cpu_budget
 from solver.math.opcount import count_ops
 
@@ -152,7 +153,13 @@ def fourier_expr(coeffs: dict, angles: list[sp.Symbol], nice=nice_poly) -> sp.Ex
     fourier = sp.Add(*out)
     mixed = any(v < 0 or v > 1 for k in coeffs for v in k if any(k))
     if mixed and not large:
-        product = product_form(coeffs, angles) if nice is nice_poly else _product_form(fourier, angles)
+        if nice is nice_poly:
+            groups = product_groups(coeffs, angles)
+            if product_cost_bound(groups) >= count_ops(fourier):  # (it cannot be shorter: not printed)
+                return fourier
+            product = product_form(coeffs, angles, groups)
+        else:
+            product = _product_form(fourier, angles)
         if count_ops(product) < count_ops(fourier):
             return product
     return fourier
