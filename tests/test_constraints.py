@@ -587,3 +587,24 @@ def test_ratio_over_a_product_of_sines_keeps_it(n, d, monkeypatch):
     assert sp.count_ops(fast) <= sp.count_ops(general)
     assert sp.Mul.make_args(sp.fraction(fast)[1]) and all(
         not f.is_Add for f in sp.Mul.make_args(sp.fraction(fast)[1]))
+
+
+@pytest.mark.parametrize("f", ["sin(q2)", "cos(q1 + q2)", "sin(q1 - 2*q2)", "a1 + a2*cos(q2)",
+                               "l1*cos(q1) + l2*cos(q1 + q2) - k", "xA*cos(q2) - xB*sin(q2)"])
+def test_divisibility_precheck_never_refuses_a_factor(f):
+    """_divide_out skips the expansion when n is clearly non-zero at a point where f = 0: for n = f·g (any g)
+    the pre-check must never say so, and for n = f·g + r (r not vanishing with f) it does."""
+    from solver.interaction.constraints import _divide_out, _nonzero_where_zero, _zero_point
+    loc = {x: sp.Symbol(x, real=True) for x in ("q1", "q2", "a1", "a2", "l1", "l2", "k", "xA", "xB", "m2")}
+    fe = sp.sympify(f, locals=loc)
+    q1, q2, a1, l1, m2 = (loc[x] for x in ("q1", "q2", "a1", "l1", "m2"))
+    import random
+    point = _zero_point(fe, random.Random(1))
+    assert point is not None and abs(float(fe.xreplace(point))) < 1e-9
+    for g in (sp.Integer(3), m2 * sp.cos(q1) ** 2 + l1 * sp.sin(q2), (a1 + sp.sin(q1 + q2)) ** 3 - q1 * l1):
+        n = sp.expand(fe * g)
+        assert not _nonzero_where_zero(n, fe)
+        assert not _nonzero_where_zero(fe * g, fe)
+    r = m2 * sp.cos(q1 - q2) + 2
+    assert _nonzero_where_zero(sp.expand(fe * (l1 + q2) + r), fe)
+    assert _divide_out(sp.expand(fe * (l1 + q2) + r), fe, 1)[1] == 0

@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import random
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Literal, Optional, Union
@@ -144,6 +145,8 @@ def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
     if not atom and (not small or not f.atoms(sp.sin, sp.cos) <= n.atoms(sp.sin, sp.cos)
                      or not f.free_symbols <= n.free_symbols):
         return n, 0  # (a generator of f that n does not have: f cannot divide n)
+    if (not f.is_Symbol) and _nonzero_where_zero(n, f):
+        return n, 0  # (f cannot divide n: no expansion, no division)
     forms = [False] + ([True] if small and isinstance(f, (sp.sin, sp.cos)) else [])
     for trig in forms:
         terms = list(_expanded_terms(n, trig))
@@ -168,6 +171,80 @@ def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
         if j:
             return out, j
     return n, 0
+
+
+def _zero_point(f: sp.Expr, rng: random.Random) -> dict[sp.Symbol, float] | None:
+    """A point where f = 0: sin x at x = 0, cos x at x = π/2, otherwise f = f₁ s + f₀ solved for a symbol s it is
+    linear in (f₁ = ∂f/∂s free of s); the other symbols at random in [0.3, 1.7]. None when there is no such
+    symbol (or f₁ nearly vanishes there)."""
+    if isinstance(f, (sp.sin, sp.cos)):
+        g = f.args[0] - (0 if isinstance(f, sp.sin) else sp.pi / 2)
+    else:
+        g = f
+    for s in sorted(g.free_symbols, key=lambda x: x.name):
+        g1 = sp.diff(g, s)
+        if g1.has(s):
+            continue
+        point = {x: rng.uniform(0.3, 1.7) for x in sorted(g.free_symbols - {s}, key=lambda x: x.name)}
+        try:
+            den = _value(g1, point)
+            if abs(den) < 1e-6:
+                continue
+            point[s] = -_value(g.xreplace({s: sp.S.Zero}), point) / den
+        except _NoValue:
+            return None
+        return point
+    return None
+
+
+class _NoValue(Exception):
+    pass
+
+
+def _value(e: sp.Expr, point: dict[sp.Symbol, float], size: bool = False) -> float:
+    """e at a point in double precision (symbols, numbers, +, ×, integer powers, sin, cos); _NoValue otherwise.
+    size: the same with every number and symbol by its absolute value and sin, cos by 1 (an upper bound of |e|
+    over the angles: the scale rounding errors are relative to)."""
+    if e.is_Symbol:
+        if e not in point:
+            raise _NoValue(e)
+        return abs(point[e]) if size else point[e]
+    if e.is_Number or e.is_NumberSymbol:
+        if not e.is_real:
+            raise _NoValue(e)
+        return abs(float(e)) if size else float(e)
+    if e.is_Add:
+        return math.fsum(_value(a, point, size) for a in e.args)
+    if e.is_Mul:
+        out = 1.0
+        for a in e.args:
+            out *= _value(a, point, size)
+        return out
+    if e.is_Pow and e.exp.is_Integer:
+        base = _value(e.base, point, size and e.exp > 0)
+        if base == 0 and e.exp < 0:
+            raise _NoValue(e)
+        return abs(base ** int(e.exp)) if size else base ** int(e.exp)
+    if isinstance(e, (sp.sin, sp.cos)):
+        return 1.0 if size else (math.sin if isinstance(e, sp.sin) else math.cos)(_value(e.args[0], point))
+    raise _NoValue(e)
+
+
+def _nonzero_where_zero(n: sp.Expr, f: sp.Expr) -> bool:
+    """True when n is clearly not 0 at a point where f = 0, so that f cannot divide n (a necessary condition, in
+    double precision: |n| above 10⁻⁶ of its size, see :func:`_value`); False when f may divide n, or when no point
+    is found (then n is divided as before)."""
+    point = _zero_point(f, random.Random(20261129))
+    if point is None:
+        return False
+    rng = random.Random(7)
+    for x in sorted(n.free_symbols - set(point), key=lambda x: x.name):
+        point[x] = rng.uniform(0.3, 1.7)
+    try:
+        value, scale = _value(n, point), _value(n, point, size=True)
+    except (_NoValue, OverflowError, ZeroDivisionError):
+        return False
+    return math.isfinite(scale) and abs(value) > 1e-6 * scale
 
 
 @lru_cache(maxsize=4096)
