@@ -40,6 +40,7 @@ from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import equivalent, exact_zero
+from solver.math.opcount import count_ops
 from solver.math.simplify import is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -319,10 +320,10 @@ def readable(e: sp.Expr, state: set, rate: list[sp.Symbol]) -> sp.Expr:
     t = tidy(e)
     if not t.free_symbols & state or not t.atoms(sp.sin, sp.cos):
         return t
-    best, ops = t, sp.count_ops(t)
+    best, ops = t, count_ops(t)
     for square in ("cos", "sin"):
         c = _group_by_state(canonical(e, state, square), rate)
-        n = sp.count_ops(c)
+        n = count_ops(c)
         if n < ops:
             best, ops = c, n
     return best
@@ -351,7 +352,7 @@ def atom_order(atoms: list[tuple[int, sp.Expr]], robot) -> list[int]:  # type: i
         acc = [j for j, s in enumerate(dd) if s in degs]
         vel = sum(v for s, v in degs.items() if s in d)
         kind = 0 if acc else (1 if vel >= 2 else (2 if vel == 0 else 3))
-        return (k, kind, _complexity(f, q), acc[0] if acc else 0, sp.count_ops(f), str(f))
+        return (k, kind, _complexity(f, q), acc[0] if acc else 0, count_ops(f), str(f))
 
     return sorted(range(len(atoms)), key=key)
 
@@ -374,9 +375,9 @@ def compact(e: sp.Expr, dyn: list[sp.Symbol]) -> sp.Expr:
         return e
     terms = sp.Add.make_args(e)
     syms = sorted((s for s in dyn if e.has(s)), key=lambda s: (-sum(1 for t in terms if t.has(s)), str(s)))
-    best, ops = e, sp.count_ops(e)
+    best, ops = e, count_ops(e)
     for cand in (sp.factor_terms(e), sp.collect(e, syms, func=sp.factor)):
-        n = sp.count_ops(cand)
+        n = count_ops(cand)
         if n < ops:
             best, ops = cand, n
     return best

@@ -34,6 +34,7 @@ from pydantic import Field, model_validator
 from solver.dynamics.model import derive, has_model
 from solver.interaction import linear as lti
 from solver.math.equivalence import conditions_equiv, scalar_equiv
+from solver.math.opcount import count_ops
 from solver.math.simplify import factor_within, tidy
 from solver.registry import PROPERTY_CHECKS, PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -207,7 +208,7 @@ def frac_terms(e: sp.Expr, s: sp.Symbol) -> tuple[list[sp.Expr], list[sp.Expr]]:
         out = []
         for (k,), c in zip(poly.monoms(), poly.coeffs()):
             f = factor_within(c)
-            c = f if sp.count_ops(f) <= sp.count_ops(c) else c
+            c = f if count_ops(f) <= count_ops(c) else c
             out.append(c * S_SHOW**k)
         return out
 
@@ -218,22 +219,22 @@ def nice(e: sp.Expr, state: list[sp.Symbol] | None = None) -> sp.Expr:
     """A readable, equivalent form: with ``state``, collected in the state variables (coefficients and the
     constant part factored); otherwise the shortest of factor(e) and s + factor(e - s) for a symbol s of e
     (d + k_p F_d/(k_e (k_e + k_p)) rather than one fraction)."""
-    if sp.count_ops(e) > 300:  # bounded work: large expressions are left as they are
+    if count_ops(e) > 300:  # bounded work: large expressions are left as they are
         return e
     e = sp.expand(e)
     if state:
         terms = sp.collect(e, state, evaluate=False)
         out = sp.Integer(0)
         for k, c in terms.items():
-            f = factor_within(c) if sp.count_ops(c) < 80 else c
-            out += (f if sp.count_ops(f) <= sp.count_ops(c) else c) * k
+            f = factor_within(c) if count_ops(c) < 80 else c
+            out += (f if count_ops(f) <= count_ops(c) else c) * k
         return out
     best = factor_within(e)
-    if sp.count_ops(best) > 200:
+    if count_ops(best) > 200:
         return e
     for x in sorted(e.free_symbols, key=lambda v: v.name):
         cand = x + factor_within(e - x)
-        if sp.count_ops(cand) < sp.count_ops(best):
+        if count_ops(cand) < count_ops(best):
             best = cand
     return best
 
@@ -539,7 +540,7 @@ def _inverse(c: Ctx, M: sp.Matrix, what: str, sub: tuple) -> sp.Matrix:
         raise c.fail(sub, f"{what} is singular (det = 0)")
     if not M.free_symbols:
         return M.inv()
-    return (M.adjugate() / det).applyfunc(lambda x: tidy(sp.cancel(x)) if sp.count_ops(x) < 300 else x)
+    return (M.adjugate() / det).applyfunc(lambda x: tidy(sp.cancel(x)) if count_ops(x) < 300 else x)
 
 
 def _is_zero(e: sp.Expr) -> bool:
@@ -598,7 +599,7 @@ def _actuate(c: Ctx, S: Setup, f_task: sp.Matrix, J: sp.Matrix, kd: sp.Matrix | 
 def _closed(S: Setup, u: sp.Matrix, free: bool = False) -> sp.Matrix:
     """The model with the law's u and the measured force substituted (tidied when small: bounded work)."""
     r = S.model(free).xreplace(dict(zip(S.u, u)))
-    return r.xreplace(S.measured(free)).applyfunc(lambda e: tidy(sp.expand(e)) if sp.count_ops(e) < 200 else e)
+    return r.xreplace(S.measured(free)).applyfunc(lambda e: tidy(sp.expand(e)) if count_ops(e) < 200 else e)
 
 
 def law_force(c: Ctx, S: Setup) -> Law:
@@ -780,7 +781,7 @@ def law_impedance(c: Ctx, S: Setup, admittance: bool = False) -> Law:
         else:
             tau = S.B * Ji * (ddpd - Jdot * S.dq) + J.T * (Dd * (dpd - J * S.dq) + Kd * (pd - p)) + S.nvec
         Gi = _inverse(c, S.G, "the input map G", ("law",))
-        u = (Gi * tau).applyfunc(lambda x: tidy(sp.expand(x)) if sp.count_ops(x) < 150 else x)
+        u = (Gi * tau).applyfunc(lambda x: tidy(sp.expand(x)) if count_ops(x) < 150 else x)
         residual = _closed(S, u)
         # check: M_d J B⁻¹ (model residual) ≡ closed loop (exactly)
         Bi = _inverse(c, S.B, "B", ("robot",))
@@ -894,7 +895,7 @@ def solve_force_control(problem, options: ForceControlAsk, ctx) -> Solution:  # 
             add("zeta", wz[1], label="\\zeta")
         if options.law == "admittance":
             add("admittance", d["filt"], label="M_d\\ddot p_c + D_d\\dot p_c + K_d(p_c - p_d) - F")
-        _step(sol, "impedance", **d, wz=wz, u=law.u, law=options.law, u_short=sp.count_ops(law.u) < 800)
+        _step(sol, "impedance", **d, wz=wz, u=law.u, law=options.law, u_short=count_ops(law.u) < 800)
     else:
         _step(sol, "law", law=options.law, u=law.u, **law.data)
     law.closed = nice_matrix(law.closed, law.ddx + law.dx + law.x)
@@ -1045,7 +1046,7 @@ def _report_analysis(c: Ctx, S: Setup, law: Law, an: Analysis, sol: Solution, ad
               witness=witness, poles=an.poles, poles_num=num, s=s, degree=sp.Poly(an.poly, s).degree(),
               factors=factors, factor_terms=[frac_terms(f, s)[0] for f, _ in an.factors] if factors else None,
               columns=an.columns if factors else None, deltas=an.deltas,
-              long_column=any(sp.count_ops(x) > 40 for x in an.column))
+              long_column=any(count_ops(x) > 40 for x in an.column))
 
 
 def problem_values(c: Ctx) -> bool:

@@ -11,12 +11,16 @@ from sympy.core.function import _coeff_isneg
 from sympy.simplify.radsimp import fraction
 
 
-@lru_cache(maxsize=50000)
 def count_ops(e: sp.Basic) -> int:
     """Number of operations of ``e`` as :func:`sympy.count_ops` counts them (Add, Mul, Pow, sin/cos, numbers,
-    symbols; an expression with any other node, or a Python number, is handed to sympy)."""
+    symbols; an expression with any other node, a Python number or a mutable matrix is handed to sympy)."""
     if not isinstance(e, sp.Basic):
         return int(sp.count_ops(e))
+    return _count_ops(e)
+
+
+@lru_cache(maxsize=50000)
+def _count_ops(e: sp.Basic) -> int:
     if e.is_Symbol:
         return 0
     if e.is_Rational:
@@ -24,7 +28,7 @@ def count_ops(e: sp.Basic) -> int:
     if e.is_Add:
         negs = [_coeff_isneg(a) for a in e.args]
         n = len(e.args) - 1 + (1 if all(negs) else 0)
-        return n + sum(count_ops(-a if s else a) for a, s in zip(e.args, negs))
+        return n + sum(_count_ops(-a if s else a) for a, s in zip(e.args, negs))
     if e.is_Mul:
         n = 0
         if _coeff_isneg(e):
@@ -36,9 +40,9 @@ def count_ops(e: sp.Basic) -> int:
         else:
             num, den = fraction(e)
         if num.is_Integer:
-            return n + 1 + (1 if num < 0 else 0) + count_ops(den)
+            return n + 1 + (1 if num < 0 else 0) + _count_ops(den)
         if den is not sp.S.One:
-            return n + 1 + (0 if den.is_Integer else count_ops(den)) + count_ops(num)
+            return n + 1 + (0 if den.is_Integer else _count_ops(den)) + _count_ops(num)
         return n + _rest(e)
     return _rest(e)
 
@@ -46,11 +50,11 @@ def count_ops(e: sp.Basic) -> int:
 def _rest(e: sp.Basic) -> int:
     """sympy's count for a node past its Rational/Mul/Add cases (also a negated Mul's remaining factor)."""
     if e.is_Pow and e.exp is sp.S.NegativeOne:
-        return 1 + count_ops(e.base)
+        return 1 + _count_ops(e.base)
     if e is sp.S.Exp1:
         return 1
     if e.is_Pow and e.base is sp.S.Exp1:
-        return 1 + count_ops(e.exp)
+        return 1 + _count_ops(e.exp)
     if not (e.is_Mul or e.is_Pow or e.is_Add or e.is_Symbol or e.is_Number or e.is_NumberSymbol
             or e is sp.S.ImaginaryUnit or isinstance(e, (sp.sin, sp.cos))):
         return int(sp.count_ops(e))
@@ -60,5 +64,5 @@ def _rest(e: sp.Basic) -> int:
     elif e.args and (e.is_Pow or e.is_Function):
         n += 1
     if not e.is_Symbol:
-        n += sum(count_ops(a) for a in e.args)
+        n += sum(_count_ops(a) for a in e.args)
     return n
