@@ -8,10 +8,38 @@ from typing import Any, Callable, Optional
 # (Figure, Panel, ...) before sympy, to warm matplotlib up while the solving worker imports sympy
 
 
+class Deferred:
+    """A value computed when first read, in an attribute of a :class:`Resolving` object: per-body quantities are
+    printed only when a report, a check or ``--details`` reads them."""
+
+    __slots__ = ("make",)
+
+    def __init__(self, make: Callable[[], Any]) -> None:
+        self.make = make
+
+
+class Resolving:
+    """An attribute holding a :class:`Deferred` is computed on first read and kept; pickling computes them all."""
+
+    def __getattribute__(self, name: str) -> Any:
+        value = object.__getattribute__(self, name)
+        if type(value) is Deferred:
+            value = value.make()
+            object.__setattr__(self, name, value)
+        return value
+
+    def given(self, name: str) -> bool:
+        """Whether the attribute is not None, without computing it."""
+        return object.__getattribute__(self, name) is not None
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in object.__getattribute__(self, "__dict__")}
+
+
 @dataclass
-class Result:
+class Result(Resolving):
     """A named result. kind: scalar | vector | matrix | list (of matrices/vectors) | set (of configurations)
-    | number | bool."""
+    | number | bool. ``value`` may be given :class:`Deferred` (then ``kind`` must be given)."""
 
     name: str
     value: Any
@@ -78,6 +106,8 @@ class Solution:
     figures: list[Figure] = field(default_factory=list)
 
     def add(self, name: str, value: Any, kind: str | None = None, label: str = "", detail: bool = False) -> Any:
+        if kind is None and isinstance(value, Deferred):
+            raise ValueError(f"{name}: a deferred result needs its kind")
         self.results[name] = Result(name, value, kind or kind_of(value), label, detail)
         return value
 

@@ -140,3 +140,33 @@ def test_large_model_report_defines_parameter_groupings_once(monkeypatch):
     assert "Kinetic energy" not in md  # per-body quantities: JSON with --details
     data = json.loads(render(problem, sols, "json"))
     assert "K_" not in data["results"]["B"]["expr"]
+
+
+def test_per_body_quantities_are_printed_only_when_read(monkeypatch):
+    """The per-body results (p_c, v_c, T_i, U_i: intermediate, in JSON only with --details) are Deferred: solving and
+    the JSON without details never print them; reading one prints it once, equal to the general path's; pickling
+    (results sent back by a worker) computes them."""
+    import pickle
+
+    from solver.publish.render import render
+    from solver.results import Deferred, Result
+    from solver.solve import solve_problem
+    problem = load_problem(SPECS / "planar4r.yaml")
+    made = []
+    real = canonical.TrigAlgebra.expr
+    monkeypatch.setattr(canonical.TrigAlgebra, "expr", lambda self, a: made.append(1) or real(self, a))
+    sol = solve_problem(problem)[0]
+    printed = len(made)
+    render(problem, [sol], "json")
+    assert len(made) == printed
+    raw = {k: object.__getattribute__(r, "value") for k, r in sol.results.items()}
+    assert all(type(raw[f"{x}{i}"]) is Deferred for x in ("pc", "vc", "T", "U") for i in range(1, 5))
+    monkeypatch.setattr(canonical, "derive_canonical", lambda r: None)
+    slow = derive(load_problem(SPECS / "planar4r.yaml").robot)
+    assert sol.results["T2"].value == slow.bodies[1].T and len(made) > printed
+    again = len(made)
+    assert sol.results["T2"].value == slow.bodies[1].T and len(made) == again  # kept
+    back = pickle.loads(pickle.dumps(sol.results["vc3"]))
+    assert isinstance(back, Result) and back.value == slow.bodies[2].vc
+    with pytest.raises(ValueError):
+        sol.add("x", Deferred(lambda: 1))

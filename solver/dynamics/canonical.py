@@ -8,10 +8,13 @@ return None and take the general path of :func:`solver.dynamics.model.derive`.
 """
 from __future__ import annotations
 
+from typing import Any
+
 import sympy as sp
 from sympy.polys.domains import QQ
 
 from solver.math.trigpoly import NotTrigPolynomial, TrigAlgebra
+from solver.results import Deferred
 from solver.spec.robot import Robot
 
 Vec = list  # list[TrigPoly]
@@ -97,18 +100,22 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
         lhs = [A.add(A.dot(B[i], acc), c[i], g[i], A.dot(Fv[i], V) if Fv is not None else {}) for i in range(n)]
     except NotTrigPolynomial:
         return None
-    memo: dict[int, sp.Expr] = {}
+    memo: dict[int, tuple[Any, sp.Expr]] = {}  # id -> (the element, kept alive so that its id is not reused; form)
 
     def ex(a) -> sp.Expr:  # type: ignore[no-untyped-def]
-        if id(a) not in memo:
-            memo[id(a)] = A.expr(a)
-        return memo[id(a)]
+        hit = memo.get(id(a))
+        if hit is None or hit[0] is not a:
+            hit = memo[id(a)] = (a, A.expr(a))
+        return hit[1]
 
     def mx(M: Mat) -> sp.Matrix:
         return sp.Matrix([[ex(x) for x in row] for row in M])
 
-    energies = [BodyEnergy(body, sp.Matrix([ex(p) for p in P]), sp.Matrix([ex(v) for v in vc]), ex(v2), body.omega,
-                           ex(T), ex(U) if U is not None else None) for body, P, vc, v2, T, U in bodies]
+    # per-body quantities are printed when a report, a check or --details first reads them
+    energies = [BodyEnergy(body, Deferred(lambda P=P: sp.Matrix([ex(p) for p in P])),
+                           Deferred(lambda vc=vc: sp.Matrix([ex(v) for v in vc])), Deferred(lambda v2=v2: ex(v2)),
+                           body.omega, Deferred(lambda T=T: ex(T)), Deferred(lambda U=U: ex(U)) if U is not None else None)
+                for body, P, vc, v2, T, U in bodies]
     Bm = mx(B)
     C_out = [mx(Ck) for Ck in C] if C is not None else None
     return DynamicModel(energies, ex(T_extra), ex(T_all), Bm, C_out, sp.Matrix([ex(x) for x in c]),

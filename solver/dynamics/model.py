@@ -16,14 +16,16 @@ from pydantic import Field
 from solver.math.simplify import is_zero, tidy, tidy_matrix, velocity_terms
 from solver.math.sweep import coordinate_figure
 from solver.registry import PropertyVerdict, ask_kind, property_check
-from solver.results import Solution
+from solver.results import Deferred, Resolving, Solution
 from solver.spec.errors import UserError
 from solver.spec.models import Strict
 from solver.spec.robot import Body, Robot
 
 
 @dataclass
-class BodyEnergy:
+class BodyEnergy(Resolving):
+    """One body's p_c, v_c, ‖v_c‖², ω, T_i and U_i (any of them may be given Deferred: printed when first read)."""
+
     body: Body
     pc: sp.Matrix
     vc: sp.Matrix
@@ -305,16 +307,16 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
     robot = require_model(problem)
     dm = derive(robot)
     sol = Solution("dynamic_model", title=options.title or "Dynamic model")
-    for i, e in enumerate(dm.bodies, 1):
-        sol.add(f"pc{i}", e.pc, label=f"p_{{c{i}}}", detail=True)
-        sol.add(f"vc{i}", e.vc, label=f"v_{{c{i}}}", detail=True)
+    for i, e in enumerate(dm.bodies, 1):  # (per-body quantities printed only when read: Deferred)
+        sol.add(f"pc{i}", Deferred(lambda e=e: e.pc), "vector", label=f"p_{{c{i}}}", detail=True)
+        sol.add(f"vc{i}", Deferred(lambda e=e: e.vc), "vector", label=f"v_{{c{i}}}", detail=True)
         sol.add(f"w{i}", e.omega, label=f"\\omega_{{{i}}}", detail=True)  # in the frame of the body's inertia
         if e.body.omega_frame == "link" and e.body.rotation is not None:  # also in the base frame: ⁰ω = ⁰R ω
-            sol.add(f"w{i}_0", (e.body.rotation * e.omega).applyfunc(tidy), label=f"{{}}^0\\omega_{{{i}}}",
-                    detail=True)
-        sol.add(f"T{i}", e.T, "scalar", label=f"T_{{{i}}}", detail=True)
-        if e.U is not None:
-            sol.add(f"U{i}", e.U, "scalar", label=f"U_{{{i}}}", detail=True)
+            sol.add(f"w{i}_0", Deferred(lambda e=e: (e.body.rotation * e.omega).applyfunc(tidy)), "vector",
+                    label=f"{{}}^0\\omega_{{{i}}}", detail=True)
+        sol.add(f"T{i}", Deferred(lambda e=e: e.T), "scalar", label=f"T_{{{i}}}", detail=True)
+        if e.given("U"):
+            sol.add(f"U{i}", Deferred(lambda e=e: e.U), "scalar", label=f"U_{{{i}}}", detail=True)
     sol.add("T", dm.T, "scalar", label="T")
     sol.add("B", dm.B, "matrix", label="B(q)")
     if dm.C is not None:
