@@ -164,3 +164,36 @@ def test_an_entry_zero_at_the_reference_is_not_drawn_flat():
     assert "Not drawn (zero at these values of the other coordinates): $b_{12}$ against $q_{3}$." in fig.caption
     for panel in fig.panels:
         assert all(max(abs(y) for y in c.y) > 0.1 for c in panel.curves)
+
+
+def test_terms_of_a_sum_ordered_once_for_text_and_latex(monkeypatch):
+    """Both printers take a sum's terms in sympy's printing order, computed once per sum (as_ordered_terms is
+    slow); the printed text and LaTeX are sympy's own. Sums with floats are not shared (equal floats may print
+    with other precisions)."""
+    from sympy.printing.latex import LatexPrinter
+
+    import solver.publish.render as R
+    a, b, q = sp.symbols("a b q")
+    e = 3 * a * sp.cos(q) - sp.Rational(1, 2) * b * sp.sin(2 * q) + a ** 2 - 7
+    text = str(e)
+    tex = LatexPrinter({"fold_short_frac": False, "fold_func_brackets": True}).doprint(e)
+    calls = []
+    real = sp.Expr.as_ordered_terms
+    monkeypatch.setattr(sp.Expr, "as_ordered_terms", lambda self, *x, **k: calls.append(self) or real(self, *x, **k))
+    R._TERMS_ORDER.clear()
+    assert R._Str().doprint(e) == text
+    assert R._Printer({}, {}).doprint(e) == tex
+    assert calls.count(e) == 1
+    f = sp.Float("0.1", 30) * a + b
+    R._Str().doprint(f), R._Str().doprint(f)
+    assert calls.count(f) == 2
+
+
+def test_details_json_writes_sets_in_a_fixed_order():
+    """A set in a step (the revolute joints of a singularity analysis) is written sorted, not in the set's own
+    order, which changes from run to run."""
+    from solver.publish.render import _Steps, latex_printer
+    q1, q2, q10 = sp.symbols("q1 q2 q10")
+    p = load_problem(PROBLEMS / "2011-09-12-ex1.yaml")
+    steps = _Steps(latex_printer(p), {}, True)
+    assert [x["expr"] for x in steps({q2, q10, q1})] == ["q1", "q10", "q2"]

@@ -29,6 +29,9 @@ def templates_dir() -> Path:
     raise FileNotFoundError("robosolve templates not found")
 
 
+_TERMS_ORDER: dict[tuple[Any, Any], tuple] = {}  # (sum, order) -> its terms in printing order (exact sums only)
+
+
 class _Memo:
     """A sympy printer that prints each compound subexpression once: a model's results share most of their
     subexpressions (the same coefficient sums in B, the C_k, c, S and the model). The text of a subexpression does
@@ -46,6 +49,20 @@ class _Memo:
             return super().doprint(expr)  # type: ignore[misc]
         finally:
             self._memo_on = outer
+
+    def _as_ordered_terms(self, expr: Any, order: Any = None) -> list:  # type: ignore[override]
+        """The terms of a sum in printing order, computed once for the text and the LaTeX printer alike (sympy's
+        as_ordered_terms evaluates every coefficient numerically to sort them)."""
+        order = order or self.order  # type: ignore[attr-defined]
+        if not self._memo_on or order in ("old", "none"):
+            return super()._as_ordered_terms(expr, order=order)  # type: ignore[misc]
+        key = (expr, order)
+        hit = _TERMS_ORDER.get(key)
+        if hit is None:
+            if len(_TERMS_ORDER) > self._MEMO_LIMIT:
+                _TERMS_ORDER.clear()
+            hit = _TERMS_ORDER[key] = tuple(super()._as_ordered_terms(expr, order=order))  # type: ignore[misc]
+        return list(hit)
 
     def _print(self, expr: Any, **kwargs: Any) -> str:  # type: ignore[override]
         if kwargs or not self._memo_on or not isinstance(expr, sp.Basic) or expr.is_Atom:
@@ -673,6 +690,8 @@ class _Steps:
             return self._dict(obj)
         if isinstance(obj, (list, tuple)):
             return [x for x in (self(v) for v in obj) if x is not _SKIP]
+        if isinstance(obj, (set, frozenset)):  # in a fixed order (a set's own order changes from run to run)
+            return [x for x in (self(v) for v in sorted(obj, key=str)) if x is not _SKIP]
         if type(obj).__str__ is object.__str__ and type(obj).__repr__ is object.__repr__:
             return _SKIP  # a helper object (a template's lazy view): nothing readable to write
         return str(obj)
