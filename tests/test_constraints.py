@@ -608,3 +608,22 @@ def test_divisibility_precheck_never_refuses_a_factor(f):
     r = m2 * sp.cos(q1 - q2) + 2
     assert _nonzero_where_zero(sp.expand(fe * (l1 + q2) + r), fe)
     assert _divide_out(sp.expand(fe * (l1 + q2) + r), fe, 1)[1] == 0
+
+
+@pytest.mark.parametrize("n, f, e, j", [
+    ("l1**2*l2*(m1*cos(q2) + m2*sin(q1 + q2)**2) - l1**3*m2*cos(q1)", "l1", 3, 2),
+    ("l1**2*l2*(m1*cos(q2) + m2*sin(q1 + q2)**2) - l1**3*m2*cos(q1)", "l2", 1, 0),
+    ("a*(b + cos(q1))**2*sin(q2)*a**3", "a", 2, 2),
+    ("(l1*cos(q1) + l2*cos(q1 + q2))*l2**4", "l2", 9, 4),
+])
+def test_symbol_divided_out_on_the_fourier_coefficients(n, f, e, j):
+    """n / f^j for a symbol f, on the Fourier coefficients: the largest j <= e, the quotient in its tidy form (the
+    one tidy_expanded prints), times f^j equal to n."""
+    from solver.interaction.constraints import _divide_symbol
+    from solver.math.simplify import tidy_expanded
+    loc = {x: sp.Symbol(x, real=True) for x in ("q1", "q2", "l1", "l2", "m1", "m2", "a", "b")}
+    ne, fe = tidy_expanded(sp.sympify(n, locals=loc)), loc[f]
+    quotient, k, tidy_form = _divide_symbol(ne, fe, e)
+    assert (k, tidy_form) == (j, True)
+    assert quotient == tidy_expanded(quotient)
+    assert sp.expand(sp.expand_trig(quotient * fe ** k - ne)) == 0

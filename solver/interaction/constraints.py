@@ -37,7 +37,8 @@ from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.fourier import factor_list_expr
 from solver.math.opcount import count_ops
-from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy, tidy_expanded
+from solver.math.simplify import (angle_symbols, factor_within, fourier_expr, fourier_form, is_zero, tidy,
+                                  tidy_expanded)
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -134,6 +135,28 @@ def _expanded_terms(n: sp.Expr, trig: bool) -> tuple[sp.Expr, ...]:
             _TERMS.clear()
         _TERMS[key] = sp.Add.make_args(sp.expand(sp.expand(sp.expand_trig(n)) if trig else n))
     return _TERMS[key]
+
+
+def _divide_symbol(n: sp.Expr, f: sp.Symbol, e: int) -> tuple[sp.Expr, int, bool]:
+    """(n / f^j, j, tidy) for the largest j <= e with f^j dividing n, a symbol f: on the Fourier coefficients of n
+    (the least exponent of f over their monomials, each divided by f^j), which gives the quotient in its tidy form
+    at once (tidy = True); by :func:`_divide_out` (tidy = False) when n is not such a polynomial."""
+    form = fourier_form(n)
+    if form is None:
+        return (*_divide_out(n, f, e), False)
+    coeffs, angles = form
+    R = next(iter(coeffs.values()))[0].ring
+    if f not in R.symbols:
+        return n, 0, True
+    i = R.symbols.index(f)
+    j = min([e] + [m[i] for a, b in coeffs.values() for p in (a, b) for m in p.itermonoms()])
+    if j == 0:
+        return n, 0, True
+
+    def down(p):  # type: ignore[no-untyped-def]
+        return R.from_dict({m[:i] + (m[i] - j,) + m[i + 1:]: c for m, c in p.iterterms()})
+
+    return fourier_expr({k: (down(a), down(b)) for k, (a, b) in coeffs.items()}, angles), j, True
 
 
 def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
@@ -273,14 +296,17 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     if count_ops(d) <= MAX_CANCEL_OPS and count_ops(n) <= MAX_CANCEL_OPS * 10:
         coeff, factors = mono if mono is not None else factor_list_expr(d)  # (sympy's factor_list, faster)
         rest = sp.sympify(coeff)
-        divided = False
+        divided = False  # (n is tidy unless divided other than by _divide_symbol)
         for f, e in factors:
             j = 0
-            if f.free_symbols:
+            if f.is_Symbol:
+                n, j, tidy_form = _divide_symbol(n, f, e)
+                divided = divided or (j > 0 and not tidy_form)
+            elif f.free_symbols:
                 n, j = _divide_out(n, f, e)
                 divided = divided or j > 0
             rest *= f ** (e - j)
-        if divided:  # (n is tidy already otherwise)
+        if divided:
             n = tidy_expanded(n)
         d = rest
         if mono is None and d.has(sp.sin, sp.cos) and count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2

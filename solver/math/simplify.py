@@ -414,22 +414,30 @@ def tidy_expanded(expr: sp.Expr) -> sp.Expr:
 
 @lru_cache(maxsize=4096)
 def _tidy_expanded(expr: sp.Expr) -> sp.Expr:
-    if expr.free_symbols and not expr.is_Atom:  # (floats: NotTrigPolynomial, sympy's rounded products then)
-        angles = angle_symbols(expr)
-        try:
-            coeffs = fourier_coefficients(expr, angles)
-        except NotTrigPolynomial:
-            pass
-        else:
-            used = [x for j, x in enumerate(angles) if any(k[j] for k in coeffs)]
-            if len(used) < len(angles):  # angles that cancelled: the form over those left, as from the sum
-                return tidy(sp.expand(expr))
-            syms = sorted(expr.free_symbols, key=lambda x: x.name)  # fourier_coefficients' generators
-            used_gens = {syms[i] for a, b in coeffs.values() for p in (a, b) for m in p.itermonoms()
-                         for i, e in enumerate(m) if e}
-            if coeffs and used_gens | set(angles) == expr.free_symbols:  # no symbol cancelled
-                return fourier_expr(coeffs, angles)
-    return tidy(sp.expand(expr))
+    form = fourier_form(expr)
+    return fourier_expr(*form) if form is not None else tidy(sp.expand(expr))
+
+
+def fourier_form(expr: sp.Expr) -> tuple[dict, list[sp.Symbol]] | None:
+    """(Fourier coefficients, angles) of a trigonometric polynomial, computed from its tree, when
+    :func:`tidy_expanded` prints it from them: fourier_expr(coeffs, angles) is then its canonical form. None for
+    anything else, and when an angle or a symbol cancels (tidy_expanded expands and tidies those)."""
+    if not expr.free_symbols or expr.is_Atom:  # (floats: NotTrigPolynomial, sympy's rounded products then)
+        return None
+    angles = angle_symbols(expr)
+    try:
+        coeffs = fourier_coefficients(expr, angles)
+    except NotTrigPolynomial:
+        return None
+    used = [x for j, x in enumerate(angles) if any(k[j] for k in coeffs)]
+    if len(used) < len(angles):  # angles that cancelled: the form over those left, as from the sum
+        return None
+    syms = sorted(expr.free_symbols, key=lambda x: x.name)  # fourier_coefficients' generators
+    used_gens = {syms[i] for a, b in coeffs.values() for p in (a, b) for m in p.itermonoms()
+                 for i, e in enumerate(m) if e}
+    if coeffs and used_gens | set(angles) == expr.free_symbols:  # no symbol cancelled
+        return coeffs, angles
+    return None
 
 
 @lru_cache(maxsize=20000)
