@@ -617,13 +617,18 @@ def test_divisibility_precheck_never_refuses_a_factor(f):
     ("(l1*cos(q1) + l2*cos(q1 + q2))*l2**4", "l2", 9, 4),
 ])
 def test_symbol_divided_out_on_the_fourier_coefficients(n, f, e, j):
-    """n / f^j for a symbol f, on the Fourier coefficients: the largest j <= e, the quotient in its tidy form (the
+    """n / f^j for a symbol f (and several at once), on the Fourier coefficients: the largest j <= e, the quotient in its tidy form (the
     one tidy_expanded prints), times f^j equal to n."""
-    from solver.interaction.constraints import _divide_symbol
+    from solver.interaction.constraints import _divide_symbols
     from solver.math.simplify import tidy_expanded
     loc = {x: sp.Symbol(x, real=True) for x in ("q1", "q2", "l1", "l2", "m1", "m2", "a", "b")}
     ne, fe = tidy_expanded(sp.sympify(n, locals=loc)), loc[f]
-    quotient, k, tidy_form = _divide_symbol(ne, fe, e)
+    quotient, powers, tidy_form = _divide_symbols(ne, [(fe, e)])
+    k = powers.get(fe, 0)
     assert (k, tidy_form) == (j, True)
     assert quotient == tidy_expanded(quotient)
     assert sp.expand(sp.expand_trig(quotient * fe ** k - ne)) == 0
+
+    if f == "l1":  # l1 and l2 together: l1² only (l2 divides one term only)
+        both, powers, _ = _divide_symbols(ne, [(loc["l1"], 3), (loc["l2"], 1)])
+        assert powers == {loc["l1"]: 2, loc["l2"]: 0} and both == quotient

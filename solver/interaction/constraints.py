@@ -137,26 +137,35 @@ def _expanded_terms(n: sp.Expr, trig: bool) -> tuple[sp.Expr, ...]:
     return _TERMS[key]
 
 
-def _divide_symbol(n: sp.Expr, f: sp.Symbol, e: int) -> tuple[sp.Expr, int, bool]:
-    """(n / f^j, j, tidy) for the largest j <= e with f^j dividing n, a symbol f: on the Fourier coefficients of n
-    (the least exponent of f over their monomials, each divided by f^j), which gives the quotient in its tidy form
-    at once (tidy = True); by :func:`_divide_out` (tidy = False) when n is not such a polynomial."""
+def _divide_symbols(n: sp.Expr, factors: list[tuple[sp.Symbol, int]]) -> tuple[sp.Expr, dict, bool]:
+    """(n / Π f^j_f, {f: j_f}, tidy): for each symbol f of the denominator (exponent e) the largest j_f <= e with
+    f^j_f dividing n, divided out at once on the Fourier coefficients of n (least exponent of f over their
+    monomials), which gives the quotient in its tidy form (tidy = True); one by one by :func:`_divide_out`
+    (tidy = False) when n is not such a polynomial."""
+    if not factors:
+        return n, {}, True
     form = fourier_form(n)
     if form is None:
-        return (*_divide_out(n, f, e), False)
+        powers = {}
+        for f, e in factors:
+            n, powers[f] = _divide_out(n, f, e)
+        return n, powers, not any(powers.values())
     coeffs, angles = form
     R = next(iter(coeffs.values()))[0].ring
-    if f not in R.symbols:
-        return n, 0, True
-    i = R.symbols.index(f)
-    j = min([e] + [m[i] for a, b in coeffs.values() for p in (a, b) for m in p.itermonoms()])
-    if j == 0:
-        return n, 0, True
+    monoms = [m for a, b in coeffs.values() for p in (a, b) for m in p.itermonoms()]
+    shift = [0] * R.ngens
+    powers = {}
+    for f, e in factors:
+        if f in R.symbols:
+            i = R.symbols.index(f)
+            shift[i] = powers[f] = min([e] + [m[i] for m in monoms])
+    if not any(shift):
+        return n, powers, True
 
     def down(p):  # type: ignore[no-untyped-def]
-        return R.from_dict({m[:i] + (m[i] - j,) + m[i + 1:]: c for m, c in p.iterterms()})
+        return R.from_dict({tuple(a - b for a, b in zip(m, shift)): c for m, c in p.iterterms()})
 
-    return fourier_expr({k: (down(a), down(b)) for k, (a, b) in coeffs.items()}, angles), j, True
+    return fourier_expr({k: (down(a), down(b)) for k, (a, b) in coeffs.items()}, angles), powers, True
 
 
 def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
@@ -296,13 +305,11 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     if count_ops(d) <= MAX_CANCEL_OPS and count_ops(n) <= MAX_CANCEL_OPS * 10:
         coeff, factors = mono if mono is not None else factor_list_expr(d)  # (sympy's factor_list, faster)
         rest = sp.sympify(coeff)
-        divided = False  # (n is tidy unless divided other than by _divide_symbol)
+        n, powers, tidy_form = _divide_symbols(n, [(f, e) for f, e in factors if f.is_Symbol])
+        divided = not tidy_form  # (n is tidy unless divided other than by _divide_symbols)
         for f, e in factors:
-            j = 0
-            if f.is_Symbol:
-                n, j, tidy_form = _divide_symbol(n, f, e)
-                divided = divided or (j > 0 and not tidy_form)
-            elif f.free_symbols:
+            j = powers.get(f, 0)
+            if f.free_symbols and not f.is_Symbol:
                 n, j = _divide_out(n, f, e)
                 divided = divided or j > 0
             rest *= f ** (e - j)
