@@ -137,14 +137,16 @@ def _expanded_terms(n: sp.Expr, trig: bool) -> tuple[sp.Expr, ...]:
     return _TERMS[key]
 
 
-def _divide_symbols(n: sp.Expr, factors: list[tuple[sp.Symbol, int]]) -> tuple[sp.Expr, dict, bool]:
+def _divide_symbols(n: sp.Expr, factors: list[tuple[sp.Symbol, int]],
+                    form: tuple[dict, list] | None = None) -> tuple[sp.Expr, dict, bool]:
     """(n / Π f^j_f, {f: j_f}, tidy): for each symbol f of the denominator (exponent e) the largest j_f <= e with
     f^j_f dividing n, divided out at once on the Fourier coefficients of n (least exponent of f over their
-    monomials), which gives the quotient in its tidy form (tidy = True); one by one by :func:`_divide_out`
-    (tidy = False) when n is not such a polynomial."""
+    monomials; ``form``: :func:`fourier_form` of n when known), which gives the quotient in its tidy form
+    (tidy = True); one by one by :func:`_divide_out` (tidy = False) when n is not such a polynomial."""
     if not factors:
         return n, {}, True
-    form = fourier_form(n)
+    if form is None:
+        form = fourier_form(n)
     if form is None:
         powers = {}
         for f, e in factors:
@@ -293,7 +295,8 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     when small; no multivariate gcd, which is far too slow on these expressions), the sign in the numerator."""
     n1, n2 = _num_den(sp.sympify(n))
     d1, d2 = _num_den(sp.sympify(d))
-    n = tidy_expanded(n1 * d2)
+    form = fourier_form(n1 * d2)  # (the coefficients, kept to divide symbols out)
+    n = fourier_expr(*form) if form is not None else tidy_expanded(n1 * d2)  # (= tidy_expanded(n1 d2))
     if n == 0:
         return sp.Integer(0)
     mono = _monomial(n2 * d1)  # c Π bᵉ (sin q2⁷ sin(q1 + q2)): factored already, and shorter than its Fourier form
@@ -305,7 +308,7 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     if count_ops(d) <= MAX_CANCEL_OPS and count_ops(n) <= MAX_CANCEL_OPS * 10:
         coeff, factors = mono if mono is not None else factor_list_expr(d)  # (sympy's factor_list, faster)
         rest = sp.sympify(coeff)
-        n, powers, tidy_form = _divide_symbols(n, [(f, e) for f, e in factors if f.is_Symbol])
+        n, powers, tidy_form = _divide_symbols(n, [(f, e) for f, e in factors if f.is_Symbol], form)
         divided = not tidy_form  # (n is tidy unless divided other than by _divide_symbols)
         for f, e in factors:
             j = powers.get(f, 0)

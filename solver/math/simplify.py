@@ -418,10 +418,12 @@ def _tidy_expanded(expr: sp.Expr) -> sp.Expr:
     return fourier_expr(*form) if form is not None else tidy(sp.expand(expr))
 
 
+@lru_cache(maxsize=1024)
 def fourier_form(expr: sp.Expr) -> tuple[dict, list[sp.Symbol]] | None:
     """(Fourier coefficients, angles) of a trigonometric polynomial, computed from its tree, when
     :func:`tidy_expanded` prints it from them: fourier_expr(coeffs, angles) is then its canonical form. None for
-    anything else, and when an angle or a symbol cancels (tidy_expanded expands and tidies those)."""
+    anything else, and when an angle or a symbol cancels (tidy_expanded expands and tidies those). Memoized: the
+    result is shared, not to be changed."""
     if not expr.free_symbols or expr.is_Atom:  # (floats: NotTrigPolynomial, sympy's rounded products then)
         return None
     angles = angle_symbols(expr)
