@@ -632,3 +632,13 @@ def test_symbol_divided_out_on_the_fourier_coefficients(n, f, e, j):
     if f == "l1":  # l1 and l2 together: l1² only (l2 divides one term only)
         both, powers, _ = _divide_symbols(ne, [(loc["l1"], 3), (loc["l2"], 1)])
         assert powers == {loc["l1"]: 2, loc["l2"]: 0} and both == quotient
+
+
+def test_entry_by_entry_vectors_say_zero_entries_only_when_there_are():
+    """A long vector written entry by entry says "(entries not listed are zero)" only when some entry is zero (it
+    said so for A_B^# and P of this problem, whose entries are all listed)."""
+    from conftest import PROBLEMS
+    p = load_problem(PROBLEMS / "2013-01-09-ex2.yaml")
+    tex = render(p, solve_problem(p), "tex")
+    assert "\\begin{bmatrix} p_{i} \\end{bmatrix},\\quad\\text{with}\\]" in tex
+    assert "entries not listed are zero" not in tex
