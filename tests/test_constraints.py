@@ -642,3 +642,14 @@ def test_entry_by_entry_vectors_say_zero_entries_only_when_there_are():
     tex = render(p, solve_problem(p), "tex")
     assert "\\begin{bmatrix} p_{i} \\end{bmatrix},\\quad\\text{with}\\]" in tex
     assert "entries not listed are zero" not in tex
+
+
+def test_default_desired_acceleration_is_not_written_twice():
+    """With the default v̇_d (a symbol written v̇_d) the report says "To obtain v̇ = v̇_d", not "v̇ = v̇_d = v̇_d"; a
+    given value is written after it."""
+    p, sols, _ = solved(R2C + "    D: [[0, 1]]\n")
+    for fmt in ("md", "tex"):
+        text = render(p, sols, fmt)
+        assert "To obtain $\\dot v = \\dot v_d$ " in text and "\\dot v_d = \\dot v_d" not in text, fmt
+    p, sols, _ = solved(R2C + "    D: [[0, 1]]\n    dv_d: 2*r\n")
+    assert "To obtain $\\dot v = \\dot v_d = 2 r$" in render(p, sols, "tex")
