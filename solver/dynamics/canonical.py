@@ -118,7 +118,9 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
                 for body, P, vc, v2, T, U in bodies]
     Bm = mx(B)
     C_out = [mx(Ck) for Ck in C] if C is not None else None
-    return DynamicModel(energies, ex(T_extra), ex(T_all), Bm, C_out, sp.Matrix([ex(x) for x in c]),
-                        mx(S) if S is not None else None, skew, ex(U_extra), ex(U) if U is not None else None,
-                        sp.Matrix([ex(x) for x in g]), robot.friction, robot.input_map, sp.Matrix(robot.inputs),
-                        sp.Matrix([ex(x) for x in lhs]))
+    dm = DynamicModel(energies, ex(T_extra), ex(T_all), Bm, C_out, sp.Matrix([ex(x) for x in c]),
+                      mx(S) if S is not None else None, skew, ex(U_extra), ex(U) if U is not None else None,
+                      sp.Matrix([ex(x) for x in g]), robot.friction, robot.input_map, sp.Matrix(robot.inputs),
+                      sp.Matrix([ex(x) for x in lhs]))
+    memo.clear()  # (the deferred per-body values keep ex alive: not the whole derivation through its memo)
+    return dm
