@@ -295,8 +295,7 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     when small; no multivariate gcd, which is far too slow on these expressions), the sign in the numerator."""
     n1, n2 = _num_den(sp.sympify(n))
     d1, d2 = _num_den(sp.sympify(d))
-    form = fourier_form(n1 * d2)  # (the coefficients, kept to divide symbols out)
-    n = fourier_expr(*form) if form is not None else tidy_expanded(n1 * d2)  # (= tidy_expanded(n1 d2))
+    n = tidy_expanded(n1 * d2)
     if n == 0:
         return sp.Integer(0)
     mono = _monomial(n2 * d1)  # c Π bᵉ (sin q2⁷ sin(q1 + q2)): factored already, and shorter than its Fourier form
@@ -308,7 +307,8 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     if count_ops(d) <= MAX_CANCEL_OPS and count_ops(n) <= MAX_CANCEL_OPS * 10:
         coeff, factors = mono if mono is not None else factor_list_expr(d)  # (sympy's factor_list, faster)
         rest = sp.sympify(coeff)
-        n, powers, tidy_form = _divide_symbols(n, [(f, e) for f, e in factors if f.is_Symbol], form)
+        n, powers, tidy_form = _divide_symbols(n, [(f, e) for f, e in factors if f.is_Symbol],
+                                               fourier_form(n1 * d2))  # (memoized: what tidy_expanded printed)
         divided = not tidy_form  # (n is tidy unless divided other than by _divide_symbols)
         for f, e in factors:
             j = powers.get(f, 0)
