@@ -157,3 +157,50 @@ def test_identically_zero_decides_each_kind_of_expression():
     assert not identically_zero(sp.Float(0.5) * x - x / 3)
     assert identically_zero(sp.tanh(x) - (sp.exp(2 * x) - 1) / (sp.exp(2 * x) + 1))   # hyperbolic: rewritten
     assert not identically_zero(sp.sqrt(x ** 2 + 1) - x)
+
+
+def test_rational_term_fraction_is_the_factored_term():
+    """_term_fraction(t) is the fraction of factor_within(t) as a value, and cancels where the term allows it; the
+    groups of _rational merge denominators equal up to a constant factor (one fraction, not three)."""
+    from solver.math.simplify import _rational, _term_fraction
+    X = x**2 - 2 * x * y + y**2 + a**2
+    for t in [3 * m1 * x**2 / (2 * X**2), m1 * x / (x**2 + x * y), -a * b / (4 * (x + y) ** 3), a / (x * y + x),
+              sp.sqrt(2) * a / (x + 1), m1 * (x + y) / (x**2 - y**2)]:
+        n, d = _term_fraction(t)
+        assert sp.cancel(n / d - t) == 0, t
+        assert sp.gcd(sp.Poly(n, *sorted(t.free_symbols, key=str)), sp.Poly(d, *sorted(t.free_symbols, key=str))
+                      ).is_ground, t   # nothing left to cancel
+    e = m1 * (a**4 + x**4) / (4 * X**2) + m1 * a**2 * x**2 / (2 * X**2) + m2 * x * y / X**2
+    r = _rational(sp.expand(e))
+    assert sp.cancel(r - e) == 0
+    assert not r.is_Add and sp.denom(r) == 4 * sp.factor(X) ** 2
+
+
+def test_velocity_terms_from_the_tree_equal_the_expansion():
+    """velocity_terms reads the monomials of q̇ from the tree (no expansion of the coefficients): the terms sum to
+    the expression, one per monomial, highest degree first, and equal those grouped from the full expansion;
+    q̇ in a denominator falls back to the expansion."""
+    from solver.math.simplify import tidy, velocity_terms
+    q1, q2, L, d = sp.symbols("q1 q2 L d")
+    dq = list(sp.symbols("dq1 dq2"))
+    rng = random.Random(7)
+    pool = [sp.cos(q1), sp.sin(q1 + q2), L, d, dq[0], dq[1], dq[0] * dq[1], sp.Rational(1, 2), 1 / (q1**2 + a**2)]
+    cases = [dq[0] / (1 + dq[1] ** 2) + dq[0], sp.Integer(0), (dq[0] - dq[0]) * L]
+    cases += [sp.Add(*[sp.Mul(*rng.sample(pool, 3)) * rng.choice([1, -2, 3]) for _ in range(3)]) ** rng.randint(1, 2)
+              for _ in range(30)]
+    for e in cases:
+        terms = velocity_terms(e, dq)
+        diff = sp.Add(*terms) - e
+        for _ in range(3):
+            point = {s: rng.uniform(-2, 2) for s in diff.free_symbols}
+            assert abs(complex(diff.evalf(20, subs=point))) < 1e-12, e
+        monos = [sp.Mul(*[f for f in sp.Mul.make_args(t) if f.as_base_exp()[0] in dq]) for t in terms]
+        assert len(set(monos)) == len(monos), e
+        degs = [sp.Poly(m, *dq).total_degree() for m in monos]
+        assert degs == sorted(degs, reverse=True), e
+        if not e.has(1 / (q1**2 + a**2)) and not e.has(1 / (1 + dq[1] ** 2)):  # trigonometric: canonical
+            grouped: dict = {}
+            for t in sp.Add.make_args(sp.expand(e)):
+                m = sp.Mul(*[f for f in sp.Mul.make_args(t) if f.as_base_exp()[0] in dq])
+                grouped[m] = grouped.get(m, 0) + t / m
+            assert set(terms) == {tidy(c) * m for m, c in grouped.items() if tidy(c) != 0}, e

@@ -390,12 +390,27 @@ def _sum_denominator(expr: sp.Expr) -> bool:
     return False
 
 
+def _term_fraction(t: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+    """fraction(factor_within(t)) of one term n/d: when n is a monomial with rational coefficients and no factor of
+    the (memoized) factored d divides it, only d is factored (nothing cancels); otherwise the whole term."""
+    n, d = sp.fraction(t)
+    bases = [f.as_base_exp()[0] for f in sp.Mul.make_args(n) if not f.is_Number]
+    if d.free_symbols and _over_QQ(t) and all(b.is_Symbol or isinstance(b, (sp.sin, sp.cos)) for b in bases):
+        fd = factor_within(d)
+        if not any(f.as_base_exp()[0] in bases for f in sp.Mul.make_args(fd)):
+            return n, fd
+    return sp.fraction(factor_within(t))
+
+
 def _rational(expr: sp.Expr) -> sp.Expr:
     """A rational function without angles, shortest of: one factored fraction, or the terms grouped by
-    denominator (m1 + m3/4 + Iy*(D - 2d)^2/((q1 - q2)^2 + (D - 2d)^2)^2 stays so)."""
+    denominator up to a constant factor (m1 + m3/4 + Iy*(D - 2d)^2/((q1 - q2)^2 + (D - 2d)^2)^2 stays so)."""
     groups: dict[sp.Expr, list[sp.Expr]] = {}
     for t in sp.Add.make_args(sp.expand(expr, deep=False)):
-        n, d = sp.fraction(factor_within(t))
+        n, d = _term_fraction(t)
+        c, base = d.as_coeff_Mul()
+        if base.free_symbols:  # n/(4 X²) and n'/(2 X²): one group X², numerators n/4 and n'/2
+            n, d = n / c, base
         groups.setdefault(d, []).append(n)
     by_den = sp.Add(*[factor_within(sp.Add(*ns)) / d for d, ns in groups.items()])
     if len(groups) == 1 or count_ops(expr) > 150:   # one denominator already, or too big to combine cheaply
@@ -611,19 +626,50 @@ def zero_or_simplified(expr: sp.Expr) -> bool:
     return bool(z) if z is not None else sp.simplify(expr) == 0
 
 
+def _by_monomial(e: sp.Expr, v: set[sp.Symbol]) -> dict[sp.Expr, list[sp.Expr]] | None:
+    """e as Σ_m (Σ c) m over monomials m of the symbols v, read from its tree (sums, products, powers with natural
+    exponents of v), the subtrees free of v not expanded: {m: [c, ...]}; None where v sits elsewhere (a
+    denominator, a function)."""
+    if not (e.free_symbols & v):
+        return {sp.Integer(1): [e]}
+    if e in v:
+        return {e: [sp.Integer(1)]}
+    if e.is_Add:
+        out: dict[sp.Expr, list[sp.Expr]] = {}
+        for a in e.args:
+            part = _by_monomial(a, v)
+            if part is None:
+                return None
+            for m, cs in part.items():
+                out.setdefault(m, []).extend(cs)
+        return out
+    if e.is_Mul or (e.is_Pow and e.exp.is_Integer and e.exp > 0):
+        factors = e.args if e.is_Mul else [e.base] * int(e.exp)
+        acc: dict[sp.Expr, list[sp.Expr]] | None = {sp.Integer(1): [sp.Integer(1)]}
+        for f in factors:
+            part = _by_monomial(f, v)
+            if part is None:
+                return None
+            nxt: dict[sp.Expr, list[sp.Expr]] = {}
+            for m1, c1 in acc.items():
+                for m2, c2 in part.items():
+                    nxt.setdefault(m1 * m2, []).append(sp.Add(*c1) * sp.Add(*c2))
+            acc = nxt
+        return acc
+    return None
+
+
 def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:
     """``expr`` as terms coefficient·monomial of the velocities ``v``, highest degree first, each coefficient
     tidied: ‖v_c‖² -> [(l1² + q2²) q̇1², 2 l1 q̇1 q̇2, q̇2²]."""
-    e = sp.expand(expr)
-    if e == 0:
-        return []
-    groups: dict[sp.Expr, list[sp.Expr]] = {}
-    vs = set(v)
-    for term in sp.Add.make_args(e):
-        mono, rest = [], []
-        for fac in sp.Mul.make_args(term):
-            (mono if fac.as_base_exp()[0] in vs else rest).append(fac)
-        groups.setdefault(sp.Mul(*mono), []).append(sp.Mul(*rest))
+    groups = _by_monomial(expr, set(v))
+    if groups is None:
+        groups = {}
+        for term in sp.Add.make_args(sp.expand(expr)):
+            mono, rest = [], []
+            for fac in sp.Mul.make_args(term):
+                (mono if fac.as_base_exp()[0] in v else rest).append(fac)
+            groups.setdefault(sp.Mul(*mono), []).append(sp.Mul(*rest))
 
     def key(m: sp.Expr) -> tuple:
         degs = sp.Poly(m, *v).monoms()[0] if m != 1 else (0,) * len(v)
