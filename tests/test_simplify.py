@@ -204,3 +204,20 @@ def test_velocity_terms_from_the_tree_equal_the_expansion():
                 m = sp.Mul(*[f for f in sp.Mul.make_args(t) if f.as_base_exp()[0] in dq])
                 grouped[m] = grouped.get(m, 0) + t / m
             assert set(terms) == {tidy(c) * m for m, c in grouped.items() if tidy(c) != 0}, e
+
+
+def test_rational_zero_is_cancel():
+    """The ring test of a rational function is cancel(e) == 0, on zeros written in other forms (together, factor,
+    expand) and on non-zeros; None outside its domain (radicals, floats, angles are generators)."""
+    from solver.math.simplify import _rational_zero, is_zero
+    rng = random.Random(11)
+    for _ in range(60):
+        e = _rational(rng)
+        other = rng.choice([sp.together, sp.factor, sp.expand, sp.cancel])(e)
+        assert _rational_zero(e - other) is True, e
+        nz = e - other + _poly(rng, 1) / (x**2 + 1)
+        assert _rational_zero(nz) == (sp.cancel(nz) == 0), nz
+        assert is_zero(e - other) is True
+    assert _rational_zero(sp.sqrt(a) - a) is None
+    assert _rational_zero(sp.Float(0.3) * a / (1 + b) - a / 3) is None
+    assert _rational_zero(sp.sin(a) / (1 + b) - sp.sin(a) / (1 + b)) is True

@@ -596,13 +596,30 @@ def _algebraic_zero(expr: sp.Expr) -> bool | None:
         return None
 
 
+def _rational_zero(expr: sp.Expr) -> bool | None:
+    """expr ≡ 0 for a rational function with rational coefficients: e = n / Π bᵏ over the ring of its symbols
+    (:func:`_fraction`, nothing multiplied out but n) is zero iff n is; None for anything else."""
+    from sympy.polys.rings import ring
+    if expr.is_Rational:
+        return expr == 0
+    if not _over_QQ(expr):
+        return None
+    R = ring(tuple(_generators(expr)), sp.QQ)[0]
+    try:
+        n, _ = _fraction(expr, R)
+    except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError, RecursionError):
+        return None
+    return not n
+
+
 def is_zero(expr: sp.Expr) -> bool | None:
     """Exact zero test for trigonometric polynomials; None when the canonical form does not decide (a non-zero
     form of an expression with radicals or other functions does not prove it non-zero)."""
     expr = sp.sympify(expr)
     canonical = _canonical_coefficients(expr)
     if canonical and not angle_symbols(expr):   # a rational function: exact and fast
-        return sp.cancel(expr) == 0
+        z = _rational_zero(expr)
+        return z if z is not None else sp.cancel(expr) == 0
     if not canonical:   # radicals or other functions: True is a proof, anything else is not
         z0 = _algebraic_zero(expr)
         if z0 is not None:
