@@ -165,7 +165,8 @@ def test_rational_term_fraction_is_the_factored_term():
     from solver.math.simplify import _rational, _term_fraction
     X = x**2 - 2 * x * y + y**2 + a**2
     for t in [3 * m1 * x**2 / (2 * X**2), m1 * x / (x**2 + x * y), -a * b / (4 * (x + y) ** 3), a / (x * y + x),
-              sp.sqrt(2) * a / (x + 1), m1 * (x + y) / (x**2 - y**2)]:
+              sp.sqrt(2) * a / (x + 1), m1 * (x + y) / (x**2 - y**2), a * (x**2 + 2 * x * y + y**2) / (x + y) ** 3,
+              (x**2 - y**2) / (x * y - y**2) ** 2, (x + 1) * b / (y**2 * (x / 2 + y))]:
         n, d = _term_fraction(t)
         assert sp.cancel(n / d - t) == 0, t
         assert sp.gcd(sp.Poly(n, *sorted(t.free_symbols, key=str)), sp.Poly(d, *sorted(t.free_symbols, key=str))

@@ -391,15 +391,36 @@ def _sum_denominator(expr: sp.Expr) -> bool:
 
 
 def _term_fraction(t: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
-    """fraction(factor_within(t)) of one term n/d: when n is a monomial with rational coefficients and no factor of
-    the (memoized) factored d divides it, only d is factored (nothing cancels); otherwise the whole term."""
+    """n/d = t with the common factors cancelled, as fraction(factor_within(t)) gives them up to the form of n (the
+    caller factors the sums of numerators): d is factored (memoized), and each of its factors g divides n out as
+    often as it goes, by exact division over the ring of t's symbols; n is not factored. Terms with a numeric d,
+    with fractions inside n, or outside the rational functions over QQ: fraction(factor_within(t))."""
+    from sympy.polys.rings import ring
     n, d = sp.fraction(t)
+    if not d.free_symbols or not _over_QQ(t) or _sum_denominator(n):  # (fractions inside n: the whole term)
+        return sp.fraction(factor_within(t))
+    fd = factor_within(d)
+    c, rest = fd.as_coeff_Mul()
+    powers = [f.as_base_exp() for f in sp.Mul.make_args(rest)]
     bases = [f.as_base_exp()[0] for f in sp.Mul.make_args(n) if not f.is_Number]
-    if d.free_symbols and _over_QQ(t) and all(b.is_Symbol or isinstance(b, (sp.sin, sp.cos)) for b in bases):
-        fd = factor_within(d)
-        if not any(f.as_base_exp()[0] in bases for f in sp.Mul.make_args(fd)):
-            return n, fd
-    return sp.fraction(factor_within(t))
+    if all(b.is_Symbol or isinstance(b, (sp.sin, sp.cos)) for b in bases) and not any(
+            g in bases for g, _ in powers):  # a monomial n: only a factor of its own could cancel
+        return n, fd
+    try:
+        R = ring(tuple(_generators(t)), sp.QQ)[0]
+        N, left, cancelled = R(n), [], False
+        for g, k in powers:
+            G, j = R(g), 0
+            while j < k and not G.is_ground:
+                q, r = N.div(G)
+                if r:
+                    break
+                N, j = q, j + 1
+            left.append(g ** (k - j))
+            cancelled = cancelled or j > 0
+    except (sp.PolynomialError, TypeError, ValueError, ZeroDivisionError):
+        return sp.fraction(factor_within(t))
+    return (N.as_expr(), c * sp.Mul(*left)) if cancelled else (n, fd)
 
 
 def _rational(expr: sp.Expr) -> sp.Expr:
