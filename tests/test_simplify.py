@@ -175,6 +175,17 @@ def test_rational_term_fraction_is_the_factored_term():
     r = _rational(sp.expand(e))
     assert sp.cancel(r - e) == 0
     assert not r.is_Add and sp.denom(r) == 4 * sp.factor(X) ** 2
+    e = m1 * x / (2 * X) + m2 * y / sp.expand(4 * X) + (x - y) * (x + y) * m1 / sp.expand((x + y) * X)  # 2X distributed
+    r = _rational(e)
+    assert sp.cancel(r - e) == 0 and not r.is_Add, r
+
+
+def test_expand_polynomial_leaves_fractions_of_sums():
+    from solver.math.simplify import expand_polynomial
+    q = sp.Symbol("q")
+    assert expand_polynomial((a + sp.cos(q)) * (b - sp.sin(q))) == sp.expand((a + sp.cos(q)) * (b - sp.sin(q)))
+    e = (a + b) * x / (x**2 + y**2) + (a + b) * y
+    assert expand_polynomial(e) == e
 
 
 def test_velocity_terms_from_the_tree_equal_the_expansion():

@@ -32,7 +32,7 @@ from solver.control.laws import (
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.methods import NAMED_H, damping_matrix, named_objective
 from solver.math.budget import BudgetExceeded, cpu_budget
-from solver.math.simplify import factor_within, tidy
+from solver.math.simplify import expand_polynomial, factor_within, tidy
 from solver.results import Solution
 from solver.spec.expr import shape_of
 from solver.spec.problem import AskReader
@@ -281,7 +281,7 @@ def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: 
         sol.add("u_a", u_a, "vector", label="u(a)")
         # q̈ = B⁻¹(G u − n): with u = B a + n (m < n, not rewritten) that is a itself, checked without the model
         ok = _check(dm.B, G * u - nvec, J, Jdq, a_r) if square else _check(None, a, J, Jdq, a_r)
-        sol.add("closed_loop", closed.applyfunc(sp.expand), "vector",
+        sol.add("closed_loop", closed.applyfunc(expand_polynomial), "vector",
                 label="\\ddot e_t + K_D\\dot e_t + K_P e_t" if R is not None else "\\ddot e_r + K_D\\dot e_r + K_P e_r")
         sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")
     else:

@@ -23,7 +23,7 @@ from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import identically_zero as _zero
-from solver.math.simplify import tidy
+from solver.math.simplify import expand_polynomial, tidy
 from solver.registry import PROPERTY_CHECKS, PropertyVerdict, ask_kind, property_check
 from solver.results import Result, Solution
 from solver.spec.errors import UserError
@@ -350,7 +350,7 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
                list(qd) if options.qd is not None else None)
     sol = Solution("control_law", title=options.title or f"Control law: {LAWS[law]}")
     sol.add("u", u, "vector", label="u")
-    sol.add("closed_loop", closed.applyfunc(sp.expand), "vector",
+    sol.add("closed_loop", closed.applyfunc(expand_polynomial), "vector",
             label="\\ddot e + K_D\\dot e + K_P e" if law == "computed_torque"
             else "B\\ddot e + S\\dot e + K_D\\dot e + K_P e" if law == "lyapunov_tracking"
             else "B(q)\\ddot q + c(q,\\dot q) + K_D\\dot q - K_P e" + (" + g(q) - g(q_d)" if law == "pd_constant" else ""))

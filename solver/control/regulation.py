@@ -32,7 +32,7 @@ from pydantic import Field, field_validator
 from solver.control.gravity_bound import GradientBound, box_of, gradient_bound, matrix_function, maximize, spectral
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import identically_zero as _zero
-from solver.math.simplify import factor_within, is_zero, tidy
+from solver.math.simplify import expand_polynomial, factor_within, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
 from solver.spec.errors import UserError
@@ -686,7 +686,7 @@ class _Regulation:
 
     def _closed_loop(self) -> None:
         dm, n = self.dm, self.n
-        closed = (dm.lhs - self.tau - self.tau_ext).applyfunc(sp.expand)
+        closed = (dm.lhs - self.tau - self.tau_ext).applyfunc(expand_polynomial)
         self.closed = closed
         self.add("closed_loop", closed, "vector", label="B\\ddot q + c + g + F_v\\dot q - \\tau - \\tau_{ext}")
         at_rest = {v: 0 for v in self.dq + self.ddq}

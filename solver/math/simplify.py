@@ -420,7 +420,14 @@ def _term_fraction(t: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
             cancelled = cancelled or j > 0
     except (sp.PolynomialError, TypeError, ValueError, ZeroDivisionError):
         return sp.fraction(factor_within(t))
-    return (N.as_expr(), c * sp.Mul(*left)) if cancelled else (n, fd)
+    return (N.as_expr() / c, sp.Mul(*left)) if cancelled else (n, fd)
+
+
+def expand_polynomial(expr: sp.Expr) -> sp.Expr:
+    """sp.expand(expr) for a polynomial in its symbols and sines and cosines; a rational function with sums in
+    its denominators is returned as given (expanding distributes every numerator over the fractions: a longer
+    form, and slow)."""
+    return expr if _sum_denominator(expr) else sp.expand(expr)
 
 
 def _rational(expr: sp.Expr) -> sp.Expr:
@@ -429,8 +436,8 @@ def _rational(expr: sp.Expr) -> sp.Expr:
     groups: dict[sp.Expr, list[sp.Expr]] = {}
     for t in sp.Add.make_args(sp.expand(expr, deep=False)):
         n, d = _term_fraction(t)
-        c, base = d.as_coeff_Mul()
-        if base.free_symbols:  # n/(4 X²) and n'/(2 X²): one group X², numerators n/4 and n'/2
+        c, base = d.as_content_primitive()
+        if base.free_symbols:  # n/(4 X²), n'/(2 X²), n''/(2X)²: one group X², numerators n/4, n'/2 and n''/4
             n, d = n / c, base
         groups.setdefault(d, []).append(n)
     by_den = sp.Add(*[factor_within(sp.Add(*ns)) / d for d, ns in groups.items()])
