@@ -6,11 +6,14 @@ import os
 import sys
 from enum import Enum
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import TYPE_CHECKING, Any, Callable, Optional
 
 import typer
 
 from solver.spec.errors import UserError
+
+if TYPE_CHECKING:
+    from solver.results import Solution
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Solve, explain, verify robotics (dynamics & control) exam problems written as YAML specs.")
@@ -96,8 +99,15 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
                 from solver.solve import solve_problem
                 from solver.spec import load_problem
             problem = load_problem(spec)
-            solutions = solve_problem(problem)
-            figures = painter.write(solutions, output, format.value) if painter and output else []
+            figures: list[Path] = []
+
+            def solved(k: int, solution: Solution) -> None:  # its figures drawn while the next asks are solved
+                assert painter is not None and output is not None
+                last = k == len(problem.asks)
+                figures.extend(painter.send([solution], output, format.value, first=k, last=last))
+                if last and not figures:  # nothing to draw: do not wait for the warm-up
+                    painter.cancel()
+            solutions = solve_problem(problem, solved if painter and output else None)
             text = render(problem, solutions, format.value, fragment=fragment, template_dir=templates,
                           details=details)
             if painter:

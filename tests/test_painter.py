@@ -121,3 +121,27 @@ def test_sweep_on_the_grid_equals_lambdify():
         ref = sp.lambdify(x, e.subs(fixed), "numpy")(grid)
         got = sweep(e, x, grid, fixed)
         assert np.allclose(got, np.broadcast_to(ref, grid.shape), rtol=1e-13, atol=1e-13), e
+
+
+def test_painter_draws_each_ask_as_it_is_sent(tmp_path):
+    """send() per ask (the CLI calls it from solve_problem's callback, as each ask is solved): the figure of an
+    early ask is drawn before the last is sent, also a message larger than a pipe's buffer, and the files equal
+    write()'s."""
+    calls = []
+    sols = solve_problem(load_problem(PROBLEMS / "2004-03-25-ex1.yaml"), lambda k, s: calls.append((k, s.kind)))
+    assert [k for k, _ in calls] == list(range(1, len(sols) + 1))
+    painter = Painter("md")
+    big = Solution("demo")
+    xs = [i / 20000 for i in range(20001)]
+    big.figures.append(Figure("big", "", lambda: [Panel("$t$", "", [Curve("$y$", xs, [x * x for x in xs])])]))
+    first = painter.send([big], tmp_path / "r.md", "md", first=1)  # (its pickled panels exceed a pipe's buffer)
+    deadline = time.monotonic() + 60
+    while not first[0].exists() and time.monotonic() < deadline:  # drawn before the last ask is sent
+        time.sleep(0.05)
+    assert first[0].exists()
+    rest = painter.send(sols, tmp_path / "r.md", "md", first=2, last=True)
+    painter.wait()
+    assert [p.name for p in first + rest] == ["r-1-big.png", "r-2-gravity.png", "r-2-inertia.png"]
+    (tmp_path / "a").mkdir()
+    here = write_figures(sols, tmp_path / "a" / "r.md", "md")
+    assert [p.read_bytes() for p in here] == [p.read_bytes() for p in rest]

@@ -4,7 +4,9 @@ from __future__ import annotations
 import math
 import os
 import pickle
+import queue
 import signal
+import threading
 from pathlib import Path
 from typing import Callable, NoReturn
 
@@ -86,12 +88,13 @@ def draw(fig: Figure, path: Path) -> None:
     plt.close(f)
 
 
-def _plan(solutions: list[Solution], output: Path, fmt: str) -> list[tuple[Figure, Path]]:
-    """Each figure and its file beside ``output``, <stem>-<k>-<name>.pdf (LaTeX) or .png (Markdown, HTML);
-    ``figure.path`` set relative to the output's directory."""
+def _plan(solutions: list[Solution], output: Path, fmt: str, first: int = 1) -> list[tuple[Figure, Path]]:
+    """Each figure and its file beside ``output``, <stem>-<k>-<name>.pdf (LaTeX) or .png (Markdown, HTML), k the
+    ask's number (``first`` for the first solution given); ``figure.path`` set relative to the output's
+    directory."""
     suffix = ".pdf" if fmt == "tex" else ".png"
     jobs = []
-    for k, sol in enumerate(solutions, 1):
+    for k, sol in enumerate(solutions, first):
         for fig in sol.figures:
             fig.path = f"{output.stem}-{k}-{fig.name}{suffix}"
             jobs.append((fig, output.parent / fig.path))
@@ -121,18 +124,55 @@ def _warm_up(fmt: str) -> None:
     plt.close(f)
 
 
+def _read_exactly(fd: int, n: int) -> bytes | None:
+    """n bytes from the (blocking) descriptor fd; None at its end (before the first byte)."""
+    chunks, left = [], n
+    while left:
+        chunk = os.read(fd, min(left, 1 << 20))
+        if not chunk:
+            if left == n:
+                return None
+            raise EOFError("the figure jobs ended in the middle of a message")
+        chunks.append(chunk)
+        left -= len(chunk)
+    return b"".join(chunks)
+
+
 def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
-    """The painter process: warm up, read the pickled (name, panels, path) list, draw, answer b"ok" or the
-    error; never returns. Its other inherited descriptors are closed first (a parent reading to EOF, like the
-    sandbox, must not wait for it)."""
+    """The painter process: warm up, then read messages (length, pickled (last, [(name, panels, path)])) until the
+    pipe ends, drawing each as it comes while the asks after it are solved; the last one (the report is being
+    written by then) two ways. Answers b"ok" or the error; never returns. Its other inherited descriptors are
+    closed first (a parent reading to EOF, like the sandbox, must not wait for it)."""
+    def read(inbox: queue.Queue) -> None:  # a thread: the sender never blocks on a full pipe during the warm-up
+        try:
+            while (head := _read_exactly(jobs_fd, 8)) is not None:
+                item = pickle.loads(_read_exactly(jobs_fd, int.from_bytes(head, "big")) or b"")
+                inbox.put(item)
+                if item[0]:
+                    return
+            inbox.put(None)
+        except BaseException as exc:  # noqa: BLE001 - raised by the drawing thread
+            inbox.put(exc)
+
     def work() -> None:
         keep = sorted((jobs_fd, status_fd))
         os.closerange(3, keep[0])
         os.closerange(keep[0] + 1, keep[1])
         os.closerange(keep[1] + 1, 1 << 16)
+        _fresh_fonts()  # (a parent that drew figures itself, as the tests do)
+        inbox: queue.Queue = queue.Queue()
+        reader = threading.Thread(target=read, args=(inbox,), daemon=True)
+        reader.start()
         _warm_up(fmt)
-        data = read_all(jobs_fd)
-        _draw_two_ways(pickle.loads(data) if data else [])
+        while (item := inbox.get()) is not None:
+            if isinstance(item, BaseException):
+                raise item
+            last, jobs = item
+            if last:
+                reader.join()  # (it has returned) no thread left when _draw_two_ways forks
+                _draw_two_ways(jobs)
+                return
+            _draw_all(jobs)
     _run_and_exit(work, status_fd)
 
 
@@ -147,6 +187,26 @@ def _run_and_exit(work: Callable[[], None], status_fd: int) -> NoReturn:
         write_all(status_fd, status)
     finally:
         os._exit(0)
+
+
+def _fresh_fonts() -> None:
+    """In a forked process, before any font is opened: the parent's font objects are dropped and collected now.
+    matplotlib empties its font cache at a fork; the memoized methods of mathtext (parsed layouts, sized symbols)
+    hold fonts too and are emptied here. Collected later, in the middle of a drawing, a dropped font closes its
+    file descriptor, which may by then be the number of a font opened here (the painter closes the descriptors it
+    inherits): FreeType then fails with "invalid stream operation" (seen when the painter is forked from a
+    process that drew figures itself, as the tests do)."""
+    import gc
+    import sys
+    for name in ("matplotlib.mathtext", "matplotlib._mathtext"):
+        module = sys.modules.get(name)
+        for cls in (vars(module).values() if module is not None else ()):
+            if isinstance(cls, type) and cls.__module__ == name:
+                for attr in vars(cls).values():
+                    if callable(getattr(attr, "cache_clear", None)):
+                        attr.cache_clear()
+    if "matplotlib" in sys.modules:
+        gc.collect()
 
 
 def _draw_all(jobs: list) -> None:
@@ -174,6 +234,7 @@ def _draw_two_ways(jobs: list) -> None:
         return
     if pid == 0:  # the copy: the odd jobs
         os.close(r)
+        _fresh_fonts()
         _run_and_exit(lambda: _draw_all(jobs[1::2]), w)
     os.close(w)
     try:
@@ -190,9 +251,10 @@ def _draw_two_ways(jobs: list) -> None:
 
 class Painter:
     """Figures drawn on the other core: a helper process forked before the problem is solved imports and warms
-    up matplotlib (about a second) meanwhile, then draws what :meth:`write` sends it while this process renders
-    the report; :meth:`wait` joins it. Without fork (or when the fork fails) :meth:`write` draws in-process. The
-    helper inherits this process's limits (the sandbox's memory and CPU time)."""
+    up matplotlib (about a second) meanwhile, then draws the figures of each ask that :meth:`send` gives it as
+    soon as that ask is solved (while the next asks are solved and the report is rendered); :meth:`wait` joins
+    it. Without fork (or when the fork fails) :meth:`send` draws in-process. The helper inherits this process's
+    limits (the sandbox's memory and CPU time)."""
 
     def __init__(self, fmt: str) -> None:
         self.pid, self._jobs, self._status = 0, -1, -1
@@ -214,20 +276,27 @@ class Painter:
 
     def write(self, solutions: list[Solution], output: Path, fmt: str) -> list[Path]:
         """Send every figure to the painter (or draw it here); ``figure.path`` is set at once. The files."""
-        jobs = _plan(solutions, output, fmt)
-        if not jobs:  # nothing to draw: do not wait for the warm-up
+        files = self.send(solutions, output, fmt, last=True)
+        if not files:  # nothing to draw: do not wait for the warm-up
             self.cancel()
-            return []
+        return files
+
+    def send(self, solutions: list[Solution], output: Path, fmt: str, first: int = 1, last: bool = False
+             ) -> list[Path]:
+        """Send the figures of ``solutions`` (asks ``first``, ``first`` + 1, ...) to the painter, or draw them
+        here; ``figure.path`` is set at once. ``last``: no more will be sent. The files."""
+        jobs = _plan(solutions, output, fmt, first)
         if not self.pid:
             for fig, path in jobs:
                 draw(fig, path)
-        elif self._jobs >= 0:
-            data = pickle.dumps([(fig.name, fig.panels, str(path)) for fig, path in jobs])
+        elif self._jobs >= 0 and (jobs or last):
+            data = pickle.dumps((last, [(fig.name, fig.panels, str(path)) for fig, path in jobs]))
             try:
-                write_all(self._jobs, data)
+                write_all(self._jobs, len(data).to_bytes(8, "big") + data)
             finally:
-                os.close(self._jobs)
-                self._jobs = -1
+                if last:
+                    os.close(self._jobs)
+                    self._jobs = -1
         return [path for _, path in jobs]
 
     def wait(self) -> None:
