@@ -233,3 +233,22 @@ def test_rational_zero_is_cancel():
     assert _rational_zero(sp.sqrt(a) - a) is None
     assert _rational_zero(sp.Float(0.3) * a / (1 + b) - a / 3) is None
     assert _rational_zero(sp.sin(a) / (1 + b) - sp.sin(a) / (1 + b)) is True
+
+
+def test_numer_denom_from_the_tree_is_sfields():
+    """equivalence.numer_denom reads a rational function over QQ from its tree (no expansion) and cancels it as
+    sympy's field does: the same numerator and denominator, term for term."""
+    from sympy.polys.fields import sfield
+
+    from solver.math.equivalence import _ring_numer_denom
+    rng = random.Random(3)
+    for _ in range(150):
+        e = _rational(rng)
+        if rng.random() < 0.5:
+            e = e / (_poly(rng, 2) or 1) + _poly(rng, 1)
+        fast = _ring_numer_denom(e)
+        if fast is None:
+            continue
+        _, f = sfield(e)
+        assert fast == (f.numer.as_expr(), f.denom.as_expr()), e
+    assert _ring_numer_denom(sp.sqrt(a) / (1 + b)) is None

@@ -337,12 +337,35 @@ def numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
     """expr = n/d with n, d expanded polynomials: through the field of rational functions of its generators
     (sparse polynomial arithmetic), or sympy's together/expand where the field does not take it."""
     from sympy.polys.fields import sfield
+    fast = _ring_numer_denom(expr)
+    if fast is not None:
+        return fast
     try:
         _, f = sfield(expr)
         return f.numer.as_expr(), f.denom.as_expr()
     except (sp.PolynomialError, ValueError, TypeError, NotImplementedError, sp.polys.polyerrors.GeneratorsNeeded):
         num, den = sp.fraction(sp.together(expr))
         return sp.expand(num), sp.expand(den)
+
+
+def _ring_numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr] | None:
+    """numer_denom of a rational function over QQ without expanding it: n / Π bᵏ read from the tree
+    (simplify._fraction), then cancelled as sfield cancels (the same canonical n, d); None for anything else."""
+    from sympy.polys.rings import ring
+
+    from solver.math.simplify import _NotRational, _fraction, _generators, _over_QQ
+    if not _over_QQ(expr):
+        return None
+    R = ring(tuple(_generators(expr)), sp.QQ)[0]
+    try:
+        n, bases = _fraction(expr, R)
+    except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError, RecursionError):
+        return None
+    d = R.one
+    for b, k in bases.items():
+        d *= b**k
+    p, q = n.cancel(d)
+    return p.as_expr(), q.as_expr()
 
 
 def normalize_condition(expr: sp.Expr) -> sp.Expr:
