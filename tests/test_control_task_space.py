@@ -361,3 +361,22 @@ def test_exact_check_of_a_task_law_proves_right_and_wrong_laws():
     assert _check_exact(B, rhs, J, Jdq, a + sp.Matrix([0, sp.sin(q1) ** 2 + sp.cos(q1) ** 2 - 1])) is True
     assert _check_exact(B, rhs, J, Jdq, a * sp.Float(1.0)) is None      # floats: the 40-digit check
     assert _check(B, rhs, J, Jdq, a) and not _check(B, rhs, J, Jdq, a + sp.Matrix([0, 1]))
+
+
+def test_vanishes_by_mpmath_agrees_with_evalf():
+    """The randomized zero test of the task-space laws evaluates all the expressions by one mpmath function: it
+    decides as sympy's evalf does, on identities (true only exactly), on near-misses, with the relative tolerance
+    for floating-point data, and on functions mpmath cannot take (evalf then)."""
+    from solver.control.cartesian import _magnitudes, _vanishes
+    q1, q2, a = sp.symbols("q1 q2 a")
+    ident = sp.sin(q1 + q2) - sp.sin(q1) * sp.cos(q2) - sp.cos(q1) * sp.sin(q2)
+    assert _vanishes([ident, sp.cos(q1) ** 2 + sp.sin(q1) ** 2 - 1])
+    assert not _vanishes([ident + sp.Rational(1, 10**20) * a])  # above 10^-25 at 40 digits
+    assert _vanishes([ident + sp.Rational(1, 10**30) * a])
+    assert _vanishes([sp.Float(1e-12) * a], tol=1e-9, scale=[a])
+    assert not _vanishes([sp.Float(1e-6) * a], tol=1e-9, scale=[a])
+    exprs = [ident * a + sp.Rational(1, 3), sp.Heaviside(q1) + a, sp.atan2(q1, q2) * sp.exp(a)]
+    syms = sorted(set().union(*(x.free_symbols for x in exprs)), key=str)
+    pt = [sp.Rational(7, 3), sp.Rational(-5, 4), sp.Rational(2, 9)]
+    ref = [abs(complex(x.xreplace(dict(zip(syms, pt))).evalf(40))) for x in exprs]
+    assert _magnitudes(exprs, syms, 40)(pt) == pytest.approx(ref, rel=1e-14)

@@ -690,7 +690,7 @@ def _by_monomial(e: sp.Expr, v: set[sp.Symbol]) -> dict[sp.Expr, list[sp.Expr]] 
         return out
     if e.is_Mul or (e.is_Pow and e.exp.is_Integer and e.exp > 0):
         factors = e.args if e.is_Mul else [e.base] * int(e.exp)
-        acc: dict[sp.Expr, list[sp.Expr]] | None = {sp.Integer(1): [sp.Integer(1)]}
+        acc: dict[sp.Expr, list[sp.Expr]] = {sp.Integer(1): [sp.Integer(1)]}
         for f in factors:
             part = _by_monomial(f, v)
             if part is None:
