@@ -250,5 +250,22 @@ def test_numer_denom_from_the_tree_is_sfields():
         if fast is None:
             continue
         _, f = sfield(e)
-        assert fast == (f.numer.as_expr(), f.denom.as_expr()), e
+        assert (fast[0].as_expr(), fast[1].as_expr()) == (f.numer.as_expr(), f.denom.as_expr()), e
     assert _ring_numer_denom(sp.sqrt(a) / (1 + b)) is None
+
+
+def test_normalize_condition_in_the_ring_is_the_expression_path(monkeypatch):
+    """normalize_condition factors n and d in the ring they were cancelled in: the same canonical conditions as
+    printing them and factoring the printed polynomials (factor_list_expr)."""
+    import solver.math.equivalence as E
+    rng = random.Random(5)
+    cases = [_rational(rng) for _ in range(80)]
+    cases = [e / (_poly(rng, 2) or 1) + _poly(rng, 1) if rng.random() < 0.5 else e for e in cases]
+    E._normalize_condition.cache_clear()
+    ring = [E.normalize_condition(e) for e in cases]
+    E._normalize_condition.cache_clear()
+    monkeypatch.setattr(E, "_ring_numer_denom", lambda e: None)
+    printed = [E.normalize_condition(e) for e in cases]
+    E._normalize_condition.cache_clear()
+    assert ring == printed
+    assert sum(1 for r in ring if r not in (1, -1)) > 40   # (most cases keep a factor of unknown sign)

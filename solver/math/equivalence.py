@@ -28,7 +28,7 @@ from typing import Any, Callable, Iterable, Iterator
 
 import sympy as sp
 
-from solver.math.fourier import NotTrigPolynomial, factor_list_expr, split_angle
+from solver.math.fourier import NotTrigPolynomial, factor_list_expr, factor_small, split_angle
 from solver.math.simplify import angle_symbols, is_zero, zero_or_simplified
 
 CORRECT, INCORRECT, UNDECIDED = "correct", "incorrect", "undecided"
@@ -339,7 +339,7 @@ def numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
     from sympy.polys.fields import sfield
     fast = _ring_numer_denom(expr)
     if fast is not None:
-        return fast
+        return fast[0].as_expr(), fast[1].as_expr()
     try:
         _, f = sfield(expr)
         return f.numer.as_expr(), f.denom.as_expr()
@@ -348,9 +348,10 @@ def numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
         return sp.expand(num), sp.expand(den)
 
 
-def _ring_numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr] | None:
-    """numer_denom of a rational function over QQ without expanding it: n / Π bᵏ read from the tree
-    (simplify._fraction), then cancelled as sfield cancels (the same canonical n, d); None for anything else."""
+def _ring_numer_denom(expr: sp.Expr) -> tuple[Any, Any] | None:
+    """numer_denom of a rational function over QQ without expanding it, as polynomials of the ring of its
+    generators: n / Π bᵏ read from the tree (simplify._fraction), then cancelled as sfield cancels (the same
+    canonical n, d); None for anything else."""
     from sympy.polys.rings import ring
 
     from solver.math.simplify import _NotRational, _fraction, _generators, _over_QQ
@@ -364,8 +365,7 @@ def _ring_numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr] | None:
     d = R.one
     for b, k in bases.items():
         d *= b**k
-    p, q = n.cancel(d)
-    return p.as_expr(), q.as_expr()
+    return n.cancel(d)
 
 
 def normalize_condition(expr: sp.Expr) -> sp.Expr:
@@ -378,12 +378,19 @@ def normalize_condition(expr: sp.Expr) -> sp.Expr:
 
 @lru_cache(maxsize=512)
 def _normalize_condition(expr: sp.Expr) -> sp.Expr:
-    num, den = numer_denom(expr)
-    if num == 0:
-        return sp.Integer(-1)  # 0 > 0 never holds
+    ring_nd = _ring_numer_denom(expr)
+    if ring_nd is not None:  # factored in the ring, without printing n and d and reading them back
+        if not ring_nd[0]:
+            return sp.Integer(-1)  # 0 > 0 never holds
+        parts = [(sp.QQ.to_sympy(c), [(f.as_expr(), k) for f, k in fl])
+                 for c, fl in (factor_small(x) for x in ring_nd)]
+    else:
+        num, den = numer_denom(expr)
+        if num == 0:
+            return sp.Integer(-1)
+        parts = [factor_list_expr(num), factor_list_expr(den)]
     sign, kept = 1, []
-    for part, power in ((num, 1), (den, -1)):
-        coeff, factors = factor_list_expr(part)
+    for coeff, factors in parts:
         if coeff < 0:
             sign = -sign
         for f, k in factors:
