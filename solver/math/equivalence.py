@@ -350,19 +350,14 @@ def numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
 
 def _ring_numer_denom(expr: sp.Expr) -> tuple[Any, Any] | None:
     """numer_denom of a rational function over QQ without expanding it, as polynomials of the ring of its
-    generators: n / Π bᵏ read from the tree (simplify._fraction), then cancelled as sfield cancels (the same
+    generators: n / Π bᵏ read from the tree (simplify.ring_fraction), then cancelled as sfield cancels (the same
     canonical n, d); None for anything else."""
-    from sympy.polys.rings import ring
-
-    from solver.math.simplify import _NotRational, _fraction, _generators, _over_QQ
-    if not _over_QQ(expr):
+    from solver.math.simplify import ring_fraction
+    nb = ring_fraction(expr)
+    if nb is None:
         return None
-    R = ring(tuple(_generators(expr)), sp.QQ)[0]
-    try:
-        n, bases = _fraction(expr, R)
-    except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError, RecursionError):
-        return None
-    d = R.one
+    n, bases = nb
+    d = n.ring.one
     for b, k in bases.items():
         d *= b**k
     return n.cancel(d)

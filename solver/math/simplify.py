@@ -335,19 +335,14 @@ def _factors(p) -> tuple:  # type: ignore[no-untyped-def]
 
 def _factor_rational(x: sp.Expr) -> sp.Expr | None:
     """sp.factor(x) for a rational function with rational coefficients in its symbols: x = n / Π bᵏ over the
-    ring of its symbols (:func:`_fraction`, the bases of the denominators kept apart), n and each base b factored
+    ring of its symbols (:func:`ring_fraction`, the bases of the denominators kept apart), n and each base b factored
     by :func:`fourier.factor_small` (factor_list_fast: gcds where linear in a generator), the irreducible factors
     common to the numerator and the denominator cancelled, in sympy's generator order; None for anything else."""
     from sympy.core.mul import _keep_coeff
-    from sympy.polys.rings import ring
-    if not _over_QQ(x):
+    nb = ring_fraction(x)
+    if nb is None:
         return None
-    gens = _generators(x)
-    R = ring(tuple(gens), sp.QQ)[0]
-    try:
-        n, bases = _fraction(x, R)
-    except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError, RecursionError):
-        return None
+    n, bases = nb
     if not n:
         return sp.Integer(0)
     coeff, num = _factors(n)
@@ -624,20 +619,27 @@ def _algebraic_zero(expr: sp.Expr) -> bool | None:
         return None
 
 
-def _rational_zero(expr: sp.Expr) -> bool | None:
-    """expr ≡ 0 for a rational function with rational coefficients: e = n / Π bᵏ over the ring of its symbols
-    (:func:`_fraction`, nothing multiplied out but n) is zero iff n is; None for anything else."""
+def ring_fraction(expr: sp.Expr) -> tuple | None:
+    """(n, {b: k}) with expr = n / Π bᵏ over the ring of its generators with rational coefficients
+    (:func:`_fraction`: read from the tree, nothing multiplied out but n); None for anything that is not a rational
+    function over QQ of its symbols and sines and cosines."""
     from sympy.polys.rings import ring
-    if expr.is_Rational:
-        return expr == 0
     if not _over_QQ(expr):
         return None
     R = ring(tuple(_generators(expr)), sp.QQ)[0]
     try:
-        n, _ = _fraction(expr, R)
+        return _fraction(expr, R)
     except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError, RecursionError):
         return None
-    return not n
+
+
+def _rational_zero(expr: sp.Expr) -> bool | None:
+    """expr ≡ 0 for a rational function with rational coefficients: e = n / Π bᵏ (:func:`ring_fraction`) is zero
+    iff n is; None for anything else."""
+    if expr.is_Rational:
+        return expr == 0
+    nb = ring_fraction(expr)
+    return None if nb is None else not nb[0]
 
 
 def is_zero(expr: sp.Expr) -> bool | None:
