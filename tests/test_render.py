@@ -1,5 +1,6 @@
 import json
 import math
+import re
 import shutil
 import subprocess
 
@@ -197,3 +198,44 @@ def test_details_json_writes_sets_in_a_fixed_order():
     p = load_problem(PROBLEMS / "2011-09-12-ex1.yaml")
     steps = _Steps(latex_printer(p), {}, True)
     assert [x["expr"] for x in steps({q2, q10, q1})] == ["q1", "q10", "q2"]
+
+
+def test_a_term_wider_than_the_page_is_broken_inside_its_parentheses():
+    """term_parts: a long term ± r·A/d (A a sum) is written as ± \\frac{r}{d}\\Big(a_1 + ... a_m\\Big) over parts
+    a multline can break; a short term, or one without a sum, stays one part; a sum r keeps its parentheses."""
+
+    from solver.publish.render import Latex, join_terms, term_parts
+    tex = Latex({}, {})
+    q1, q2, D, d, m3, Iy, dq1, a, b = sp.symbols("q1 q2 D d m3 Iy dq1 a b")
+    X = D**2 - 4 * D * d + 4 * d**2 + q1**2 - 2 * q1 * q2 + q2**2
+    A = sp.expand((D**2 + q1**2 + q2**2) ** 2 * m3 + Iy * (D - 2 * d) ** 2)
+    parts = term_parts(dq1**2 * A / (4 * X**2), tex)
+    assert len(parts) == len(A.args)
+    assert parts[0].startswith("\\frac{") and "}\\Big(" in parts[0] and parts[-1].endswith("\\Big)")
+    inner = join_terms(parts).split("\\Big(", 1)[1][:-len("\\Big)")]
+    assert inner == tex(A)  # the sum itself, in its printed order
+    neg = term_parts(-dq1**2 * A / (4 * X**2), tex)
+    assert neg[0].startswith("- \\frac{") and neg[1:] == parts[1:]
+    long_sum = sp.expand(A * (q1 + q2 + D))
+    with_sum = term_parts((a - b) * long_sum * q1, tex)
+    assert len(with_sum) == len(long_sum.args)
+    assert with_sum[0].startswith("\\left(q_{1} \\left(a - b\\right)\\right)\\Big(") or with_sum[0].startswith(
+        "q_{1} \\left(a - b\\right)\\Big("), with_sum[0][:60]
+    assert term_parts((a - b) * long_sum, tex)[0].startswith("\\left(a - b\\right)\\Big(")  # not a - b\\Big(
+    assert term_parts(a * b, tex) == [tex(a * b)]
+    assert term_parts(sp.sin(q1) ** 40 * sp.cos(q2) ** 40 * a**7 * b**9 * D**3 * Iy**5 * m3**2, tex) == [
+        tex(sp.sin(q1) ** 40 * sp.cos(q2) ** 40 * a**7 * b**9 * D**3 * Iy**5 * m3**2)]  # no sum: one part
+
+
+@pytest.mark.skipif(not shutil.which("pdflatex"), reason="pdflatex not installed")
+@pytest.mark.parametrize("name", ["2012-07-05-ex1", "2020-09-11-remote-ex4"])
+def test_long_entries_stay_inside_the_page(tmp_path, name):
+    """The rational model's kinetic energies and the constrained model's long entries are broken inside their
+    fractions' parentheses: no line of these reports runs past the right margin (before: up to 1896 pt)."""
+    p = load_problem(PROBLEMS / f"{name}.yaml")
+    (tmp_path / "r.tex").write_text(render(p, solve_problem(p), "tex"))
+    r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "r.tex"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=180)
+    assert r.returncode == 0, r.stdout[-2000:]
+    widths = [float(w) for w in re.findall(r"Overfull \\hbox \(([0-9.]+)pt too wide\)", r.stdout)]
+    assert not widths, widths

@@ -407,6 +407,33 @@ def top_level_terms(tex: str) -> list[str]:
     return [p for p in parts if p]
 
 
+def term_parts(t: Any, tex: Callable[[Any], str], width: int = 70) -> list[str]:
+    """One term of a displayed sum as parts :func:`display` can put on several lines: [tex(t)] when it fits in
+    ``width``; otherwise, for t = ± r·A/d with A a sum (the largest factor of the numerator that is one),
+    ['± \\frac{r}{d}\\Big(a_1', 'a_2', ..., 'a_m\\Big)'] (or 'r \\Big(...' without d): a single fraction or
+    product is one box TeX cannot break, and overflows the page."""
+    text = tex(t)
+    if not isinstance(t, sp.Expr) or visible_length(text) <= width:
+        return [text]
+    neg = t.could_extract_minus_sign()
+    n, d = sp.fraction(-t if neg else t)
+    factors = list(sp.Mul.make_args(n))
+    sums = [f for f in factors if f.is_Add]
+    if not sums:
+        return [text]
+    big = max(sums, key=lambda f: visible_length(tex(f)))
+    factors.remove(big)
+    inner = top_level_terms(tex(big))
+    if len(inner) < 2 or max(map(visible_length, inner)) > UNBREAKABLE:
+        return [text]
+    rest = sp.Mul(*factors)
+    head = (f"\\frac{{{tex(rest)}}}{{{tex(d)}}}" if d != 1 else "" if rest == 1
+            else f"\\left({tex(rest)}\\right)" if rest.is_Add else tex(rest))
+    inner[0] = ("- " if neg else "") + head + "\\Big(" + inner[0]
+    inner[-1] += "\\Big)"
+    return inner
+
+
 def equation(value: Any, lhs: str, entry: str, tex: Callable[[Any], str], punct: str = "",
              width: int = 70) -> str:
     """A displayed ``lhs = value``; a matrix or vector too wide for the page is written entry by entry
@@ -443,6 +470,14 @@ def _broken(lhs: str, text: str, punct: str, width: int, value: Any = None,
     parts = top_level_terms(text)
     if max(map(visible_length, parts)) > UNBREAKABLE:  # a line TeX cannot even measure: one (overfull) line
         return f"\\[{lhs} = {text}{punct}\\]"
+    if tex is not None and isinstance(value, sp.Add) and max(map(visible_length, parts)) > width:
+        printed = {}  # each term of the sum as it is printed in it: a term wider than the page broken itself
+        for t in value.args:
+            printed[tex(t)] = t
+            if t.could_extract_minus_sign():
+                printed["- " + tex(-t)] = t
+        parts = [q for p in parts for q in (term_parts(printed[p], tex, width) if p in printed else [p])]
+        return display(parts, "", width, lhs=lhs, punct=punct)
     if tex is not None and isinstance(value, sp.Expr) and visible_length(text) > width:
         n, d = sp.fraction(value)
         if d != 1 and n.is_Add:
@@ -545,7 +580,8 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
     env.filters["num"] = number
     env.filters["terms"] = lambda terms: join_terms([env.filters["tex"](t) for t in terms if t != 0])
     env.filters["display"] = lambda terms, rhs="", lhs="", wrap=("", ""), punct="": display(
-        [env.filters["tex"](t) for t in terms if t != 0], rhs, lhs=lhs, wrap=tuple(wrap), punct=punct)
+        [p for t in terms if t != 0 for p in term_parts(t, env.filters["tex"])], rhs, lhs=lhs, wrap=tuple(wrap),
+        punct=punct)
     env.filters["width"] = visible_length
     env.filters["equation"] = lambda value, lhs, entry, punct="": equation(value, lhs, entry, env.filters["tex"],
                                                                           punct)
