@@ -346,7 +346,7 @@ def generic_rank(M: sp.Matrix, trials: int = 3) -> int:
         point = {s: sp.Rational(rng.randint(101, 997), rng.randint(101, 397)) *
                  (1 if (s.is_positive or s.is_nonnegative or rng.random() < 0.5) else -1) for s in syms}
         try:
-            best = max(best, _np_rank(_to_np(M.subs(point))))
+            best = max(best, _np_rank(_to_np(M.xreplace(point))))  # (subs: the same numbers, 7x slower)
         except (TypeError, ValueError, ZeroDivisionError):
             continue
     return best
