@@ -258,7 +258,7 @@ def _generic_rank(M: sp.Matrix, trials: int = 3) -> int:
     for _ in range(trials):
         pt = {s: rng.uniform(0.3, 2.0) * (1 if (s.is_positive or rng.random() < 0.5) else -1) for s in syms}
         try:
-            a = geo.to_np(M.subs(pt))
+            a = geo.to_np(M.xreplace(pt))  # (subs: the same numbers, several times slower)
         except (TypeError, ValueError):
             continue
         s = np.linalg.svd(a, compute_uv=False)
