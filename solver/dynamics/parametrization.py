@@ -41,7 +41,7 @@ from pydantic import Field
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import equivalent, exact_zero
 from solver.math.opcount import count_ops
-from solver.math.simplify import is_zero, tidy
+from solver.math.simplify import group_expanded, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
 from solver.spec.errors import UserError
@@ -305,14 +305,7 @@ def relations(M: sp.Matrix, names: list[sp.Symbol]) -> list[sp.Expr]:
 # ------------------------------------------------------------------------------------------------ readability
 def _group_by_state(e: sp.Expr, rate: list[sp.Symbol]) -> sp.Expr:
     """Terms collected on the monomials of the velocities/accelerations, coefficients factored."""
-    groups: dict[sp.Expr, list[sp.Expr]] = {}
-    rs = set(rate)
-    for term in sp.Add.make_args(sp.expand(e)):
-        mono, rest = [], []
-        for fac in sp.Mul.make_args(term):
-            (mono if fac.as_base_exp()[0] in rs else rest).append(fac)
-        groups.setdefault(sp.Mul(*mono), []).append(sp.Mul(*rest))
-    return sp.Add(*[sp.factor_terms(sp.Add(*c)) * m for m, c in groups.items()])
+    return sp.Add(*[sp.factor_terms(sp.Add(*c)) * m for m, c in group_expanded(e, rate).items()])
 
 
 def readable(e: sp.Expr, state: set, rate: list[sp.Symbol]) -> sp.Expr:

@@ -334,8 +334,9 @@ def set_equiv(got: list[sp.Matrix], want: list[sp.Matrix], angles: list[int] | N
 
 
 def numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
-    """expr = n/d with n, d expanded polynomials: through the field of rational functions of its generators
-    (sparse polynomial arithmetic), or sympy's together/expand where the field does not take it."""
+    """expr = n/d with n, d expanded polynomials: read from the tree and cancelled in the ring of its generators
+    (:func:`_ring_numer_denom`), else through sympy's field of rational functions (sfield, which expands first),
+    else sympy's together/expand where neither takes it."""
     from sympy.polys.fields import sfield
     fast = _ring_numer_denom(expr)
     if fast is not None:

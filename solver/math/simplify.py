@@ -673,6 +673,18 @@ def zero_or_simplified(expr: sp.Expr) -> bool:
     return bool(z) if z is not None else sp.simplify(expr) == 0
 
 
+def group_expanded(expr: sp.Expr, v: list[sp.Symbol]) -> dict[sp.Expr, list[sp.Expr]]:
+    """The terms of expand(expr) by their monomial in the symbols v: {m: [the rest of each term with m]}."""
+    vs = set(v)
+    groups: dict[sp.Expr, list[sp.Expr]] = {}
+    for term in sp.Add.make_args(sp.expand(expr)):
+        mono, rest = [], []
+        for fac in sp.Mul.make_args(term):
+            (mono if fac.as_base_exp()[0] in vs else rest).append(fac)
+        groups.setdefault(sp.Mul(*mono), []).append(sp.Mul(*rest))
+    return groups
+
+
 def _by_monomial(e: sp.Expr, v: set[sp.Symbol]) -> dict[sp.Expr, list[sp.Expr]] | None:
     """e as Σ_m (Σ c) m over monomials m of the symbols v, read from its tree (sums, products, powers with natural
     exponents of v), the subtrees free of v not expanded: {m: [c, ...]}; None where v sits elsewhere (a
@@ -711,12 +723,7 @@ def velocity_terms(expr: sp.Expr, v: list[sp.Symbol]) -> list[sp.Expr]:
     tidied: ‖v_c‖² -> [(l1² + q2²) q̇1², 2 l1 q̇1 q̇2, q̇2²]."""
     groups = _by_monomial(expr, set(v))
     if groups is None:
-        groups = {}
-        for term in sp.Add.make_args(sp.expand(expr)):
-            mono, rest = [], []
-            for fac in sp.Mul.make_args(term):
-                (mono if fac.as_base_exp()[0] in v else rest).append(fac)
-            groups.setdefault(sp.Mul(*mono), []).append(sp.Mul(*rest))
+        groups = group_expanded(expr, v)
 
     def key(m: sp.Expr) -> tuple:
         degs = sp.Poly(m, *v).monoms()[0] if m != 1 else (0,) * len(v)
