@@ -97,6 +97,25 @@ def test_solve_does_not_import_sympy_units_for_simplify():
         assert not any(m == "sympy.physics" or m.startswith("sympy.physics.") for m in modules), name
 
 
+LAMBDIFY_NP = """
+import sys
+import numpy as np
+import sympy as sp
+from solver.math.numeric import lambdify_np
+x = sp.Symbol("x")
+f = lambdify_np([x], sp.Matrix([[sp.sin(x) + sp.Heaviside(x - 1), sp.sqrt(x)]]))
+assert np.allclose(f(2.0), [[np.sin(2.0) + 1, np.sqrt(2.0)]])
+print(sorted(m for m in ("numpy.testing", "numpy.f2py", "numpy.ma", "numpy.random") if m in sys.modules))
+"""
+
+
+def test_lambdify_np_imports_none_of_numpys_extras():
+    """lambdify_np runs sympy's NumPy code in numpy's own namespace: no `from numpy import *` (which imports
+    numpy.testing, numpy.f2py, ...: about 45 ms of a `solve` that samples a curve without scipy)."""
+    r = subprocess.run([sys.executable, "-c", LAMBDIFY_NP], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
 NOUNITS = """
 import sys
 import sympy as sp

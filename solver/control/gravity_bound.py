@@ -22,6 +22,7 @@ from typing import Callable, Optional
 import numpy as np
 import sympy as sp
 
+from solver.math.numeric import lambdify_np
 from solver.math.simplify import factor_within, tidy
 
 GRID_POINTS = 20_000      # grid evaluations for a numeric maximum
@@ -140,7 +141,7 @@ def common_factor(A: sp.Matrix, coords: set[sp.Symbol]) -> sp.Expr:
 # ------------------------------------------------------------------------------------------------ numerics
 def matrix_function(M: sp.Matrix, coords: list[sp.Symbol]) -> Callable[[np.ndarray], np.ndarray]:
     """Vectorized M(q): points (N, k) -> (N, rows, cols)."""
-    f = sp.lambdify(coords, M.tolist(), "numpy")
+    f = lambdify_np(coords, M.tolist())
 
     def ev(pts: np.ndarray) -> np.ndarray:
         pts = np.atleast_2d(pts)

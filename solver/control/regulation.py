@@ -32,6 +32,7 @@ from pydantic import Field, field_validator
 from solver.control.gravity_bound import GradientBound, box_of, gradient_bound, matrix_function, maximize, spectral
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import identically_zero as _zero
+from solver.math.numeric import lambdify_np
 from solver.math.simplify import expand_polynomial, factor_within, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -254,8 +255,8 @@ def find_equilibria(phi: sp.Matrix, q: list[sp.Symbol], box: list[tuple[float, f
     Newton (scipy root) from a grid otherwise; periodic coordinates wrapped to [−π, π)."""
     from scipy.optimize import brentq, root
     n = len(q)
-    f = sp.lambdify(q, list(phi), "numpy")
-    jac = sp.lambdify(q, phi.jacobian(q).tolist(), "numpy")
+    f = lambdify_np(q, list(phi))
+    jac = lambdify_np(q, phi.jacobian(q).tolist())
     sols: list[np.ndarray] = []
 
     def add(x: np.ndarray) -> None:
@@ -925,7 +926,7 @@ class _Regulation:
             found, box, periodic = self._search(phi)
             if found is not None:
                 configs, how = found, "numeric"
-                Hfun = sp.lambdify(q, (-phi.xreplace(self.values)).jacobian(q).tolist(), "numpy")
+                Hfun = lambdify_np(q, (-phi.xreplace(self.values)).jacobian(q).tolist())
                 stable = []
                 for c in configs:
                     H = np.array(Hfun(*[float(x) for x in c]), dtype=float)
@@ -1041,8 +1042,8 @@ class _Regulation:
         from scipy.optimize import root
         q = self.q
         g = self.g_plant.xreplace(self.values)
-        gf = sp.lambdify(q, list(g), "numpy")
-        gj = sp.lambdify(q, g.jacobian(q).tolist(), "numpy")
+        gf = lambdify_np(q, list(g))
+        gj = lambdify_np(q, g.jacobian(q).tolist())
         kp = np.array([float(sp.sympify(k).xreplace(self.values)) for k in self.kp])
         qd = np.array([float(sp.sympify(x).xreplace(self.values)) for x in self.qd])
         x = np.array([float(sp.sympify(v).xreplace(self.values)) for v in q0])
@@ -1319,10 +1320,10 @@ def _lyap_fail(V: sp.Expr, Bm: sp.Matrix, rest: sp.Matrix, q: list, dq: list, eq
     Vn = V.xreplace(vals)
     grad_q = [sp.diff(Vn, x) for x in q]
     grad_v = [sp.diff(Vn, x) for x in dq]
-    f_grad = sp.lambdify(q + dq, grad_q + grad_v, "numpy")
-    f_B = sp.lambdify(q + dq, Bm.xreplace(vals).tolist(), "numpy")
-    f_r = sp.lambdify(q + dq, list(rest.xreplace(vals)), "numpy")
-    f_V = sp.lambdify(q + dq, Vn, "numpy")
+    f_grad = lambdify_np(q + dq, grad_q + grad_v)
+    f_B = lambdify_np(q + dq, Bm.xreplace(vals).tolist())
+    f_r = lambdify_np(q + dq, list(rest.xreplace(vals)))
+    f_V = lambdify_np(q + dq, Vn)
     n = len(q)
     eqn = None if eq is None else [float(sp.sympify(x).xreplace(vals)) for x in eq]
     if eqn is not None and any(not np.isfinite(x) for x in eqn):

@@ -19,6 +19,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
+from solver.math.numeric import lambdify_np
 from solver.registry import ask_kind
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
@@ -196,12 +197,12 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
                         _place(problem, ctx, "set"), "give them in the problem's values: or in set: {name: value}")
     err_expr = [ref[i] - tracked[i].xreplace(vals) for i in range(m)]
     args = [t] + state + ff
-    f_u = sp.lambdify(args, list(u_num), "numpy")
-    f_B = sp.lambdify(args, plant_B, "numpy")
-    f_n = sp.lambdify(args, list(plant_n), "numpy")
-    f_G = sp.lambdify(args, G, "numpy")
-    f_a = sp.lambdify(args, list(adot), "numpy") if adot is not None else None
-    f_e = sp.lambdify(args, err_expr, "numpy")
+    f_u = lambdify_np(args, list(u_num))
+    f_B = lambdify_np(args, plant_B)
+    f_n = lambdify_np(args, list(plant_n))
+    f_G = lambdify_np(args, G)
+    f_a = lambdify_np(args, list(adot)) if adot is not None else None
+    f_e = lambdify_np(args, err_expr)
     q0 = _floats(problem, options, ctx, "q0", n)
     dq0 = _floats(problem, options, ctx, "dq0", n)
     a0 = _floats(problem, options, ctx, "ahat0", len(ahat)) if ahat else []
@@ -211,7 +212,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     if ff and getattr(ask.options, "u0", None) is not None:
         u0v = ask.ctx.expr("u0")
         ffv = np.array([float(sp.sympify(x).xreplace(vals)) for x in (u0v if isinstance(u0v, list) else [u0v])])
-    f_g = sp.lambdify([q], list(dm.g.xreplace(vals)), "numpy") if ff else None
+    f_g = lambdify_np([q], list(dm.g.xreplace(vals))) if ff else None
 
     def rhs(tt: float, y: np.ndarray) -> np.ndarray:
         budget["nfev"] += 1

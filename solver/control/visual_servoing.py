@@ -24,6 +24,7 @@ import numpy as np
 import sympy as sp
 from pydantic import BaseModel, Field, model_validator
 
+from solver.math.numeric import lambdify_np
 from solver.math.simplify import factor_within, rational_matrix, tidy, zero_or_simplified
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -234,7 +235,7 @@ def generic_rank(J: sp.Matrix, rng: random.Random, exclude: Optional[dict] = Non
 def _float_rank(M: sp.Matrix, rng: random.Random, tol: float = 1e-9) -> int:
     """Rank at a random point of the symbols (floating point, singular values above tol·max(1, σ₁))."""
     syms = sorted(M.free_symbols, key=str)
-    f = sp.lambdify(syms, M, "numpy")
+    f = lambdify_np(syms, M)
     best = 0
     for _ in range(2):
         args = [rng.uniform(0.3, 2.0) * (1 if s.is_positive else rng.choice((1, -1))) for s in syms]

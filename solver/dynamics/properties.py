@@ -38,6 +38,7 @@ from solver.dynamics.model import (
     derive,
     require_model,
 )
+from solver.math.numeric import lambdify_np
 from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy, tidy_expanded, tidy_matrix
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -894,7 +895,7 @@ def check_affine_bound(problem, results, name, value, other, options) -> Propert
                     - set(robot.q), key=lambda s: s.name)
     for trial in range(3):
         vals = {p: problem.values.get(p, sp.Float(rng.uniform(0.5, 2.0))) for p in params}
-        An = sp.lambdify(coords, A.value.xreplace(vals), "numpy")
+        An = lambdify_np(coords, A.value.xreplace(vals))
         a, b = float(alpha.xreplace(vals)), float(beta.xreplace(vals))
         for _ in range(200):
             rev = np.array([robot.joints[robot.q.index(c)] == "R" for c in coords])

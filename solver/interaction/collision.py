@@ -25,6 +25,7 @@ from pydantic import Field
 
 from solver.dynamics.model import DynamicModel, derive, has_model
 from solver.kinematics.redundancy import generic_rank
+from solver.math.numeric import lambdify_np
 from solver.math.rigid import dh_chain
 from solver.math.simplify import factor_within, is_zero, tidy, tidy_matrix, velocity_terms, zero_or_simplified
 from solver.math.sweep import numeric_values
@@ -467,7 +468,7 @@ def simulate_collision(dm: DynamicModel, q: list[sp.Symbol], dq: list[sp.Symbol]
     args = list(q) + list(dq)
 
     def lam(M: sp.Matrix):  # type: ignore[no-untyped-def]
-        f = sp.lambdify(args, M.subs(num), "numpy")
+        f = lambdify_np(args, M.subs(num))
         return lambda x, y: np.array(f(*x, *y), dtype=float).reshape(M.shape)
 
     Bf, cf, gf, Jf = lam(dm.B), lam(c), lam(dm.g), lam(Jc)

@@ -36,6 +36,7 @@ from solver.dynamics.equilibria import equilibria
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.fourier import factor_list_expr
+from solver.math.numeric import lambdify_np
 from solver.math.opcount import count_ops
 from solver.math.simplify import (angle_symbols, factor_within, fourier_expr, fourier_form, is_zero, tidy,
                                   tidy_expanded)
@@ -1270,9 +1271,9 @@ def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> No
         raise spec.fail(("simulate", "dq0"), f"dq0 violates the constraints: A(q0) dq0 = {[round(x, 6) for x in a0]}",
                         "give a velocity with A(q0) dq0 = 0 (rest is always admissible)")
     args = [t] + q + dq
-    f = {key: sp.lambdify(args, M.xreplace(fixed), "numpy") for key, M in
+    f = {key: lambdify_np(args, M.xreplace(fixed)) for key, M in
          (("B", dm.B), ("n", nvec), ("A", spec.A), ("Ad", Adot * sp.Matrix(dq)), ("G", G), ("u", sp.Matrix(u_t)))}
-    fh = sp.lambdify(args, spec.h.xreplace(fixed), "numpy") if spec.h is not None else None
+    fh = lambdify_np(args, spec.h.xreplace(fixed)) if spec.h is not None else None
     k, T, points = spec.k, float(opts.time), opts.points
     qlabels = [problem.latex_names.get(s, s.name) for s in q]
     caption = (f"Constrained motion from $q_0$ under the given inputs (full model with $\\lambda(q,\\dot q,u)$, "

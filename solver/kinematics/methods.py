@@ -16,6 +16,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.kinematics import resolution as rs
+from solver.math.numeric import lambdify_np
 from solver.registry import PropertyVerdict, property_check
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.expr import shape_of
@@ -731,11 +732,11 @@ def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | No
             raise spec.fail(("motion", "start", name), f"'{name}' is not a coordinate")
     start = [float(sp.N(spec.ctx.expr("motion", "start", x.name).subs(problem.values))) for x in spec.q]
     la = rs.LA(False, spec.o.rank_tol)
-    Jf = [sp.lambdify([spec.q], t["J"].subs(problem.values), "numpy") for t in tasks]
+    Jf = [lambdify_np([spec.q], t["J"].subs(problem.values)) for t in tasks]
     xs = [np.array(sp.Matrix(t["r"]).subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1)
           for t in tasks]
     if meth == "weighted":
-        Wf = sp.lambdify([spec.q], spec.W.subs(problem.values), "numpy")
+        Wf = lambdify_np([spec.q], spec.W.subs(problem.values))
     mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if (meth == "dls" and spec.mu is not None) else None
 
     def jac(q: np.ndarray) -> list[np.ndarray]:
@@ -743,7 +744,7 @@ def _motion(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict | No
 
     # with task functions, the singular configuration is refined on r(q) = r(q(0)) + ṙ t, det J_E(q) = 0
     fb = all(tk["f"] is not None for tk in tasks)
-    ff = [sp.lambdify([spec.q], tk["f"].subs(problem.values), "numpy") for tk in tasks] if fb else []
+    ff = [lambdify_np([spec.q], tk["f"].subs(problem.values)) for tk in tasks] if fb else []
     r0 = [np.array(f(start), dtype=float).reshape(-1, 1) for f in ff]
     now = [0.0]
 
@@ -875,14 +876,14 @@ def _motion_acc(sol: Solution, problem, spec: _MSpec, add, tasks: list) -> dict 
     for t in tasks:
         J = t["J"].subs(problem.values)
         Jdot = sum((J.diff(x) * dq[i] for i, x in enumerate(spec.q)), sp.zeros(*J.shape))
-        Jf.append(sp.lambdify([spec.q], J, "numpy"))
-        hf.append(sp.lambdify([spec.q, dq], Jdot * sp.Matrix(dq), "numpy"))
+        Jf.append(lambdify_np([spec.q], J))
+        hf.append(lambdify_np([spec.q, dq], Jdot * sp.Matrix(dq)))
     rdd = [np.array(t["r"].subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1) for t in tasks]
     lo = [float(sp.N(b.subs(problem.values))) for b in spec.lo] if spec.lo is not None else None
     hi = [float(sp.N(b.subs(problem.values))) for b in spec.hi] if spec.hi is not None else None
     Kd = np.array(spec.Kd.subs(problem.values).evalf().tolist(), dtype=float) if spec.Kd is not None else None
     mu = float(sp.N(sp.sympify(spec.mu).subs(problem.values))) if (meth == "dls" and spec.mu is not None) else None
-    Wf = sp.lambdify([spec.q], spec.W.subs(problem.values), "numpy") if meth == "weighted" else None
+    Wf = lambdify_np([spec.q], spec.W.subs(problem.values)) if meth == "weighted" else None
     q0c = np.array(spec.q0.subs(problem.values).evalf().tolist(), dtype=float).reshape(-1, 1) \
         if spec.q0 is not None and not spec.q0.free_symbols else None
 

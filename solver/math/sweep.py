@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import sympy as sp
 
+from solver.math.numeric import evaluate_np
 from solver.results import Curve, Figure, Panel
 
 if TYPE_CHECKING:
@@ -45,52 +46,8 @@ def sweep(expr: sp.Expr, x: sp.Symbol, grid: np.ndarray, fixed: dict[sp.Symbol, 
     if not e.free_symbols:
         return [float(e)] * len(grid)
     import numpy as np  # here, not at the top: most solves draw no figure (start-up of `check`, `solve`)
-    try:
-        with np.errstate(all="ignore"):
-            vals = _on_grid(e, x, grid, np, {})
-    except _Unsupported:  # another function: lambdify (generates and compiles code: ~10 ms per expression)
-        vals = sp.lambdify(x, e, "numpy")(grid)
+    vals = evaluate_np(e, [x], [grid])
     return [float(v) for v in np.broadcast_to(vals, grid.shape)]
-
-
-class _Unsupported(Exception):
-    pass
-
-
-_UFUNCS = {sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.exp: "exp", sp.log: "log", sp.Abs: "abs",
-           sp.atan: "arctan", sp.asin: "arcsin", sp.acos: "arccos", sp.sinh: "sinh", sp.cosh: "cosh",
-           sp.tanh: "tanh", sp.sign: "sign"}
-
-
-def _on_grid(e: sp.Expr, x: sp.Symbol, grid: np.ndarray, np, memo: dict):  # type: ignore[no-untyped-def]
-    """e(x) on the grid by numpy, node by node (shared subexpressions once), as lambdify's code computes it."""
-    hit = memo.get(e)
-    if hit is not None:
-        return hit
-    if e == x:
-        out = grid
-    elif e.is_Number:
-        out = complex(e) if e.has(sp.I) else float(e)
-    elif e.is_NumberSymbol:
-        out = float(e)
-    elif e.is_Add:
-        out = sum((_on_grid(a, x, grid, np, memo) for a in e.args), 0.0)
-    elif e.is_Mul:
-        out = 1.0
-        for a in e.args:
-            out = out * _on_grid(a, x, grid, np, memo)
-    elif e.is_Pow:
-        b, k = _on_grid(e.base, x, grid, np, memo), e.exp
-        out = np.sqrt(b) if k == sp.S.Half else 1 / np.sqrt(b) if k == -sp.S.Half else \
-            np.power(b, int(k)) if k.is_Integer else np.power(b, _on_grid(k, x, grid, np, memo))
-    elif type(e) in _UFUNCS and len(e.args) == 1:
-        out = getattr(np, _UFUNCS[type(e)])(_on_grid(e.args[0], x, grid, np, memo))
-    elif isinstance(e, sp.atan2):
-        out = np.arctan2(_on_grid(e.args[0], x, grid, np, memo), _on_grid(e.args[1], x, grid, np, memo))
-    else:
-        raise _Unsupported(type(e).__name__)
-    memo[e] = out
-    return out
 
 
 def coordinate_figure(name: str, caption: str, entries: list[tuple[str, sp.Expr]], robot: Robot,

@@ -24,6 +24,7 @@ from typing import Any, Callable, Optional
 import numpy as np
 import sympy as sp
 
+from solver.math.numeric import lambdify_np
 from solver.math.simplify import simplified
 from solver.math.opcount import count_ops
 from solver.math.search import golden_min
@@ -97,7 +98,7 @@ class Law:
         for p in self.pieces:
             e = p.subs(values)
             e = e.subs({s: 1 for s in e.free_symbols - {self.t}})
-            fn = sp.lambdify(self.t, e, "numpy")
+            fn = lambdify_np(self.t, e)
             fns.append(lambda x, fn=fn: np.broadcast_to(np.asarray(fn(x), dtype=float), np.shape(x)))
         for b in self.breaks:
             v = sp.sympify(b).subs(values)

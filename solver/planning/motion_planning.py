@@ -19,6 +19,7 @@ import numpy as np
 import sympy as sp
 from pydantic import BaseModel, Field
 
+from solver.math.numeric import lambdify_np
 from solver.math.simplify import factor_within, tidy
 from solver.registry import ask_kind
 from solver.results import Curve, Figure, Panel, Solution
@@ -172,9 +173,9 @@ def _solve_potential(problem, options: MotionPlanningAsk, ctx, sol: Solution, ad
     if options.range is not None and not (free - set(vals)):
         lo = np.array([options.range.get(str(x), [-1, 1])[0] for x in q], dtype=float)
         hi = np.array([options.range.get(str(x), [-1, 1])[1] for x in q], dtype=float)
-        active = [(sp.lambdify(q, r[0].xreplace(vals)), float(sp.sympify(r[1]).xreplace(vals)),
-                   sp.lambdify(q, list(r[4].xreplace(vals)))) for r in reps]
-        fa = sp.lambdify(q, list((ka * e).xreplace(vals)))
+        active = [(lambdify_np(q, r[0].xreplace(vals)), float(sp.sympify(r[1]).xreplace(vals)),
+                   lambdify_np(q, list(r[4].xreplace(vals)))) for r in reps]
+        fa = lambdify_np(q, list((ka * e).xreplace(vals)))
 
         def F(x: np.ndarray) -> np.ndarray:
             out = np.array(fa(*x), dtype=float)
@@ -191,9 +192,9 @@ def _solve_potential(problem, options: MotionPlanningAsk, ctx, sol: Solution, ad
         add("equilibria_at", eqs, "set", label="q_e")
         data["equilibria"] = eqs
         if n == 1:
-            Uf = [(sp.lambdify(q, r[0].xreplace(vals)), float(sp.sympify(r[1]).xreplace(vals)),
-                   sp.lambdify(q, r[3].xreplace(vals))) for r in reps]
-            Uaf = sp.lambdify(q, Ua.xreplace(vals))
+            Uf = [(lambdify_np(q, r[0].xreplace(vals)), float(sp.sympify(r[1]).xreplace(vals)),
+                   lambdify_np(q, r[3].xreplace(vals))) for r in reps]
+            Uaf = lambdify_np(q, Ua.xreplace(vals))
 
             def panels() -> list[Panel]:
                 xs = np.linspace(lo[0], hi[0], 801)[1:-1]

@@ -17,6 +17,7 @@ from typing import Optional
 import numpy as np
 import sympy as sp
 
+from solver.math.numeric import lambdify_np
 from solver.math.simplify import simplified
 
 IK_TOL = 1e-10
@@ -173,9 +174,9 @@ def follow(task: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol], values: dic
     task = task.subs(values)
     Jsym = task.jacobian(q)
     Jdot_dq = (Jsym * sp.Matrix(dq)).jacobian(q) * sp.Matrix(dq)
-    f = sp.lambdify([q], task, "numpy")
-    Jf = sp.lambdify([q], Jsym, "numpy")
-    Jd = sp.lambdify([q, dq], Jdot_dq, "numpy")
+    f = lambdify_np([q], task)
+    Jf = lambdify_np([q], Jsym)
+    Jd = lambdify_np([q, dq], Jdot_dq)
     fv = lambda x: np.asarray(f(x), dtype=float).ravel()  # noqa: E731
     Jv = lambda x: np.asarray(Jf(x), dtype=float).reshape(len(task), len(q))  # noqa: E731
     cur = np.array(q_start, dtype=float)

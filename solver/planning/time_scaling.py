@@ -28,6 +28,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import DynamicModel, derive, require_model
+from solver.math.numeric import lambdify_np
 from solver.math.opcount import count_ops
 from solver.math.search import golden_min
 from solver.planning.laws import Law, LawError, extremum, sample
@@ -230,9 +231,9 @@ def scaling_search(pieces: list[Piece], U: list[sp.Expr], values: dict, t: sp.Sy
         a0, b0 = float(sp.sympify(pc.a).subs(values)), float(sp.sympify(pc.b).subs(values))
         if b0 <= a0:
             continue
-        fa = [sp.lambdify(t, pc.inertial[i].subs(values), "numpy") for i in range(n)]
-        ff = [sp.lambdify(t, pc.friction[i].subs(values), "numpy") for i in range(n)]
-        fg = [sp.lambdify(t, pc.gravity[i].subs(values), "numpy") for i in range(n)]
+        fa = [lambdify_np(t, pc.inertial[i].subs(values)) for i in range(n)]
+        ff = [lambdify_np(t, pc.friction[i].subs(values)) for i in range(n)]
+        fg = [lambdify_np(t, pc.gravity[i].subs(values)) for i in range(n)]
         grid = np.linspace(a0, b0, GRID)
         for i in range(n):
             def yv(x: float, i: int = i) -> float:

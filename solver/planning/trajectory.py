@@ -14,6 +14,7 @@ import sympy as sp
 from pydantic import Field
 from sympy.matrices.common import ShapeError
 
+from solver.math.numeric import lambdify_np
 from solver.math.simplify import simplified
 from solver.planning.laws import LawError, extremum, less, sample
 from solver.planning.motion import Motion, MotionSpec, read_motion
@@ -354,7 +355,7 @@ def path_figure(path: Path, values: dict) -> Figure:
         grid = np.linspace(0.0, L, 241)
         pe = path.p.subs(values)
         pe = pe.subs({x: 1 for x in pe.free_symbols - {path.s}})
-        f = sp.lambdify(path.s, pe, "numpy")
+        f = lambdify_np(path.s, pe)
         pts = np.array([np.asarray(f(x), dtype=float).ravel() for x in grid])
         if pts.shape[1] == 2 or np.allclose(pts[:, 2], pts[0, 2]):
             c = Curve("path", [float(x) for x in pts[:, 0]], [float(y) for y in pts[:, 1]])
@@ -410,9 +411,9 @@ def joint_motion(sol: Solution, problem, ctx, options: TrajectoryAsk, path: Path
         fn = [law.diff(k).numeric_pieces(values) for k in range(3)]
         k = law.piece_of(tau)
         extra.append((tv, *[float(fn[d][0][k](np.array([tv]))[0]) for d in range(3)]))
-    P = sp.lambdify(path.s, path.p.subs(values), "numpy")
-    dP = sp.lambdify(path.s, path.dp.subs(values), "numpy")
-    ddP = sp.lambdify(path.s, path.ddp.subs(values), "numpy")
+    P = lambdify_np(path.s, path.p.subs(values))
+    dP = lambdify_np(path.s, path.dp.subs(values))
+    ddP = lambdify_np(path.s, path.ddp.subs(values))
 
     def cart(sv: float, dsv: float, ddsv: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         p = np.asarray(P(sv), dtype=float).ravel()
