@@ -182,6 +182,33 @@ def test_stability_proof_and_counterexample():
     assert verdict is False and w[x] - 2 * w[y] <= 0
 
 
+def test_always_positive_reads_numerator_and_denominator_over_the_ring():
+    x, y = sp.symbols("x y", positive=True)
+    a = sp.Symbol("a")
+    assert lti.always_positive((x**2 + y**2 - x * y) / (x + 2)) is True  # AM-GM on n, d with positive terms
+    assert lti.always_positive((-x - y) / (-2 * y - 1)) is True           # both signs cancel
+    assert lti.always_positive(x - y) is None
+    assert lti.always_positive((x + 1)**2 - x**2 - 2 * x - 1) is False    # ≡ 0, written otherwise
+    assert lti.always_positive((-x - 1) / (x + 1)) is False               # ≡ -1
+    assert lti.always_positive(a + 1) is None                              # a symbol of any sign
+    assert lti.always_positive(x * sp.sin(y) + 1) is None                  # sin y is not a positive generator
+    assert lti.always_positive(sp.Integer(3)) is True and lti.always_positive(sp.Integer(-1)) is False
+
+
+def test_tree_evaluation_equals_lambdify():
+    """numpy_tree (no generated code) gives lambdify's values, shared subexpressions included; a node it does not
+    know falls back to lambdify."""
+    import numpy as np
+
+    from solver.math.numeric import evaluate_np, lambdify_np
+    x, y = sp.symbols("x y", positive=True)
+    X = np.linspace(0.1, 3.0, 7)
+    Y = np.linspace(2.0, 0.5, 7)
+    for e in [x**2 * y - 3 * x / y + sp.Rational(1, 3), sp.sqrt(x + y) * sp.sin(x) ** 3 - sp.cos(x * y) / x,
+              sp.atan2(y, x - 1) + sp.Abs(x - y) + sp.exp(-x), sp.Max(x, y) + sp.Heaviside(x - 1)]:
+        assert np.allclose(evaluate_np(e, [x, y], [X, Y]), lambdify_np([x, y], e)(X, Y), rtol=1e-13, atol=0)
+
+
 def test_two_mass_counterexample_is_unstable_by_eigenvalues():
     """2010-07-07-ex1: the printed "stable for every k_f" fails; check the witness independently."""
     from solver.registry import load_all

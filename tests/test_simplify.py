@@ -240,18 +240,18 @@ def test_numer_denom_from_the_tree_is_sfields():
     sympy's field does: the same numerator and denominator, term for term."""
     from sympy.polys.fields import sfield
 
-    from solver.math.equivalence import _ring_numer_denom
+    from solver.math.equivalence import ring_numer_denom
     rng = random.Random(3)
     for _ in range(150):
         e = _rational(rng)
         if rng.random() < 0.5:
             e = e / (_poly(rng, 2) or 1) + _poly(rng, 1)
-        fast = _ring_numer_denom(e)
+        fast = ring_numer_denom(e)
         if fast is None:
             continue
         _, f = sfield(e)
         assert (fast[0].as_expr(), fast[1].as_expr()) == (f.numer.as_expr(), f.denom.as_expr()), e
-    assert _ring_numer_denom(sp.sqrt(a) / (1 + b)) is None
+    assert ring_numer_denom(sp.sqrt(a) / (1 + b)) is None
 
 
 def test_normalize_condition_in_the_ring_is_the_expression_path(monkeypatch):
@@ -264,7 +264,7 @@ def test_normalize_condition_in_the_ring_is_the_expression_path(monkeypatch):
     E._normalize_condition.cache_clear()
     ring = [E.normalize_condition(e) for e in cases]
     E._normalize_condition.cache_clear()
-    monkeypatch.setattr(E, "_ring_numer_denom", lambda e: None)
+    monkeypatch.setattr(E, "ring_numer_denom", lambda e: None)
     printed = [E.normalize_condition(e) for e in cases]
     E._normalize_condition.cache_clear()
     assert ring == printed

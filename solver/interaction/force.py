@@ -34,6 +34,7 @@ from pydantic import Field, model_validator
 from solver.dynamics.model import derive, has_model
 from solver.interaction import linear as lti
 from solver.math.equivalence import conditions_equiv, scalar_equiv
+from solver.math.numeric import lambdify_np
 from solver.math.opcount import count_ops
 from solver.math.simplify import factor_within, tidy
 from solver.registry import PROPERTY_CHECKS, PropertyVerdict, ask_kind, property_check
@@ -406,7 +407,7 @@ def analyze(residual: sp.Matrix, x: list, dx: list, ddx: list, s: sp.Symbol, ste
         out.columns = [lti.routh_column(lti.coefficients(f, s)) for f, _ in out.factors]
         if len(out.factors) == 1:
             co = lti.coefficients(out.factors[0][0], s)
-            out.deltas = [co[0]] + [lti._short(d) for d in lti.hurwitz_determinants(co)[:-1]]  # Δ_n = b_n Δ_{n-1}
+            out.deltas = [co[0]] + lti.short_hurwitz_determinants(co)[:-1]  # Δ_n = b_n Δ_{n-1}
         out.column = out.columns[0] if len(out.factors) == 1 and out.factors[0][1] == 1 else []
         out.conditions = lti.hurwitz_conditions([c for col in out.columns for c in col])
         out.stable, out.witness = lti.stable_for_all(out.conditions) if out.conditions else (True, None)
@@ -1190,7 +1191,7 @@ def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
     def sample() -> list[Panel]:
         t, X, _ = lti.simulate(st, nums, x0, [0.0] * len(loop.x), t_end)
         tl = [float(v) for v in t]
-        fc_f = sp.lambdify(list(S.q), Fc.xreplace(nums), "numpy")
+        fc_f = lambdify_np(list(S.q), Fc.xreplace(nums))
         Fvals = np.array([np.ravel(fc_f(*X[:S.n, k])) for k in range(X.shape[1])]).T
         panels = []
         curves = []

@@ -14,6 +14,7 @@ the Routh table is positive; the conditions are returned in the canonical form o
 from __future__ import annotations
 
 from dataclasses import dataclass
+from fractions import Fraction
 from functools import lru_cache
 from typing import Any, Sequence
 
@@ -21,8 +22,9 @@ import numpy as np
 import sympy as sp
 from sympy.polys.rings import sring
 
-from solver.math.equivalence import numer_denom, reduce_conditions
+from solver.math.equivalence import numer_denom, reduce_conditions, ring_numer_denom
 from solver.math.fourier import factor_list_expr
+from solver.math.numeric import evaluate_np
 from solver.math.opcount import count_ops
 from solver.math.simplify import factor_within, tidy
 
@@ -159,14 +161,6 @@ def coefficients(p: sp.Expr, s: sp.Symbol) -> list[sp.Expr]:
     return [factor_within(c) for c in sp.Poly(sp.expand(p), s).all_coeffs()]
 
 
-def hurwitz_determinants(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
-    """Δ_1..Δ_n, the leading principal minors of the Hurwitz matrix H_ij = b_{2j-i+1} of b_0 sⁿ + b_1 sⁿ⁻¹ + ...
-    + b_n (exact polynomial arithmetic, no fractions), expanded (0 exactly when zero). Memoized: the Routh column
-    and the report both use them."""
-    K, dets = _hurwitz(tuple(sp.sympify(c) for c in coeffs))
-    return [_to_expr(K, d) for d in dets]
-
-
 @lru_cache(maxsize=256)
 def _hurwitz(b: tuple[sp.Expr, ...]) -> tuple[Any, tuple[Any, ...]]:
     """(K, [Δ_1..Δ_n] as elements of K), K the domain of the coefficients (a polynomial ring, usually)."""
@@ -179,6 +173,20 @@ def _hurwitz(b: tuple[sp.Expr, ...]) -> tuple[Any, tuple[Any, ...]]:
 
     dH = DomainMatrix.from_Matrix(sp.Matrix(n, n, lambda i, j: coef(2 * j - i + 1)))
     return dH.domain, tuple(dH[:k, :k].det() if k > 1 else dH[0, 0].element for k in range(1, n + 1))
+
+
+def short_hurwitz_determinants(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
+    """Δ_1..Δ_n, the leading principal minors of the Hurwitz matrix H_ij = b_{2j-i+1} of b_0 sⁿ + b_1 sⁿ⁻¹ + ...
+    + b_n (exact polynomial arithmetic, no fractions, memoized: the Routh column uses them too), each factored when
+    that is shorter (:func:`_short`)."""
+    K, dets = _hurwitz(tuple(sp.sympify(c) for c in coeffs))
+    return [_short(_to_expr(K, d), _is_expanded(K)) for d in dets]
+
+
+def _is_expanded(K: Any) -> bool:
+    """Whether :func:`_to_expr` gives K's elements as sp.expand leaves them: polynomials, numbers and EX, not a
+    field of fractions (n/d, which expand would split into terms)."""
+    return bool(K.is_PolynomialRing or K.is_EX or K.is_ZZ or K.is_QQ)
 
 
 def _to_expr(K: Any, d: Any) -> sp.Expr:
@@ -206,10 +214,10 @@ def _routh_column(coeffs: tuple[sp.Expr, ...]) -> tuple[sp.Expr, ...]:
             out.append(sp.Integer(0))
             break
         if prev is None:
-            out.append(_short(_to_expr(K, d)))
+            out.append(_short(_to_expr(K, d), _is_expanded(K)))
         elif ring:
             _, a, b = d.cofactors(prev)
-            out.append(_short(a.as_expr()) / _short(b.as_expr()))
+            out.append(_short(a.as_expr(), True) / _short(b.as_expr(), True))
         else:
             out.append(_ratio(_to_expr(K, d), _to_expr(K, prev)))
         prev = d
@@ -226,14 +234,15 @@ def _ratio(a: sp.Expr, b: sp.Expr) -> sp.Expr:
     try:  # sparse polynomials: their gcd is ~10x faster than the dense Poly's on these many-parameter entries
         _, (pa, pb) = sring([sp.expand(a), sp.expand(b)], *gens)
         _, ca, cb = pa.cofactors(pb)
-        return _short(ca.as_expr()) / _short(cb.as_expr())
+        return _short(ca.as_expr(), True) / _short(cb.as_expr(), True)
     except (sp.PolynomialError, sp.GeneratorsNeeded):
         return sp.cancel(a / b)
 
 
-def _short(p: sp.Expr) -> sp.Expr:
-    """A polynomial factored when that is shorter (and cheap)."""
-    p = sp.expand(p)
+def _short(p: sp.Expr, expanded: bool = False) -> sp.Expr:
+    """A polynomial factored when that is shorter (and cheap); ``expanded``: p is expanded already (a ring
+    element's expression: expanding it again walks every term for nothing)."""
+    p = p if expanded else sp.expand(p)
     if count_ops(p) > 400:
         return p
     f = factor_within(p)
@@ -248,42 +257,70 @@ def hurwitz_conditions(column: Sequence[sp.Expr]) -> list[sp.Expr]:
 
 
 def always_positive(c: sp.Expr) -> bool | None:
-    """True when c is a polynomial with positive coefficients in positive symbols (hence > 0 everywhere),
-    False when c is a non-positive number, None when undecided."""
-    c = sp.expand(c)
+    """True when c = n/d with n and d polynomials with positive coefficients (or an AM-GM certificate) in
+    positive symbols (hence > 0 everywhere), False when c is a non-positive number, None when undecided. n and d
+    are read over the ring of c's symbols (:func:`solver.math.equivalence.ring_numer_denom`, nothing expanded
+    as expressions), else from the expansion."""
+    c = sp.sympify(c)
     if c.is_number:
-        return bool(c > 0)
+        return bool(sp.expand(c) > 0)
     if not all(s.is_positive for s in c.free_symbols):
         return None
-    if any(p.exp.is_negative for p in c.atoms(sp.Pow)):
-        num, den = sp.fraction(sp.together(c))
-        parts: tuple[sp.Expr, ...] = (sp.expand(num), sp.expand(den))
-    else:  # a polynomial, expanded above: together() would only clear the rational coefficients' denominators
-        parts = (c,)
-    for part in parts:
-        if part.is_number:
-            if part <= 0:
-                return None
-            continue
-        if not all(t.as_coeff_Mul()[0] > 0 for t in sp.Add.make_args(part)) and not amgm_certificate(part):
+    nd = ring_numer_denom(c)
+    if nd is not None and not all(g.is_Symbol for g in nd[0].ring.symbols):
+        return None  # (sines, cosines: not positive generators)
+    if nd is not None:
+        if all(p.is_ground for p in nd):  # a number written otherwise: its sign
+            return bool(nd[0].LC * nd[1].LC > 0)
+        parts = [[(m, Fraction(int(k.numerator), int(k.denominator))) for m, k in p.terms()] for p in nd]
+    else:
+        c = sp.expand(c)
+        if c.is_number:
+            return bool(c > 0)
+        if any(p.exp.is_negative for p in c.atoms(sp.Pow)):
+            num, den = sp.fraction(sp.together(c))
+            exprs: tuple[sp.Expr, ...] = (sp.expand(num), sp.expand(den))
+        else:  # a polynomial, expanded above: together() would only clear the rational coefficients' denominators
+            exprs = (c,)
+        parts = [_terms(e) for e in exprs]
+        if any(p is None for p in parts):
             return None
+    for terms in parts:
+        if all(k > 0 for _, k in terms) or _amgm(terms):
+            continue
+        return None
     return True
 
 
-def amgm_certificate(p: sp.Expr, max_terms: int = 400) -> bool:
-    """Whether the polynomial p (in positive symbols) is > 0 by an AM-GM certificate: every negative term −c·m is
-    covered by pairs of positive terms a·x, b·y with x·y = m² (a x + b y ≥ 2√(ab)·m), found by a linear program
-    (scipy; not run when some negative term has no pair) and re-checked in exact rational arithmetic. A
-    sufficient test: False means "not proved"."""
-    from fractions import Fraction
-
+def _terms(p: sp.Expr) -> list[tuple[tuple[int, ...], Fraction]] | None:
+    """The (exponents, coefficient) terms of a polynomial with rational coefficients; None for anything else."""
     gens = sorted(p.free_symbols, key=lambda x: x.name)
-    P = sp.Poly(p, *gens)
-    terms = P.terms()
-    if len(terms) > max_terms or any(not c.is_Rational for _, c in terms):
+    if not gens:
+        return [((), Fraction(str(p)))] if p.is_Rational else None
+    try:
+        P = sp.Poly(p, *gens)
+    except sp.PolynomialError:
+        return None
+    if any(not k.is_Rational for _, k in P.terms()):
+        return None
+    return [(m, Fraction(int(k.p), int(k.q))) for m, k in P.terms()]
+
+
+def amgm_certificate(p: sp.Expr, max_terms: int = 400) -> bool:
+    """Whether the polynomial p (in positive symbols) is > 0 by an AM-GM certificate (:func:`_amgm`)."""
+    terms = _terms(sp.expand(p))
+    return terms is not None and _amgm(terms, max_terms)
+
+
+def _amgm(terms: list[tuple[tuple[int, ...], Fraction]], max_terms: int = 400) -> bool:
+    """Whether Σ c·m (exponents m, coefficients c, positive symbols) is > 0 by an AM-GM certificate: every negative
+    term −c·m is covered by pairs of positive terms a·x, b·y with x·y = m² (a x + b y ≥ 2√(ab)·m), found by a
+    linear program (scipy; not run when some negative term has no pair) and re-checked in exact rational
+    arithmetic. A sufficient test: False means "not proved"."""
+    if len(terms) > max_terms:
         return False
-    pos = {m: Fraction(int(c.p), int(c.q)) for m, c in terms if c > 0}
-    neg = {m: Fraction(int(-c.p), int(c.q)) for m, c in terms if c < 0}
+    pos = {m: c for m, c in terms if c > 0}
+    neg = {m: -c for m, c in terms if c < 0}
     if not pos:
         return False
     if 0 not in [sum(m) for m in pos] and all(all(e == 0 for e in m) for m in neg):
@@ -292,7 +329,7 @@ def amgm_certificate(p: sp.Expr, max_terms: int = 400) -> bool:
     for m in neg:
         for x in pos:
             y = tuple(2 * a - b for a, b in zip(m, x))
-            if min(y) >= 0 and y in pos and x <= y:
+            if min(y, default=0) >= 0 and y in pos and x <= y:
                 pairs.append((m, x, y))
     if len({m for m, _, _ in pairs}) < len(neg):  # a negative term no pair covers: the program is infeasible
         return False
@@ -336,18 +373,18 @@ def stable_for_all(conditions: Sequence[sp.Expr], samples: int = 3000,
     if not syms or not all(x.is_positive for x in syms):
         return None, None  # conditions on gains of any sign: they are design conditions, not a property
     rng = np.random.default_rng(seed)
-    funcs = [sp.lambdify(syms, c, "numpy") for c in conditions]
     X = 10 ** rng.uniform(-2, 2, size=(samples, len(syms)))  # every sample at once (log-uniform in [0.01, 100])
     bad = np.zeros(samples, dtype=bool)
     with np.errstate(all="ignore"):
-        for f in funcs:
+        for c in conditions:
             try:
-                val = np.broadcast_to(np.asarray(f(*X.T), dtype=float), (samples,))
+                val = np.broadcast_to(np.asarray(evaluate_np(sp.sympify(c), syms, list(X.T)), dtype=float),
+                                      (samples,))
             except (ZeroDivisionError, OverflowError, ValueError, TypeError):
                 continue
             bad |= val <= 0
     for i in np.flatnonzero(bad):  # in the order drawn; a candidate is re-checked exactly at rounded values
-        point = {x: sp.nsimplify(round(v, 3) if abs(v) >= 1 else float(f"{v:.3g}"), rational=True)
+        point = {x: sp.Rational(repr(round(v, 3)) if abs(v) >= 1 else f"{v:.3g}")  # (the decimal, exactly)
                  for x, v in zip(syms, X[i].tolist())}
         if any(sp.sympify(c).xreplace(point) <= 0 for c in conditions):
             return False, point

@@ -335,10 +335,10 @@ def set_equiv(got: list[sp.Matrix], want: list[sp.Matrix], angles: list[int] | N
 
 def numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
     """expr = n/d with n, d expanded polynomials: read from the tree and cancelled in the ring of its generators
-    (:func:`_ring_numer_denom`), else through sympy's field of rational functions (sfield, which expands first),
+    (:func:`ring_numer_denom`), else through sympy's field of rational functions (sfield, which expands first),
     else sympy's together/expand where neither takes it."""
     from sympy.polys.fields import sfield
-    fast = _ring_numer_denom(expr)
+    fast = ring_numer_denom(expr)
     if fast is not None:
         return fast[0].as_expr(), fast[1].as_expr()
     try:
@@ -349,7 +349,7 @@ def numer_denom(expr: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
         return sp.expand(num), sp.expand(den)
 
 
-def _ring_numer_denom(expr: sp.Expr) -> tuple[Any, Any] | None:
+def ring_numer_denom(expr: sp.Expr) -> tuple[Any, Any] | None:
     """numer_denom of a rational function over QQ without expanding it, as polynomials of the ring of its
     generators: n / Π bᵏ read from the tree (simplify.ring_fraction), then cancelled as sfield cancels (the same
     canonical n, d); None for anything else."""
@@ -374,7 +374,7 @@ def normalize_condition(expr: sp.Expr) -> sp.Expr:
 
 @lru_cache(maxsize=512)
 def _normalize_condition(expr: sp.Expr) -> sp.Expr:
-    ring_nd = _ring_numer_denom(expr)
+    ring_nd = ring_numer_denom(expr)
     if ring_nd is not None:  # factored in the ring, without printing n and d and reading them back
         if not ring_nd[0]:
             return sp.Integer(-1)  # 0 > 0 never holds
