@@ -195,6 +195,21 @@ def test_always_positive_reads_numerator_and_denominator_over_the_ring():
     assert lti.always_positive(sp.Integer(3)) is True and lti.always_positive(sp.Integer(-1)) is False
 
 
+def test_hurwitz_determinants_are_the_leading_minors():
+    """Δ_k of the Hurwitz matrix H_ij = b_{2j-i+1} (Δ_n = b_n Δ_{n-1} without a determinant), against sympy's
+    determinants of the leading minors, for degrees 1-5 and parametric coefficients."""
+    import random
+    syms = sp.symbols("a b c d", positive=True)
+    rng = random.Random(5)
+    for n in range(1, 6):
+        b = [sum(rng.randint(-3, 3) * rng.choice(syms) * rng.choice(syms + (1,)) for _ in range(2))
+             + rng.randint(0, 2) for _ in range(n + 1)]
+        H = sp.Matrix(n, n, lambda i, j: b[2 * j - i + 1] if 0 <= 2 * j - i + 1 <= n else 0)
+        K, dets = lti._hurwitz(tuple(b))
+        minors = [H[:k, :k].det(method="berkowitz") for k in range(1, n + 1)]
+        assert [sp.expand(K.to_sympy(d) - m) for d, m in zip(dets, minors)] == [0] * n
+
+
 def test_tree_evaluation_equals_lambdify():
     """numpy_tree (no generated code) gives lambdify's values, shared subexpressions included; a node it does not
     know falls back to lambdify."""

@@ -172,7 +172,10 @@ def _hurwitz(b: tuple[sp.Expr, ...]) -> tuple[Any, tuple[Any, ...]]:
         return b[k] if 0 <= k <= n else sp.Integer(0)
 
     dH = DomainMatrix.from_Matrix(sp.Matrix(n, n, lambda i, j: coef(2 * j - i + 1)))
-    return dH.domain, tuple(dH[:k, :k].det() if k > 1 else dH[0, 0].element for k in range(1, n + 1))
+    dets = [dH[0, 0].element]
+    for k in range(2, n + 1):  # the last column is (0, ..., 0, b_n): Δ_n = b_n Δ_{n-1}, no determinant
+        dets.append(dH[n - 1, n - 1].element * dets[-1] if k == n else dH[:k, :k].det())
+    return dH.domain, tuple(dets)
 
 
 def short_hurwitz_determinants(coeffs: Sequence[sp.Expr]) -> list[sp.Expr]:
