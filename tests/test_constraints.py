@@ -610,6 +610,27 @@ def test_divisibility_precheck_never_refuses_a_factor(f):
     assert _divide_out(sp.expand(fe * (l1 + q2) + r), fe, 1)[1] == 0
 
 
+def test_exact_division_in_the_sparse_ring_equals_sympys_div():
+    """_exact_division (sparse ring, over QQ) gives sp.div's quotients and exponents: factors with a content (2 f),
+    factors that divide n fewer times than asked, that do not divide it, radicals and sines as generators."""
+    from solver.interaction.constraints import _exact_division
+    a, b, c, q = sp.symbols("a b c q", real=True)
+    f1 = a + b * sp.cos(q)
+    f2 = 2 * a - 3 * c
+    f3 = sp.sqrt(7) * a + sp.sin(q) * b
+    cases = [(f1**2 * (c + 1), f1, 3), (f2 * a / 5, f2, 2), (f2 * f1 + 1, f2, 1), (f3**2 * c, f3, 1),
+             (f3 * f1**2, f1, 2), (a * b, 2 * a, 1), (a + b, sp.Integer(2), 1)]
+    for n, f, e in cases:
+        n = sp.expand(n)
+        out, j = n, 0
+        while j < e:
+            quo, rem = sp.div(out, f)
+            if sp.expand(rem) != 0 or f.is_number:
+                break
+            out, j = quo, j + 1
+        assert _exact_division(n, f, e) == (out if j else n, j), (n, f)
+
+
 @pytest.mark.parametrize("n, f, e, j", [
     ("l1**2*l2*(m1*cos(q2) + m2*sin(q1 + q2)**2) - l1**3*m2*cos(q1)", "l1", 3, 2),
     ("l1**2*l2*(m1*cos(q2) + m2*sin(q1 + q2)**2) - l1**3*m2*cos(q1)", "l2", 1, 0),

@@ -194,18 +194,41 @@ def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
                     _TERMS[(out, form)] = quotient
                 return out, j
             continue
-        out, j = sp.Add(*terms), 0
-        while j < e:
-            try:
-                quo, rem = sp.div(out, f)
-            except (sp.PolynomialError, sp.CoercionFailed, sp.GeneratorsNeeded, sp.ComputationFailed):
-                break
-            if sp.expand(rem) != 0:
-                break
-            out, j = quo, j + 1
+        out, j = _exact_division(sp.Add(*terms), f, e)
         if j:
             return out, j
     return n, 0
+
+
+def _exact_division(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
+    """(n / f^j, j) for the largest j <= e with f^j dividing n, by division with remainder in the sparse ring of
+    their generators over QQ (symbols, sines, cosines, radicals, as sympy's Poly takes them; what sp.div does on
+    dense polynomials, several times faster); (n, 0) when they are not polynomials."""
+    from sympy.polys.rings import sring
+    try:  # (n is a sum of expanded terms: not expanded again)
+        _, (pn, pf) = sring([n, sp.expand(f)], expand=False)
+    except (sp.PolynomialError, sp.CoercionFailed, sp.GeneratorsNeeded, sp.ComputationFailed):
+        return n, 0
+    K = pn.ring.domain
+    if not (K.is_ZZ or K.is_QQ) or not pf or pf.is_ground:
+        return n, 0
+    if K.is_ZZ:  # exact division over the field, as sp.div's (auto=True)
+        R = pn.ring.clone(domain=sp.QQ)
+        pn, pf = pn.set_ring(R), pf.set_ring(R)
+    j = 0
+    while j < e:
+        quo, rem = pn.div(pf)
+        if rem:
+            break
+        pn, j = quo, j + 1
+    return (pn.as_expr(), j) if j else (n, 0)
+
+
+@lru_cache(maxsize=1024)
+def _zero_point_of(f: sp.Expr) -> dict[sp.Symbol, float] | None:
+    """:func:`_zero_point` with its fixed seed, memoized (the entries of a matrix over one determinant try the
+    same factors); the caller copies the point before adding to it."""
+    return _zero_point(f, random.Random(20261129))
 
 
 def _zero_point(f: sp.Expr, rng: random.Random) -> dict[sp.Symbol, float] | None:
@@ -269,9 +292,10 @@ def _nonzero_where_zero(n: sp.Expr, f: sp.Expr) -> bool:
     """True when n is clearly not 0 at a point where f = 0, so that f cannot divide n (a necessary condition, in
     double precision: |n| above 10⁻⁶ of its size, see :func:`_value`); False when f may divide n, or when no point
     is found (then n is divided as before)."""
-    point = _zero_point(f, random.Random(20261129))
+    point = _zero_point_of(f)
     if point is None:
         return False
+    point = dict(point)
     rng = random.Random(7)
     for x in sorted(n.free_symbols - set(point), key=lambda x: x.name):
         point[x] = rng.uniform(0.3, 1.7)
