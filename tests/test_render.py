@@ -228,10 +228,13 @@ def test_a_term_wider_than_the_page_is_broken_inside_its_parentheses():
 
 
 @pytest.mark.skipif(not shutil.which("pdflatex"), reason="pdflatex not installed")
-@pytest.mark.parametrize("name", ["2012-07-05-ex1", "2020-09-11-remote-ex4"])
+@pytest.mark.parametrize("name", ["2012-07-05-ex1", "2020-09-11-remote-ex4", "2020-04-15-remote-midterm-ex5",
+                                  "2016-09-12-ex1"])
 def test_long_entries_stay_inside_the_page(tmp_path, name):
     """The rational model's kinetic energies and the constrained model's long entries are broken inside their
-    fractions' parentheses: no line of these reports runs past the right margin (before: up to 1896 pt)."""
+    fractions' parentheses; a 3x3 inertia matrix shown beside c and g too wide for one line is written entry by
+    entry, and a matrix with long entries has them on several lines: no line of these reports runs past the
+    right margin (before: up to 1896 pt, 1601 pt for the 3x3 inertia matrix)."""
     p = load_problem(PROBLEMS / f"{name}.yaml")
     (tmp_path / "r.tex").write_text(render(p, solve_problem(p), "tex"))
     r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "r.tex"], cwd=tmp_path,
@@ -239,3 +242,35 @@ def test_long_entries_stay_inside_the_page(tmp_path, name):
     assert r.returncode == 0, r.stdout[-2000:]
     widths = [float(w) for w in re.findall(r"Overfull \\hbox \(([0-9.]+)pt too wide\)", r.stdout)]
     assert not widths, widths
+
+
+def test_wide_matrices_break_their_long_entries_and_narrow_ones_are_unchanged():
+    """The report's tex filter (Latex with a width): a matrix row wider than the page gets its long entries on
+    lines within the cell (a sum at its signs, a quotient as numerator over denominator, each on lines), every
+    line within the budget; a matrix that fits prints exactly as without a width; fractions are measured by the
+    wider of numerator and denominator."""
+    from solver.publish.render import MATRIX_WIDTH, Latex, printed_width, visible_length
+    a, b, c, q1, q2 = sp.symbols("a b c q1 q2")
+    plain, report = Latex({}, {}), Latex({}, {}, width=MATRIX_WIDTH)
+    narrow = sp.Matrix([[a + b, a * sp.cos(q1)], [0, c]])
+    assert report(narrow) == plain(narrow)
+    long_sum = sp.expand((a + b + c + 1) ** 3 * sp.cos(q1) + (a - c) ** 2 * sp.sin(q2))
+    wide = sp.Matrix([[long_sum, a], [long_sum / (a**2 + b**2 + c**2 + 2 * a * b * sp.cos(q2) + 7), c]])
+    out = report(wide)
+    assert out != plain(wide) and out.count("\\begin{aligned}") == 2  # the sum, and the quotient's numerator
+    lines = [ln for cell in re.findall(r"\\begin\{aligned\}(?:\[t\])?(.*?)\\end\{aligned\}", out)
+             for ln in cell.split("\\\\")]
+    assert len(lines) > 6 and max(visible_length(ln) for ln in lines) <= MATRIX_WIDTH
+    assert printed_width("\\frac{a + b + c}{d}") == 5 and printed_width("x + \\frac{1}{2}") == 3
+
+
+def test_equations_share_a_line_when_they_fit_and_go_entry_by_entry_otherwise():
+    from solver.publish.render import Latex, equations
+    a, b, q = sp.symbols("a b q")
+    tex = Latex({}, {})
+    small = [("B", sp.Matrix([[a, 0], [0, b]]), "b"), ("g", sp.Matrix([a * sp.cos(q), 0]), "g")]
+    assert equations(small, tex, punct=".") == \
+        f"\\[B = {tex(small[0][1])}, \\qquad g = {tex(small[1][1])}.\\]"
+    big = sp.expand((a + b + 1) ** 6)
+    out = equations([("x", None, ""), ("B", sp.Matrix([[big, a], [a, b]]), "b")], tex, punct=".")
+    assert out.startswith("\\[x,\\]") and "b_{11}" in out and "b_{22} = b" in out and out.rstrip().endswith(".\\]")

@@ -133,11 +133,13 @@ class _Printer(_Memo, LatexPrinter):
 class Latex:
     """sympy -> LaTeX with the problem's symbol names (q̇ as \\dot q, m2 as m_{2}, ...)."""
 
-    def __init__(self, names: dict[sp.Symbol, str], rank: dict[sp.Symbol, int] | None = None) -> None:
+    def __init__(self, names: dict[sp.Symbol, str], rank: dict[sp.Symbol, int] | None = None,
+                 width: int | None = None) -> None:
         names = {s: safe_math(tex) for s, tex in names.items()}
         self.names = names
         self.printer = _Printer(names, rank or {})
         self._symbols: dict[sp.Symbol, str] = {}
+        self.width = width  # reports: a matrix wider than this many characters gets its long entries broken
 
     def fast(self, e: sp.Expr) -> str:
         """LaTeX of a long polynomial-like expression (sums, products, powers, sin/cos, numbers, symbols) printed
@@ -187,8 +189,10 @@ class Latex:
         if isinstance(value, (list, tuple)):
             return ",\\quad ".join(self(v) for v in value)
         if isinstance(value, sp.MatrixBase):
-            body = " \\\\ ".join(" & ".join(self(value[i, j]) for j in range(value.shape[1]))
-                                 for i in range(value.shape[0]))
+            cells = [[self(value[i, j]) for j in range(value.shape[1])] for i in range(value.shape[0])]
+            if self.width is not None and value.shape[0] * value.shape[1]:
+                cells = self._fit(value, cells, self.width)
+            body = " \\\\ ".join(" & ".join(row) for row in cells)
             return f"\\begin{{bmatrix}} {body} \\end{{bmatrix}}"
         if isinstance(value, (int, float)):
             value = sp.sympify(value)
@@ -201,6 +205,19 @@ class Latex:
                 return self.fast(value)
             return self.printer.doprint(value)
         return str(value)
+
+    def _fit(self, M: sp.MatrixBase, cells: list[list[str]], width: int) -> list[list[str]]:
+        """The cells of a matrix whose rows are wider than ``width`` characters: the narrow columns as they are,
+        the long entries of the others broken into lines (:func:`cell_lines`) within an equal share of the rest."""
+        cols = M.shape[1]
+        widths = [max(printed_width(row[j]) for row in cells) for j in range(cols)]
+        room = width - 4 * (cols - 1)  # (column separation)
+        if sum(widths) <= room:
+            return cells
+        narrow = [w for w in widths if w <= room / cols]
+        budget = max(16, (room - sum(narrow)) // (cols - len(narrow)))
+        return [[cell_lines(M[i, j], c, self, budget) if printed_width(c) > budget else c
+                 for j, c in enumerate(row)] for i, row in enumerate(cells)]
 
 
 LARGE_PRINT = 4000  # nodes: larger expressions are printed with their terms in stored order (text and LaTeX)
@@ -362,12 +379,52 @@ def visible_length(tex: str) -> int:
     return len(re.sub(r"[{}^_\s]", "", t))
 
 
+def printed_width(tex: str) -> int:
+    """:func:`visible_length` with each fraction as wide as the wider of its numerator and denominator (they are
+    stacked, not side by side)."""
+    width, i = 0, 0
+    while (k := tex.find("\\frac{", i)) >= 0:
+        a = _closing(tex, k + 5)
+        b = _closing(tex, a + 1) if a + 1 < len(tex) and tex[a + 1] == "{" else -1
+        if a < 0 or b < 0:
+            break
+        width += visible_length(tex[i:k]) + max(printed_width(tex[k + 6:a]), printed_width(tex[a + 2:b]))
+        i = b + 1
+    return width + visible_length(tex[i:])
+
+
+def _closing(tex: str, j: int) -> int:
+    """The index of the brace closing the one at ``j`` (-1 when unbalanced)."""
+    depth = 0
+    for k in range(j, len(tex)):
+        if tex[k] == "{" and tex[k - 1] != "\\":
+            depth += 1
+        elif tex[k] == "}" and tex[k - 1] != "\\":
+            depth -= 1
+            if depth == 0:
+                return k
+    return -1
+
+
 def display(parts: list[str], rhs: str = "", width: int = 70, lhs: str = "", wrap: tuple[str, str] = ("", ""),
             punct: str = "") -> str:
     """A displayed ``lhs = wrap[0] Σ parts wrap[1] = rhs`` that breaks into lines (multline*) at the + and - of
     the sum when wider than ``width`` characters (``wrap`` must then be breakable, e.g. \\Big( ... \\Big))."""
+    lines = _group(parts, width, visible_length(lhs) + visible_length(wrap[0]))
+    head = f"{lhs} = " if lhs else ""
+    tail = (f" = {rhs}" if rhs else "") + punct
+    if len(lines) == 1:
+        return f"\\[{head}{wrap[0]}{join_terms(parts)}{wrap[1]}{tail}\\]"
+    body = _line_texts(lines)
+    body[0] = head + wrap[0] + body[0]
+    body[-1] += wrap[1]
+    return "\\begin{multline*}\n" + " \\\\\n".join(body) + tail + "\n\\end{multline*}"
+
+
+def _group(parts: list[str], width: int, start: int = 0) -> list[list[str]]:
+    """The terms ``parts`` of a sum in lines of at most ``width`` characters (the first already ``start`` wide)."""
     lines: list[list[str]] = [[]]
-    size = visible_length(lhs) + visible_length(wrap[0])
+    size = start
     for p in parts:
         w = visible_length(p) + 3
         if lines[-1] and size + w > width:
@@ -375,19 +432,18 @@ def display(parts: list[str], rhs: str = "", width: int = 70, lhs: str = "", wra
             size = 0
         lines[-1].append(p)
         size += w
-    head = f"{lhs} = " if lhs else ""
-    tail = (f" = {rhs}" if rhs else "") + punct
-    if len(lines) == 1:
-        return f"\\[{head}{wrap[0]}{join_terms(parts)}{wrap[1]}{tail}\\]"
+    return lines
+
+
+def _line_texts(lines: list[list[str]]) -> list[str]:
+    """Each line of a broken sum as LaTeX, the lines after the first starting with their sign."""
     body = []
     for k, ln in enumerate(lines):
         text = join_terms(ln)
         if k and not text.lstrip().startswith("-"):
             text = "+ " + text
         body.append(text)
-    body[0] = head + wrap[0] + body[0]
-    body[-1] += wrap[1]
-    return "\\begin{multline*}\n" + " \\\\\n".join(body) + tail + "\n\\end{multline*}"
+    return body
 
 
 def top_level_terms(tex: str) -> list[str]:
@@ -463,23 +519,45 @@ def equation(value: Any, lhs: str, entry: str, tex: Callable[[Any], str], punct:
     return "\n".join(out)
 
 
+def equations(items: list, tex: Callable[[Any], str], sep: str = ", \\qquad ", punct: str = "",
+              width: int = 70) -> str:
+    """Several ``lhs = value`` (items: (lhs, value, entry); value None: lhs is written as it is) in one display,
+    joined by ``sep``, when they fit on a line; otherwise each on its own, a wide matrix entry by entry
+    (:func:`equation`)."""
+    size = 4 * (len(items) - 1)
+    for lhs, value, _ in items:
+        size += visible_length(lhs) + 3
+        if isinstance(value, sp.MatrixBase):
+            size += max((sum(printed_width(tex(value[i, j])) + 4 for j in range(value.cols))
+                         for i in range(value.rows)), default=0)
+        elif value is not None:
+            size += printed_width(tex(value))
+    if size <= width:
+        return "\\[" + sep.join(lhs if value is None else f"{lhs} = {tex(value)}" for lhs, value, _ in items) \
+            + punct + "\\]"
+    out = []
+    for k, (lhs, value, entry) in enumerate(items):
+        end = punct if k == len(items) - 1 else ","
+        out.append(f"\\[{lhs}{end}\\]" if value is None else equation(value, lhs, entry, tex, end, width))
+    return "\n".join(out)
+
+
 def _broken(lhs: str, text: str, punct: str, width: int, value: Any = None,
             tex: Callable[[Any], str] | None = None) -> str:
     """``lhs = text`` broken at the top-level signs when wider than ``width``; a long quotient n/d (``value``) as
-    (1/d)(n) with n broken: a single fraction cannot be broken."""
+    (1/d)(n) with n broken (a single fraction cannot be broken), or, when d itself is long, as n over d with each
+    on its own lines (:func:`stacked`)."""
     parts = top_level_terms(text)
     if max(map(visible_length, parts)) > UNBREAKABLE:  # a line TeX cannot even measure: one (overfull) line
         return f"\\[{lhs} = {text}{punct}\\]"
     if tex is not None and isinstance(value, sp.Add) and max(map(visible_length, parts)) > width:
-        printed = {}  # each term of the sum as it is printed in it: a term wider than the page broken itself
-        for t in value.args:
-            printed[tex(t)] = t
-            if t.could_extract_minus_sign():
-                printed["- " + tex(-t)] = t
-        parts = [q for p in parts for q in (term_parts(printed[p], tex, width) if p in printed else [p])]
-        return display(parts, "", width, lhs=lhs, punct=punct)
+        return display(_split_terms(value, parts, tex, width), "", width, lhs=lhs, punct=punct)
     if tex is not None and isinstance(value, sp.Expr) and visible_length(text) > width:
         n, d = sp.fraction(value)
+        if d != 1 and printed_width(tex(d)) > width // 2:  # a long denominator: n over d, each on lines
+            num, den = stacked(n, tex, width), stacked(d, tex, width)
+            if num is not None or den is not None:
+                return f"\\[{lhs} = \\frac{{{num or tex(n)}}}{{{den or tex(d)}}}{punct}\\]"
         if d != 1 and n.is_Add:
             num = top_level_terms(tex(n))
             if max(map(visible_length, num)) <= UNBREAKABLE:
@@ -488,7 +566,67 @@ def _broken(lhs: str, text: str, punct: str, width: int, value: Any = None,
     return display(parts, "", width, lhs=lhs, punct=punct)
 
 
+def _split_terms(value: sp.Add, parts: list[str], tex: Callable[[Any], str], width: int) -> list[str]:
+    """The printed terms ``parts`` of the sum ``value``, each one wider than ``width`` broken by
+    :func:`term_parts`."""
+    printed = {}  # each term of the sum as it is printed in it
+    for t in value.args:
+        printed[tex(t)] = t
+        if t.could_extract_minus_sign():
+            printed["- " + tex(-t)] = t
+    return [q for p in parts for q in (term_parts(printed[p], tex, width) if p in printed else [p])]
+
+
+def cell_lines(value: Any, text: str, tex: Callable[[Any], str], width: int) -> str:
+    """A matrix entry printed ``text`` wider than ``width``, on several lines within one cell: a quotient n/d as
+    n over d, each broken at the top-level signs of its sum (:func:`stacked`); a sum broken at its signs (long
+    terms ± r·A as r (a₁ + … + a_m), :func:`term_parts`); ``text`` itself when it cannot be broken."""
+    if not isinstance(value, sp.Expr):
+        return text
+    neg = value.could_extract_minus_sign()
+    n, d = sp.fraction(-value if neg else value)
+    if d != 1:
+        num, den = stacked(n, tex, width), stacked(d, tex, width)
+        if num is None and den is None:
+            return text
+        return ("- " if neg else "") + f"\\frac{{{num or tex(n)}}}{{{den or tex(d)}}}"
+    return stacked(value, tex, width, top=True) or text
+
+
+def stacked(e: sp.Expr, tex: Callable[[Any], str], width: int, top: bool = False) -> str | None:
+    """``e`` on lines of at most ``width`` characters (aligned; ``top``: aligned at its first line) when it is
+    wider: a sum at its top-level signs, a product r·A (A its widest sum factor) as r (A on lines); None when it
+    fits or cannot be broken."""
+    text = tex(e)
+    if printed_width(text) <= width:
+        return None
+    if e.is_Mul:
+        sums = [f for f in sp.Mul.make_args(e) if f.is_Add]
+        if not sums:
+            return None
+        big = max(sums, key=lambda f: visible_length(tex(f)))
+        inner = stacked(big, tex, width)
+        if inner is None:
+            return None
+        rest = e / big
+        head = "- " if rest == -1 else "" if rest == 1 else tex(rest) + " "
+        return head + "\\left(" + inner + "\\right)"
+    if not e.is_Add:
+        return None
+    parts = top_level_terms(text)
+    if max(map(visible_length, parts)) > UNBREAKABLE:
+        return None
+    lines = _group(_split_terms(e, parts, tex, max(width, TERM_WIDTH)), width)
+    if len(lines) < 2:
+        return None
+    return ("\\begin{aligned}[t] & " if top else "\\begin{aligned} & ") + " \\\\ & \\quad ".join(
+        _line_texts(lines)) + " \\end{aligned}"
+
+
 UNBREAKABLE = 2000  # printed characters of one term past which a multline line would exceed TeX's dimensions
+TERM_WIDTH = 30  # characters: a term of a matrix entry is broken itself (r (a₁ + … + a_m)) only when wider
+MATRIX_WIDTH = 64  # characters (printed_width, about 6.4 pt each at 11 pt) of a matrix row in a report, past which
+#                   its long entries are broken into lines: the page (471 pt) less the left-hand side
 
 
 def number(value: Any, digits: int = 4) -> str:
@@ -576,7 +714,7 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
          rank: dict[sp.Symbol, int] | None = None) -> jinja2.Environment:
     """The report environment of one problem: :func:`template_env` plus its symbols' LaTeX printing."""
     env = template_env(fmt, custom)
-    env.filters["tex"] = Latex(names, rank)
+    env.filters["tex"] = Latex(names, rank, width=MATRIX_WIDTH)
     env.filters["num"] = number
     env.filters["terms"] = lambda terms: join_terms([env.filters["tex"](t) for t in terms if t != 0])
     env.filters["display"] = lambda terms, rhs="", lhs="", wrap=("", ""), punct="": display(
@@ -585,6 +723,8 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
     env.filters["width"] = visible_length
     env.filters["equation"] = lambda value, lhs, entry, punct="": equation(value, lhs, entry, env.filters["tex"],
                                                                           punct)
+    env.filters["equations"] = lambda items, sep=", \\qquad ", punct="": equations(items, env.filters["tex"], sep,
+                                                                                    punct)
     env.globals["sp"] = sp
     return env
 
