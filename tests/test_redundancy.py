@@ -371,3 +371,13 @@ def test_exact_pseudoinverse_in_a_number_field_meets_the_penrose_conditions(shap
     Q = ar.pinv_mp(D)
     assert all(sp.expand(sp.radsimp(x)) == 0 for x in D * Q * D - D)
     assert ar.rank(D) == 1 and ar.det(sp.Matrix([[1, r2], [r2, 2]])) == 0
+
+
+def test_the_check_writes_j_qdot_as_rdot_when_the_task_is_exact():
+    """J q̇_ps with q̇_ps = J_W^# ṙ (W the inertia matrix, symbolic) is ṙ exactly: the report's check shows ṙ, not
+    the uncancelled product (a fraction of about 300 terms before); its task error is exactly zero."""
+    p = load_problem(PROBLEMS / "2018-01-11-ex1.yaml")
+    checks = [st.data for sol in solve_problem(p) for st in sol.steps if st.name == "qdot"]
+    assert len(checks) == 3 and all(d["exact_task"] for d in checks)
+    for d in checks:
+        assert d["r"]["Jq"] == d["r"]["rdot"] and sp.count_ops(d["r"]["Jq"]) < 12

@@ -660,6 +660,9 @@ def _finish(out: dict[str, Any], pv: Pinv, ar: Arith) -> dict[str, Any]:
                   "grad", "W", "rdot"):
             if out.get(k) is not None:
                 out[k] = ar.final(out[k])
+        exact = out.get("Jq") is not None and out.get("rdot") is not None
+        if exact and all(_exact_zero(x) for x in out["task_error"]):
+            out["Jq"] = out["rdot"]  # J q̇ ≡ ṙ exactly: shown as ṙ, not as the product J q̇ left uncancelled
     out["pinv"] = pv
     return out
 
