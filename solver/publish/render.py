@@ -140,6 +140,7 @@ class Latex:
         self.printer = _Printer(names, rank or {})
         self._symbols: dict[sp.Symbol, str] = {}
         self.width = width  # reports: a matrix wider than this many characters gets its long entries broken
+        self._printed: dict[sp.Basic, str] = {}  # (the report prints an entry again to measure and to break it)
 
     def fast(self, e: sp.Expr) -> str:
         """LaTeX of a long polynomial-like expression (sums, products, powers, sin/cos, numbers, symbols) printed
@@ -197,14 +198,20 @@ class Latex:
         if isinstance(value, (int, float)):
             value = sp.sympify(value)
         if isinstance(value, sp.Basic):
-            if value.is_Float:
-                return number(value)
-            if value.atoms(sp.Float):
-                value = value.xreplace({f: sp.Float(f, 4) for f in value.atoms(sp.Float)})
-            if is_large(value):  # terms as stored, by a direct printer: sympy's costs minutes on such sums
-                return self.fast(value)
-            return self.printer.doprint(value)
+            hit = self._printed.get(value)
+            if hit is None:
+                hit = self._printed[value] = self._expr(value)
+            return hit
         return str(value)
+
+    def _expr(self, value: sp.Basic) -> str:
+        if value.is_Float:
+            return number(value)
+        if value.atoms(sp.Float):
+            value = value.xreplace({f: sp.Float(f, 4) for f in value.atoms(sp.Float)})
+        if is_large(value):  # terms as stored, by a direct printer: sympy's costs minutes on such sums
+            return self.fast(value)
+        return self.printer.doprint(value)
 
     def _fit(self, M: sp.MatrixBase, cells: list[list[str]], width: int) -> list[list[str]]:
         """The cells of a matrix whose rows are wider than ``width`` characters: the narrow columns as they are,
@@ -449,18 +456,22 @@ def _line_texts(lines: list[list[str]]) -> list[str]:
 def top_level_terms(tex: str) -> list[str]:
     """Split a printed LaTeX sum at its top-level + and - signs: 'a + b \\left(c - d\\right) - e' ->
     ['a', 'b \\left(c - d\\right)', '- e']."""
-    parts, depth, start, i = [], 0, 0, 0
-    while i < len(tex):
-        if tex.startswith("\\left", i) or tex[i] == "{":
+    parts, depth, start = [], 0, 0
+    for m in _TOKENS.finditer(tex):  # (only the tokens that matter, not every character)
+        tok = m.group()
+        if tok in ("\\left", "{"):
             depth += 1
-        elif tex.startswith("\\right", i) or tex[i] == "}":
+        elif tok in ("\\right", "}"):
             depth -= 1
-        elif depth == 0 and tex[i] in "+-" and i > 0 and tex[i - 1] == " " and tex[i + 1:i + 2] == " ":
+        elif depth == 0 and m.start() > 0:
+            i = m.start() + 1  # the sign, between two spaces
             parts.append(tex[start:i].strip())
-            start = i + (1 if tex[i] == "+" else 0)
-        i += 1
+            start = i + (1 if tok[1] == "+" else 0)
     parts.append(tex[start:].strip())
     return [p for p in parts if p]
+
+
+_TOKENS = re.compile(r"\\left|\\right|[{}]| [+-](?= )")
 
 
 def term_parts(t: Any, tex: Callable[[Any], str], width: int = 70) -> list[str]:
