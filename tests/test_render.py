@@ -274,3 +274,18 @@ def test_equations_share_a_line_when_they_fit_and_go_entry_by_entry_otherwise():
     big = sp.expand((a + b + 1) ** 6)
     out = equations([("x", None, ""), ("B", sp.Matrix([[big, a], [a, b]]), "b")], tex, punct=".")
     assert out.startswith("\\[x,\\]") and "b_{11}" in out and "b_{22} = b" in out and out.rstrip().endswith(".\\]")
+
+
+def test_a_long_term_inside_a_long_quotient_is_broken_too():
+    """u = n/d written (1/d)(n) over lines: a term of n that is itself wider than the page (r·A, A a long sum) is
+    broken inside its own parentheses, so that every line of the multline stays within the page (2021-02-04-ex3:
+    457 pt past the margin before)."""
+    from solver.publish.render import Latex, equation, visible_length
+    tex = Latex({}, {})
+    a, b, c, q = sp.symbols("a b c q")
+    long_sum = sp.expand((a + b + c + 2) ** 4)
+    n = a * b * long_sum * sp.sin(q) + sp.expand((a - c) ** 3) + b**2 * c
+    out = equation(n / (a * sp.sin(q) + b * sp.cos(q)), "u", "u", tex)
+    lines = out.split("\n")[1:-1]
+    assert out.startswith("\\begin{multline*}") and len(lines) > 4
+    assert max(visible_length(ln) for ln in lines) <= 80, max(lines, key=visible_length)

@@ -493,6 +493,7 @@ def term_parts(t: Any, tex: Callable[[Any], str], width: int = 70) -> list[str]:
     inner = top_level_terms(tex(big))
     if len(inner) < 2 or max(map(visible_length, inner)) > UNBREAKABLE:
         return [text]
+    inner = _split_terms(big, inner, tex, width)  # (a term of A itself wider than the page: broken the same way)
     rest = sp.Mul(*factors)
     head = (f"\\frac{{{tex(rest)}}}{{{tex(d)}}}" if d != 1 else "" if rest == 1
             else f"\\left({tex(rest)}\\right)" if rest.is_Add else tex(rest))
@@ -572,6 +573,7 @@ def _broken(lhs: str, text: str, punct: str, width: int, value: Any = None,
         if d != 1 and n.is_Add:
             num = top_level_terms(tex(n))
             if max(map(visible_length, num)) <= UNBREAKABLE:
+                num = _split_terms(n, num, tex, width)  # (a term of n wider than the page: broken itself)
                 return display(num, "", width, lhs=lhs, punct=punct,
                                wrap=(f"\\frac{{1}}{{{tex(d)}}}\\Big(", "\\Big)"))
     return display(parts, "", width, lhs=lhs, punct=punct)
