@@ -289,3 +289,16 @@ def test_a_long_term_inside_a_long_quotient_is_broken_too():
     lines = out.split("\n")[1:-1]
     assert out.startswith("\\begin{multline*}") and len(lines) > 4
     assert max(visible_length(ln) for ln in lines) <= 80, max(lines, key=visible_length)
+
+
+def test_a_long_product_is_broken_inside_its_parentheses():
+    """x = -L (a₁ + … + a_m) wider than the page: written -L\\Big(a₁ … a_m\\Big) over the lines of a multline
+    (2021-07-12-ex1's task accelerations ran 226 pt past the margin on one line)."""
+    from solver.publish.render import Latex, equation, visible_length
+    tex = Latex({}, {})
+    L, q1, q2, q3 = sp.symbols("L q1 q2 q3")
+    A = sum(sp.Symbol(f"a{k}") * sp.sin(q1 + k * q2) + sp.Symbol(f"b{k}") * sp.cos(q3 - k * q1) for k in range(1, 6))
+    out = equation(-L * A, "x", "x", tex)
+    lines = out.split("\n")[1:-1]
+    assert out.startswith("\\begin{multline*}") and lines[0].startswith("x = - L\\Big(") and len(lines) >= 3
+    assert lines[-1].endswith("\\Big)") and max(visible_length(ln) for ln in lines) <= 80

@@ -576,6 +576,8 @@ def _broken(lhs: str, text: str, punct: str, width: int, value: Any = None,
                 num = _split_terms(n, num, tex, width)  # (a term of n wider than the page: broken itself)
                 return display(num, "", width, lhs=lhs, punct=punct,
                                wrap=(f"\\frac{{1}}{{{tex(d)}}}\\Big(", "\\Big)"))
+        if len(parts) == 1:  # a product r·A with A a long sum: r\Big(a₁ + … + a_m\Big) over lines
+            parts = term_parts(value, tex, width)
     return display(parts, "", width, lhs=lhs, punct=punct)
 
 
