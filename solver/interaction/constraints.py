@@ -38,8 +38,8 @@ from solver.kinematics.redundancy import generic_rank
 from solver.math.fourier import factor_list_expr
 from solver.math.numeric import lambdify_np
 from solver.math.opcount import count_ops
-from solver.math.simplify import (angle_symbols, factor_within, fourier_expr, fourier_form, is_zero, tidy,
-                                  tidy_expanded)
+from solver.math.simplify import (angle_symbols, divide_power, factor_within, fourier_expr, fourier_form, is_zero,
+                                  tidy, tidy_expanded)
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -215,12 +215,7 @@ def _exact_division(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
     if K.is_ZZ:  # exact division over the field, as sp.div's (auto=True)
         R = pn.ring.clone(domain=sp.QQ)
         pn, pf = pn.set_ring(R), pf.set_ring(R)
-    j = 0
-    while j < e:
-        quo, rem = pn.div(pf)
-        if rem:
-            break
-        pn, j = quo, j + 1
+    pn, j = divide_power(pn, pf, e)
     return (pn.as_expr(), j) if j else (n, 0)
 
 

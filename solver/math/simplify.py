@@ -15,6 +15,7 @@ Expressions outside this class (rational in trig functions, tan, atan2, ...) fal
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Any
 
 import sympy as sp
 
@@ -405,17 +406,25 @@ def _term_fraction(t: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
         R = ring(tuple(_generators(t)), sp.QQ)[0]
         N, left, cancelled = R(n), [], False
         for g, k in powers:
-            G, j = R(g), 0
-            while j < k and not G.is_ground:
-                q, r = N.div(G)
-                if r:
-                    break
-                N, j = q, j + 1
+            G = R(g)
+            N, j = divide_power(N, G, k) if not G.is_ground else (N, 0)
             left.append(g ** (k - j))
             cancelled = cancelled or j > 0
     except (sp.PolynomialError, TypeError, ValueError, ZeroDivisionError):
         return sp.fraction(factor_within(t))
     return (N.as_expr() / c, sp.Mul(*left)) if cancelled else (n, fd)
+
+
+def divide_power(p: Any, g: Any, k: int) -> tuple[Any, int]:
+    """(p / g^j, j) for the largest j <= k with g^j dividing p: p and g polynomials of one ring over a field,
+    divided with remainder until it is not zero."""
+    j = 0
+    while j < k:
+        q, r = p.div(g)
+        if r:
+            break
+        p, j = q, j + 1
+    return p, j
 
 
 def expand_polynomial(expr: sp.Expr) -> sp.Expr:
