@@ -217,10 +217,10 @@ class Latex:
         """The cells of a matrix whose rows are wider than ``width`` characters: the narrow columns as they are,
         the long entries of the others broken into lines (:func:`cell_lines`) within an equal share of the rest."""
         cols = M.shape[1]
+        if matrix_width(cells) <= width:
+            return cells
         widths = [max(printed_width(row[j]) for row in cells) for j in range(cols)]
         room = width - 4 * (cols - 1)  # (column separation)
-        if sum(widths) <= room:
-            return cells
         narrow = [w for w in widths if w <= room / cols]
         budget = max(16, (room - sum(narrow)) // (cols - len(narrow)))
         return [[cell_lines(M[i, j], c, self, budget) if printed_width(c) > budget else c
@@ -400,6 +400,13 @@ def printed_width(tex: str) -> int:
     return width + visible_length(tex[i:])
 
 
+def matrix_width(cells: list[list[str]]) -> int:
+    """The printed width of a matrix of LaTeX cells: its columns' widest cells (:func:`printed_width`) and the
+    separation between columns."""
+    cols = len(cells[0])
+    return sum(max(printed_width(row[j]) for row in cells) for j in range(cols)) + 4 * (cols - 1)
+
+
 def _closing(tex: str, j: int) -> int:
     """The index of the brace closing the one at ``j`` (-1 when unbalanced)."""
     depth = 0
@@ -539,9 +546,8 @@ def equations(items: list, tex: Callable[[Any], str], sep: str = ", \\qquad ", p
     size = 4 * (len(items) - 1)
     for lhs, value, _ in items:
         size += visible_length(lhs) + 3
-        if isinstance(value, sp.MatrixBase):
-            size += max((sum(printed_width(tex(value[i, j])) + 4 for j in range(value.cols))
-                         for i in range(value.rows)), default=0)
+        if isinstance(value, sp.MatrixBase) and value.rows * value.cols:
+            size += matrix_width([[tex(value[i, j]) for j in range(value.cols)] for i in range(value.rows)])
         elif value is not None:
             size += printed_width(tex(value))
     if size <= width:
@@ -567,9 +573,9 @@ def _broken(lhs: str, text: str, punct: str, width: int, value: Any = None,
     if tex is not None and isinstance(value, sp.Expr) and visible_length(text) > width:
         n, d = sp.fraction(value)
         if d != 1 and printed_width(tex(d)) > width // 2:  # a long denominator: n over d, each on lines
-            num, den = stacked(n, tex, width), stacked(d, tex, width)
-            if num is not None or den is not None:
-                return f"\\[{lhs} = \\frac{{{num or tex(n)}}}{{{den or tex(d)}}}{punct}\\]"
+            frac = stacked_quotient(n, d, tex, width)
+            if frac is not None:
+                return f"\\[{lhs} = {frac}{punct}\\]"
         if d != 1 and n.is_Add:
             num = top_level_terms(tex(n))
             if max(map(visible_length, num)) <= UNBREAKABLE:
@@ -601,11 +607,18 @@ def cell_lines(value: Any, text: str, tex: Callable[[Any], str], width: int) -> 
     neg = value.could_extract_minus_sign()
     n, d = sp.fraction(-value if neg else value)
     if d != 1:
-        num, den = stacked(n, tex, width), stacked(d, tex, width)
-        if num is None and den is None:
-            return text
-        return ("- " if neg else "") + f"\\frac{{{num or tex(n)}}}{{{den or tex(d)}}}"
+        frac = stacked_quotient(n, d, tex, width)
+        return text if frac is None else ("- " if neg else "") + frac
     return stacked(value, tex, width, top=True) or text
+
+
+def stacked_quotient(n: sp.Expr, d: sp.Expr, tex: Callable[[Any], str], width: int) -> str | None:
+    """\\frac{n}{d} with n and d each on lines when wider than ``width`` (:func:`stacked`); None when neither
+    needs it."""
+    num, den = stacked(n, tex, width), stacked(d, tex, width)
+    if num is None and den is None:
+        return None
+    return f"\\frac{{{num or tex(n)}}}{{{den or tex(d)}}}"
 
 
 def stacked(e: sp.Expr, tex: Callable[[Any], str], width: int, top: bool = False) -> str | None:
