@@ -259,8 +259,10 @@ def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: 
     Rt = R.T if R is not None else sp.eye(m)
     closed = Rt * (ddrd - ddr) + KD * Rt * (drd - J * v) + KP * Rt * (rd - f)
     asym = sp.Matrix([_symbol(problem, f"a{i + 1}", f"a_{{{i + 1}}}") for i in range(n)])
-    u_a = dm.B * asym + nvec
-    u_a = ((Ginv * u_a) if Ginv is not None else u_a).applyfunc(tidy)
+    if Ginv is None:  # B a + n is the model B q̈ + n, already in its tidy form, at q̈ = a
+        u_a = dm.lhs.xreplace(dict(zip(robot.ddq, asym)))
+    else:
+        u_a = (Ginv * (dm.B * asym + nvec)).applyfunc(tidy)
     u = ok = null_ok = None
     if ps is not None:
         sol.add("J_pinv", ps["J_pinv"], "matrix", label="J^{\\#}(q)")
