@@ -70,6 +70,14 @@ def _output_file(path: Path) -> Path:
     return path
 
 
+def _cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
 def _write(path: Path, text: str) -> None:
     try:
         path.write_text(text, encoding="utf-8")
@@ -84,7 +92,9 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
           fragment: bool = typer.Option(False, help="LaTeX body only, no preamble"),
           templates: Optional[Path] = typer.Option(None, help="directory with your own md/ and tex/ templates"),
           details: bool = typer.Option(False, "--details", help="JSON: also the intermediate results (per-body "
-                                       "quantities) and the expressions of the steps")) -> None:
+                                       "quantities) and the expressions of the steps"),
+          jobs: int = typer.Option(0, "--jobs", "-j", min=0, help="processes solving the asks (0: one per core)")
+          ) -> None:
     """Solve a problem and print the step-by-step solution."""
     from solver.publish.figures import Painter  # (no sympy: the helper is forked before it is imported)
 
@@ -107,7 +117,8 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
                 figures.extend(painter.send([solution], output, format.value, first=k, last=last))
                 if last and not figures:  # nothing to draw: do not wait for the warm-up
                     painter.cancel()
-            solutions = solve_problem(problem, solved if painter and output else None)
+            solutions = solve_problem(problem, solved if painter and output else None, jobs=jobs or _cores(),
+                                      figures=painter is not None)
             text = render(problem, solutions, format.value, fragment=fragment, template_dir=templates,
                           details=details)
             if painter:

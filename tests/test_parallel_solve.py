@@ -1,0 +1,106 @@
+"""Asks solved by forked helpers (`solve -j`, issue 11): the same solutions, names and reports as in one process,
+errors raised as in order, a helper that cannot send replaced by the parent."""
+import subprocess
+import sys
+
+import pytest
+import sympy as sp
+
+import solver.solve as solve_mod
+from conftest import PROBLEMS, R2_ROBOT, ROOT
+from solver.publish.render import render
+from solver.results import Solution
+from solver.spec import load_problem
+from solver.spec.errors import UserError
+
+# ask 3 uses rd1, a name the law of ask 2 registers; two laws register the same gains
+SHARED_NAMES = PROBLEMS / "2021-02-04-ex3.yaml"
+# eight asks of several kinds, with figures
+MANY_ASKS = PROBLEMS / "2018-01-11-ex3.yaml"
+
+
+def solved(path, jobs: int, figures: bool = True) -> tuple:
+    problem = load_problem(path)
+    sols = solve_mod.solve_problem(problem, jobs=jobs, figures=figures)
+    panels = [repr(fig.panels) for s in sols for fig in s.figures]
+    return (render(problem, sols, "md"), render(problem, sols, "json"), panels, dict(problem.names),
+            dict(problem.latex_names))
+
+
+@pytest.mark.parametrize("path", [SHARED_NAMES, MANY_ASKS], ids=["shared-names", "many-asks"])
+def test_helpers_give_the_solutions_of_one_process(path):
+    one, two = solved(path, 1), solved(path, 2)
+    assert one[0] == two[0] and one[1] == two[1]          # the report and the JSON, byte for byte
+    assert one[2] == two[2] and one[2]                     # the figures' samples
+    assert one[3] == two[3] and one[4] == two[4]           # the names the asks registered, merged in order
+
+
+def test_a_name_registered_by_an_earlier_ask_can_be_used():
+    """Each ask is solved from the problem as loaded; one that fails so (rd1 is unknown there) is solved again
+    from the names the earlier asks left: rd1 is the first law's symbol."""
+    problem = load_problem(SHARED_NAMES)
+    sols = solve_mod.solve_problem(problem, jobs=2)
+    rd1 = problem.names["rd1"]
+    assert rd1 in sols[2].results["u_jsd"].value.free_symbols | sols[2].results["a_r_jsd"].value.free_symbols
+
+
+SINGULAR = ("id: sing\ntitle: t\nsymbols: {m1: m1, m2: m2, d1: d1, d2: d2, l1: l1, I1: I1, I2: I2, g0: g0}\n"
+            + R2_ROBOT + """asks:
+  - kind: dynamic_model
+    plots: false
+  - kind: control_law
+    law: cartesian_computed_torque
+    task: [q1 + q2, 2*q1 + 2*q2]
+  - kind: dynamic_model
+    plots: false
+    show: [B]
+""")
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_an_error_is_raised_as_in_order(write, jobs):
+    with pytest.raises(UserError, match="singular everywhere"):
+        solve_mod.solve_problem(load_problem(write(SINGULAR)), jobs=jobs)
+
+
+def test_an_ask_a_helper_cannot_send_is_solved_by_the_parent(monkeypatch):
+    def unpicklable(obj):  # (the helpers are forked after this: they inherit it)
+        raise TypeError("cannot pickle")
+    monkeypatch.setattr(solve_mod, "_dumps", unpicklable)
+    assert solved(MANY_ASKS, 2)[:2] == solved(MANY_ASKS, 1)[:2]
+
+
+def fake_asks(problem, k: int) -> Solution:
+    """Ask k registers a symbol x: printed A by ask 0, B by ask 1 (a clash: x is taken, so ask 1 takes xc when
+    it sees x), and ask 2 reuses ask 0's x, printed A (no clash)."""
+    tex = "B" if k == 1 else "A"
+    name = "x"
+    if "x" in problem.names and problem.latex_names.get(problem.names["x"]) != tex:
+        name = "xc"
+    s = problem.names.setdefault(name, sp.Symbol(name))
+    problem.latex_names.setdefault(s, tex)
+    sol = Solution("fake")
+    sol.add("s", s, "scalar")
+    return sol
+
+
+@pytest.mark.parametrize("jobs", [1, 2, 3])
+def test_clashing_names_are_solved_again_in_order(monkeypatch, write, jobs):
+    monkeypatch.setattr(solve_mod, "_solve_ask", fake_asks)
+    problem = load_problem(write(SINGULAR))
+    sols = solve_mod.solve_problem(problem, jobs=jobs)
+    x, xc = sp.Symbol("x"), sp.Symbol("xc")
+    assert [s.results["s"].value for s in sols] == [x, xc, x]
+    assert problem.latex_names[x] == "A" and problem.latex_names[xc] == "B"
+    assert problem.names["x"] == x and problem.names["xc"] == xc
+
+
+def test_cli_jobs_write_the_same_report_and_figures(tmp_path):
+    outs = []
+    for j in ("1", "2"):
+        out = tmp_path / j / "sol.md"
+        r = subprocess.run([sys.executable, "-m", "solver", "solve", str(MANY_ASKS), "-o", str(out), "-j", j],
+                           cwd=ROOT, capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr
+        outs.append((out.read_text(), sorted(p.name for p in out.parent.iterdir())))
+    assert outs[0] == outs[1] and len(outs[0][1]) > 1
