@@ -14,6 +14,7 @@ Every entry is checked and every failure reported; an entry that names no result
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -211,13 +212,13 @@ def _shadowed(solutions: list) -> dict[str, list[int]]:
     return out
 
 
-def check_problem(problem: Problem, compare: bool = True) -> Report:
-    """Solve ``problem`` and compare every expected value; every entry is checked and every failure reported
-    (a missing result or an unreadable value fails that entry only). ``compare=False``: only find the entries
-    that cannot be checked (what ``robosolve check`` reports)."""
+def check_problem(problem: Problem, compare: bool = True, jobs: int = 1) -> Report:
+    """Solve ``problem`` (its asks shared by ``jobs`` processes) and compare every expected value; every entry is
+    checked and every failure reported (a missing result or an unreadable value fails that entry only).
+    ``compare=False``: only find the entries that cannot be checked (what ``robosolve check`` reports)."""
     rep = Report(problem.id, problem.file)
     entries, errors = expected_entries(problem)
-    solutions = solve_problem(problem)
+    solutions = solve_problem(problem, jobs=jobs)
     results = all_results(solutions)
     shadowed = _shadowed(solutions)
     rep.checks += [_error(str(e.place), e.place.line if e.place else None, e) for e in errors]
@@ -269,9 +270,9 @@ def spec_files(paths: list[Path]) -> list[Path]:
     return files
 
 
-def _verify_file(path: Path) -> Report:
+def _verify_file(path: Path, ask_jobs: int = 1) -> Report:
     try:
-        return check_problem(load_problem(path))
+        return check_problem(load_problem(path), jobs=ask_jobs)
     except UserError as exc:
         return Report(path.stem, str(path), error=str(exc))
 
@@ -279,15 +280,18 @@ def _verify_file(path: Path) -> Report:
 def verify_paths(paths: list[Path], jobs: int = 0, limits: Limits | None = None,
                  on_done: Callable[[Report], None] | None = None) -> list[Report]:
     """Reports for every spec under ``paths``, each file solved in a bounded worker process (``jobs`` at a time,
-    0: one per core); a file that exceeds its limits gets a report with the reason."""
+    0: one per core; fewer files than that: the asks of each shared by the processes left); a file that exceeds
+    its limits gets a report with the reason."""
     files = spec_files(paths)
     limits = limits or Limits()
+    jobs = jobs or os.cpu_count() or 1
+    ask_jobs = max(1, jobs // max(1, len(files)))
 
     def report(i: int, out: Outcome) -> Report:
         return out.value if out.ok else Report(files[i].stem, str(files[i]), error=out.message)
 
     preload(len(files))
-    outcomes = run_many(_verify_file, files, jobs, limits,
+    outcomes = run_many(lambda f: _verify_file(f, ask_jobs), files, jobs, limits,
                         (lambda i, out: on_done(report(i, out))) if on_done else None)
     return [report(i, out) for i, out in enumerate(outcomes)]
 

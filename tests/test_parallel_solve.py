@@ -104,3 +104,12 @@ def test_cli_jobs_write_the_same_report_and_figures(tmp_path):
         assert r.returncode == 0, r.stderr
         outs.append((out.read_text(), sorted(p.name for p in out.parent.iterdir())))
     assert outs[0] == outs[1] and len(outs[0][1]) > 1
+
+
+def test_verify_of_one_file_shares_its_asks_and_passes():
+    from solver.verify import check_problem, verify_paths
+    (two,) = verify_paths([SHARED_NAMES], jobs=2)       # one file, two processes: its asks shared by both
+    one = check_problem(load_problem(SHARED_NAMES))
+    assert two.ok and one.ok
+    assert [(c.name, c.verdict.ok) for c in two.checks] == [(c.name, c.verdict.ok) for c in one.checks]
+    assert len(two.checks) > 10
