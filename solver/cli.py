@@ -152,7 +152,8 @@ def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam file
     from solver.registry import preload
     from solver.sandbox import Limits, run_many
     preload(len(specs))
-    outcomes = run_many(_check_file, specs, 0, Limits(time_limit, 4096))
+    ask_jobs = max(1, _cores() // len(specs))  # fewer files than cores: the asks of each shared
+    outcomes = run_many(lambda path: _check_file(path, ask_jobs), specs, 0, Limits(time_limit, 4096))
     bad = 0
     for s, out in zip(specs, outcomes):
         lines = out.value if out.ok else [f"{s}: error: {out.message}"]
@@ -166,7 +167,7 @@ def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam file
         raise typer.Exit(2)
 
 
-def _check_file(path: Path) -> list[str]:
+def _check_file(path: Path, ask_jobs: int = 1) -> list[str]:
     """`check` of one file (in a bounded worker): ["<file>: ok ..."] or the error messages. Imports only what the
     file needs: the modules of its ask kinds, the solver only when it has expected values, the handout module only
     for an exam file."""
@@ -185,7 +186,7 @@ def _check_file(path: Path) -> list[str]:
         if not problem.expected:
             return [f"{path}: ok"]
         from solver.verify import ERROR, check_problem
-        rep = check_problem(problem, compare=False)
+        rep = check_problem(problem, compare=False, jobs=ask_jobs)
     except UserError as exc:
         return [str(exc)]
     errors = [c.verdict.detail for c in rep.checks if c.verdict.verdict == ERROR]

@@ -113,3 +113,9 @@ def test_verify_of_one_file_shares_its_asks_and_passes():
     assert two.ok and one.ok
     assert [(c.name, c.verdict.ok) for c in two.checks] == [(c.name, c.verdict.ok) for c in one.checks]
     assert len(two.checks) > 10
+
+
+def test_check_of_one_file_shares_its_asks():
+    r = subprocess.run([sys.executable, "-m", "solver", "check", str(SHARED_NAMES)], cwd=ROOT, capture_output=True,
+                       text=True, timeout=600)
+    assert r.returncode == 0 and r.stdout.strip() == f"{SHARED_NAMES}: ok", r.stdout + r.stderr
