@@ -70,14 +70,6 @@ def _output_file(path: Path) -> Path:
     return path
 
 
-def _cores() -> int:
-    """The cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:
-        return os.cpu_count() or 1
-
-
 def _write(path: Path, text: str) -> None:
     try:
         path.write_text(text, encoding="utf-8")
@@ -106,6 +98,7 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
             from solver.registry import frozen_imports
             with frozen_imports():
                 from solver.publish.render import render
+                from solver.sandbox import cores
                 from solver.solve import solve_problem
                 from solver.spec import load_problem
             problem = load_problem(spec)
@@ -117,7 +110,7 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
                 figures.extend(painter.send([solution], output, format.value, first=k, last=last))
                 if last and not figures:  # nothing to draw: do not wait for the warm-up
                     painter.cancel()
-            solutions = solve_problem(problem, solved if painter and output else None, jobs=jobs or _cores(),
+            solutions = solve_problem(problem, solved if painter and output else None, jobs=jobs or cores(),
                                       figures=painter is not None)
             text = render(problem, solutions, format.value, fragment=fragment, template_dir=templates,
                           details=details)
@@ -150,9 +143,9 @@ def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam file
     """Validate specs or exam files: 'ok', or every error found (file:line, what, how to fix; exit code 2).
     A spec with expected: values is solved, to find entries that name no result or cannot be read."""
     from solver.registry import preload
-    from solver.sandbox import Limits, run_many
+    from solver.sandbox import Limits, cores, run_many
     preload(len(specs))
-    ask_jobs = max(1, _cores() // len(specs))  # fewer files than cores: the asks of each shared
+    ask_jobs = max(1, cores() // len(specs))  # fewer files than cores: the asks of each shared
     outcomes = run_many(lambda path: _check_file(path, ask_jobs), specs, 0, Limits(time_limit, 4096))
     bad = 0
     for s, out in zip(specs, outcomes):

@@ -142,7 +142,7 @@ def run_many(fn: Callable[[T], Any], items: Sequence[T], jobs: int = 0, limits: 
             if on_done:
                 on_done(i, out)
         return [o for o in outcomes if o is not None]
-    jobs = max(1, jobs or os.cpu_count() or 1)
+    jobs = max(1, jobs or cores())
     pending = list(range(len(items)))[::-1]
     running: dict[int, _Running] = {}
     try:
@@ -187,12 +187,28 @@ def run_many(fn: Callable[[T], Any], items: Sequence[T], jobs: int = 0, limits: 
 
 
 def _kill(run: _Running) -> None:
+    stop(run.pid)
+    os.close(run.fd)
+
+
+def stop(pid: int) -> None:
+    """Kill a child process (SIGKILL) and reap it."""
     try:
-        os.kill(run.pid, signal.SIGKILL)
+        os.kill(pid, signal.SIGKILL)
     except ProcessLookupError:
         pass
-    os.waitpid(run.pid, 0)
-    os.close(run.fd)
+    try:
+        os.waitpid(pid, 0)
+    except ChildProcessError:
+        pass
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
 
 
 def _finish(run: _Running, limits: Limits, outcomes: list[Outcome | None],

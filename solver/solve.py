@@ -11,7 +11,7 @@ from typing import Callable
 from solver.math.nounits import without_units
 from solver.registry import get_kind
 from solver.results import Solution
-from solver.sandbox import write_all
+from solver.sandbox import stop, write_all
 from solver.spec.problem import Problem
 
 MAX_PARALLEL_ASKS = 30000  # ask numbers are queued in one pipe write (2 bytes each, within its 64 kB buffer)
@@ -25,9 +25,10 @@ def solve_problem(problem: Problem, solved: Callable[[int, Solution], None] | No
 
     Every ask is solved from the problem as loaded: the names an ask registers (its fresh symbols, its inputs)
     are merged into the problem in the order of the asks once it is solved (:class:`_Names`), so that asks can
-    be solved in any order, by any process, with the same solutions. ``jobs`` > 1 (POSIX, three asks or more): the
-    asks after the first are shared with up to ``jobs`` − 1 forked helper processes (:func:`_parallel`). ``figures``: the helpers sample the figures of
-    their asks (the caller draws them); otherwise a helper's figures have no panels."""
+    be solved in any order, by any process, with the same solutions. ``jobs`` > 1 (POSIX, three asks or more):
+    the asks after the first are shared with up to ``jobs`` − 1 forked helper processes (:func:`_parallel`).
+    ``figures``: the helpers sample the figures of their asks (the caller draws them); otherwise a helper's
+    figures have no panels."""
     n = len(problem.asks)
     names = _Names(problem)
     if jobs > 1 and 3 <= n <= MAX_PARALLEL_ASKS and hasattr(os, "fork"):
@@ -160,12 +161,12 @@ def _take(queue: int) -> int | None:
 def _parallel(problem: Problem, names: _Names, solved: Callable[[int, Solution], None] | None, jobs: int,
               figures: bool) -> list[Solution]:
     """The asks shared between this process and ``jobs`` − 1 helpers forked once the first ask is solved (they
-    inherit the problem, every import and what the first ask derived). The queue is a pipe holding the ask numbers: each process reads the next one
-    when it is free, so that a long ask does not hold the others back. Each ask is solved from the problem as
-    loaded; a helper sends its solution pickled, with what it registered (:class:`_Names`), and this process
-    merges them in order (a failed ask is solved again from the merged state, which raises its error as without
-    helpers); an ask a helper could not send (it does not pickle, the helper was killed) is solved here. Helpers
-    die with this process (PR_SET_PDEATHSIG)."""
+    inherit the problem, every import and what the first ask derived). The queue is a pipe holding the ask
+    numbers: each process reads the next one when it is free, so that a long ask does not hold the others back.
+    Each ask is solved from the problem as loaded; a helper sends its solution pickled, with what it registered
+    (:class:`_Names`), and this process merges them in order (a failed ask is solved again from the merged
+    state, which raises its error as without helpers); an ask a helper could not send (it does not pickle, the
+    helper was killed) is solved here. Helpers die with this process (PR_SET_PDEATHSIG)."""
     n = len(problem.asks)
     got: list[tuple[Solution | None, _State | None] | None] = [None] * n  # None: not here (yet)
     out: list[Solution] = []
@@ -195,7 +196,6 @@ def _parallel(problem: Problem, names: _Names, solved: Callable[[int, Solution],
                 os.close(fd)
                 os.waitpid(pid, 0)
                 del helpers[fd]
-                _unpack(buf, got)
                 return
             buf += chunk
             _unpack(buf, got)
@@ -223,7 +223,7 @@ def _parallel(problem: Problem, names: _Names, solved: Callable[[int, Solution],
         os.close(queue)
         for fd, (pid, _) in helpers.items():
             os.close(fd)
-            _stop(pid)
+            stop(pid)
     return out
 
 
@@ -301,17 +301,6 @@ def _die_with_parent() -> None:
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
-        pass
-
-
-def _stop(pid: int) -> None:
-    try:
-        os.kill(pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    try:
-        os.waitpid(pid, 0)
-    except ChildProcessError:
         pass
 
 

@@ -14,7 +14,6 @@ Every entry is checked and every failure reported; an entry that names no result
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -23,7 +22,7 @@ import sympy as sp
 
 from solver.math.equivalence import CORRECT, INCORRECT, Verdict, equivalent
 from solver.registry import preload
-from solver.sandbox import Limits, Outcome, run_many
+from solver.sandbox import Limits, Outcome, cores, run_many
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem
 from solver.spec.errors import UserError
@@ -284,7 +283,7 @@ def verify_paths(paths: list[Path], jobs: int = 0, limits: Limits | None = None,
     its limits gets a report with the reason."""
     files = spec_files(paths)
     limits = limits or Limits()
-    jobs = jobs or os.cpu_count() or 1
+    jobs = jobs or cores()
     ask_jobs = max(1, jobs // max(1, len(files)))
 
     def report(i: int, out: Outcome) -> Report:

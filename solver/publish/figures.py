@@ -5,13 +5,12 @@ import math
 import os
 import pickle
 import queue
-import signal
 import threading
 from pathlib import Path
 from typing import Callable, NoReturn
 
 from solver.results import Figure, RobotPose, Sketch, Solution
-from solver.sandbox import read_all, write_all
+from solver.sandbox import read_all, stop, write_all
 
 
 def _categorical(ax, curves: list) -> None:  # type: ignore[no-untyped-def]
@@ -323,11 +322,7 @@ class Painter:
             if fd >= 0:
                 os.close(fd)
         self._jobs = self._status = -1
-        try:
-            os.kill(self.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        os.waitpid(self.pid, 0)
+        stop(self.pid)
         self.pid = 0
 
 
