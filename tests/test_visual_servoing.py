@@ -315,3 +315,24 @@ def test_cleared_sparse_equals_the_sympy_path():
         checked += 1
     assert checked > 30
     assert vs._cleared_sparse(sp.Matrix([sp.cos(x), 1])) is None  # outside the field: the sympy path
+
+
+@pytest.mark.parametrize("J", [
+    sp.Matrix([[sp.cos(T), -R * sp.sin(T)], [sp.sin(T), R * sp.cos(T)]]),               # polar J_t: 2 x 2
+    sp.Matrix([[L / Z, 0, -U / Z], [0, L / Z, -V / Z]]),                                  # a 2 x 3 rational one
+    sp.Matrix([[sp.cos(T), sp.sin(T), 1], [-R * sp.sin(T), R * sp.cos(T), 0], [0, 1, R]]),  # 3 x 3, trig
+])
+def test_dls_inverse_solves_the_damped_normal_equations(J):
+    """J^DLS (σ² I + J Jᵀ) = Jᵀ at random points, and σ → 0 gives the inverse of a square J."""
+    from solver.control.visual_servoing import dls_inverse
+    s = sp.Symbol("sigma", positive=True)
+    D = dls_inverse(J, s)
+    rng = random.Random(3)
+    for _ in range(3):
+        pt = {x: sp.Rational(rng.randint(3, 17), 7) for x in J.free_symbols | {s}}
+        lhs = num((D * (s ** 2 * sp.eye(J.rows) + J * J.T)).xreplace(pt))
+        assert np.allclose(lhs, num(J.T.xreplace(pt)), atol=1e-12)
+        if J.rows == J.cols:
+            assert np.allclose(num(D.xreplace({**pt, s: 0})), np.linalg.inv(num(J.xreplace(pt))), atol=1e-9)
+    if J.rows == 2 and J.cols == 2:  # the printed form (2017-05-29, line 8794)
+        assert D[0, 0] == sp.cos(T) / (1 + s ** 2) and D[1, 1] == R * sp.cos(T) / (R ** 2 + s ** 2)

@@ -110,9 +110,13 @@ def polar_matrix(rho: sp.Expr, theta: sp.Expr, Z: sp.Expr, lam: sp.Expr) -> sp.M
 
 
 def dls_inverse(J: sp.Matrix, sigma: sp.Expr) -> sp.Matrix:
-    """J^DLS = Jᵀ (σ² I + J Jᵀ)⁻¹."""
-    M = sigma ** 2 * sp.eye(J.shape[0]) + J * J.T
-    return (J.T * M.inv()).applyfunc(lambda x: _factored(sp.simplify(x)))
+    """J^DLS = Jᵀ (σ² I + J Jᵀ)⁻¹ = Jᵀ adj(M) / det M with M = σ² I + J Jᵀ tidied first (cos²θ + sin²θ = 1 in
+    its entries), each entry then factored; sympy's inverse and simplify only when det M tidies to 0."""
+    M = (sigma ** 2 * sp.eye(J.shape[0]) + J * J.T).applyfunc(tidy)
+    d = tidy(M.det())
+    if d == 0:  # (σ = 0 and J Jᵀ singular: no inverse, sympy says so)
+        return (J.T * M.inv()).applyfunc(lambda x: _factored(sp.simplify(x)))
+    return (J.T * M.adjugate()).applyfunc(lambda x: _factored(tidy(x) / d))
 
 
 def average(mats: list[sp.Matrix]) -> sp.Matrix:
