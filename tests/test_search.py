@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 import pytest
 
 from solver.math.search import golden_min
@@ -20,3 +22,74 @@ def test_golden_min_at_an_end_and_on_a_grid_cell() -> None:
     # |sin| on a cell around its peak (the use in planning.laws: maximize |q(t)| near the best grid sample)
     x, fx = golden_min(lambda t: -abs(math.sin(t)), 1.5, 1.65, 1e-12)
     assert abs(x - math.pi / 2) < 1e-6 and abs(fx + 1.0) < 1e-12
+
+
+# ---------------------------------------------------------------------------------------------- lp_max
+def test_lp_max_small_programs_by_hand():
+    from fractions import Fraction as Fr
+
+    from solver.math.search import lp_max
+    # max x + y, x + 2y <= 4, 3x + y <= 6: the vertex (8/5, 6/5)
+    assert lp_max([1, 1], [[1, 2], [3, 1]], [4, 6]) == (0, [Fr(8, 5), Fr(6, 5)])
+    # a negative right-hand side (phase one): x >= 1 written -x <= -1, with x <= 3
+    assert lp_max([1], [[-1], [1]], [-1, 3]) == (0, [Fr(3)])
+    assert lp_max([-1], [[-1], [1]], [-1, 3]) == (0, [Fr(1)])  # the least x is 1, not 0
+    assert lp_max([1], [[-1], [1]], [-3, 2])[0] == 2             # x >= 3 and x <= 2: infeasible
+    assert lp_max([1, 0], [[0, 1]], [1])[0] == 3                 # x free of any bound: unbounded
+    assert lp_max([0, 1], [[1, 1], [-1, -1]], [1, -1]) == (0, [Fr(0), Fr(1)])  # x + y = 1 (degenerate)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_lp_max_agrees_with_highs(seed):
+    """The optimum of random programs (feasible, infeasible and unbounded ones) equals scipy's HiGHS."""
+    from scipy.optimize import linprog
+
+    from solver.math.search import lp_max
+    rng = np.random.default_rng(seed)
+    n, m = int(rng.integers(1, 5)), int(rng.integers(1, 9))
+    A = rng.integers(-5, 6, size=(m, n)).astype(float)
+    b = rng.integers(-4, 10, size=m).astype(float)
+    c = rng.integers(-3, 4, size=n).astype(float)
+    status, x = lp_max(c.tolist(), A.tolist(), b.tolist())
+    res = linprog(-c, A_ub=A, b_ub=b, bounds=[(0, None)] * n, method="highs")
+    assert status == res.status
+    if status == 0:
+        xv = np.array([float(v) for v in x])
+        assert np.all(A @ xv <= b + 1e-12) and np.all(xv >= 0)
+        assert c @ xv == pytest.approx(-res.fun, abs=1e-9)
+
+
+# ------------------------------------------------------------------------------------------ pattern_max
+def test_pattern_max_smooth_bounded_and_kinked():
+    from solver.math.search import pattern_max
+
+    def f(p):  # a smooth bump with its top at (0.3, -0.7)
+        return 2 - (p[:, 0] - 0.3) ** 2 - 3 * (p[:, 1] + 0.7) ** 2 + 0.5 * (p[:, 0] - 0.3) * (p[:, 1] + 0.7)
+    inf = np.inf
+    x, v = pattern_max(f, np.array([0.0, 0.0]), np.array([0.5, 0.5]), np.array([-inf, -inf]), np.array([inf, inf]))
+    assert np.allclose(x, [0.3, -0.7], atol=1e-8) and v == pytest.approx(2, abs=1e-14)
+    # the same top outside the box: the maximum is on its edge y = -0.5, at x solving ∂f/∂x = 0 there
+    x, v = pattern_max(f, np.array([0.0, 0.0]), np.array([0.5, 0.5]), np.array([-1, -0.5]), np.array([1, 1]))
+    assert x[1] == -0.5 and x[0] == pytest.approx(0.35, abs=1e-8)  # -2 (x - 0.3) + 0.5 (0.2) = 0
+
+    def kink(p):  # max of two planes' minimum: a ridge along x = y, top at (1, 1) in [0, 1]^2
+        return np.minimum(p[:, 0], p[:, 1])
+    x, v = pattern_max(kink, np.array([0.2, 0.6]), np.array([0.25, 0.25]), np.zeros(2), np.ones(2))
+    assert v == pytest.approx(1, abs=1e-9)
+    # six coordinates (axis directions only): a separable concave function
+    x, v = pattern_max(lambda p: -np.sum((p - np.arange(6)) ** 2, axis=1), np.zeros(6), np.ones(6),
+                       np.full(6, -inf), np.full(6, inf))
+    assert np.allclose(x, np.arange(6), atol=1e-8)
+
+
+# ------------------------------------------------------------------------------------------ bisect_root
+@pytest.mark.parametrize("f, a, b, z", [
+    (lambda x: x * x - 2, 0.0, 3.0, math.sqrt(2)),
+    (lambda x: math.cos(x), 1.0, 2.0, math.pi / 2),
+    (lambda x: (x - 0.1) ** 3, -1.0, 1.0, 0.1),       # a triple zero: no derivative to follow
+    (lambda x: 1e-300 * (x - 5), 0.0, 7.0, 5.0),      # tiny values keep their signs
+])
+def test_bisect_root_to_adjacent_doubles(f, a, b, z):
+    from solver.math.search import bisect_root
+    x = bisect_root(f, a, b)
+    assert abs(x - z) <= 4 * math.ulp(z) + (1e-5 if z == 0.1 else 0)

@@ -23,6 +23,7 @@ import numpy as np
 import sympy as sp
 
 from solver.math.numeric import lambdify_np
+from solver.math.search import pattern_max
 from solver.math.simplify import factor_within, tidy
 
 GRID_POINTS = 20_000      # grid evaluations for a numeric maximum
@@ -178,8 +179,8 @@ def box_of(coords: list[sp.Symbol], revolute: set[sp.Symbol], ranges: dict[sp.Sy
 def maximize(fn: Callable[[np.ndarray], np.ndarray], box: list[tuple[float, float]], periodic: list[bool],
              seed: int = 7) -> tuple[float, np.ndarray]:
     """max of a vectorized fn over the box (grid, or random samples past RANDOM_ABOVE coordinates, then a local
-    refinement of the best points); returns (value, point)."""
-    from scipy.optimize import minimize
+    refinement of the six best points by :func:`solver.math.search.pattern_max`, periodic coordinates free);
+    returns (value, point)."""
     k = len(box)
     if k == 0:
         v = fn(np.zeros((1, 0)))
@@ -189,19 +190,23 @@ def maximize(fn: Callable[[np.ndarray], np.ndarray], box: list[tuple[float, floa
         m = 24 * max(1, m // 24) if m >= 24 else (12 if m >= 12 else m)  # angles k·π/12 (or π/6) on the grid
         axes = [np.linspace(lo, hi, m, endpoint=not per) for (lo, hi), per in zip(box, periodic)]
         pts = np.array(list(itertools.product(*axes)))
+        spacing = m - 1
     else:
         rng = np.random.default_rng(seed)
         lo, hi = np.array([b[0] for b in box]), np.array([b[1] for b in box])
         pts = lo + (hi - lo) * rng.random((GRID_POINTS, k))
+        spacing = GRID_POINTS ** (1.0 / k)
     vals = fn(pts)
     top = np.flatnonzero(vals >= vals.max() * (1 - 1e-12))
     best = max(top, key=lambda i: tuple(pts[i]))      # ties: the lexicographically largest point
     best_v, best_x = float(vals[best]), pts[best]
-    bounds = [(None, None) if per else b for b, per in zip(box, periodic)]
+    lower = np.array([-np.inf if per else float(b[0]) for b, per in zip(box, periodic)])
+    upper = np.array([np.inf if per else float(b[1]) for b, per in zip(box, periodic)])
+    step = np.array([(float(hi) - float(lo)) / spacing for lo, hi in box])
     for i in np.argsort(-vals)[:6]:
-        res = minimize(lambda x: -float(fn(x[None, :])[0]), pts[i], method="L-BFGS-B", bounds=bounds)
-        if -res.fun > best_v * (1 + 1e-12) + 1e-14:
-            best_v, best_x = float(-res.fun), res.x
+        x, v = pattern_max(fn, pts[i], step, lower, upper)
+        if v > best_v * (1 + 1e-12) + 1e-14:
+            best_v, best_x = v, x
     return best_v, best_x
 
 

@@ -33,6 +33,7 @@ from solver.control.gravity_bound import GradientBound, box_of, gradient_bound, 
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import identically_zero as _zero
 from solver.math.numeric import lambdify_np
+from solver.math.search import lp_max
 from solver.math.simplify import expand_polynomial, factor_within, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -304,9 +305,8 @@ def _wrapdiff(a: np.ndarray, b: np.ndarray, periodic: list[bool]) -> np.ndarray:
 
 def largest_gains(expr: sp.Matrix, gains: list[sp.Symbol], bound: sp.Expr, values: dict) -> dict:
     """For |expr_i| ≤ bound with expr affine in the gains (all ≥ 0): each gain's largest value (a linear
-    program, the others free), in closed form when the binding constraint involves that gain only. Gains that
-    do not appear are unbounded (None)."""
-    from scipy.optimize import linprog
+    program, solved exactly by :func:`solver.math.search.lp_max`, the others free), in closed form when the
+    binding constraint involves that gain only. Gains that do not appear are unbounded (None)."""
     A = expr.jacobian(gains)
     b = expr.xreplace({k: 0 for k in gains})
     An = np.array(A.xreplace(values).evalf(), dtype=float)
@@ -317,14 +317,12 @@ def largest_gains(expr: sp.Matrix, gains: list[sp.Symbol], bound: sp.Expr, value
         if not any(A[i, j] != 0 for i in range(A.rows)):
             out[k] = None
             continue
-        c = np.zeros(len(gains))
-        c[j] = -1.0
-        res = linprog(c, A_ub=np.vstack([An, -An]), b_ub=np.concatenate([Un - bn, Un + bn]),
-                      bounds=[(0, None)] * len(gains), method="highs")
-        if res.status != 0:
-            out[k] = sp.nan if res.status == 2 else sp.oo
+        c = [1 if jj == j else 0 for jj in range(len(gains))]
+        status, x = lp_max(c, np.vstack([An, -An]).tolist(), np.concatenate([Un - bn, Un + bn]).tolist())
+        if status != 0:
+            out[k] = sp.nan if status == 2 else sp.oo
             continue
-        kmax = res.x[j]
+        kmax = float(x[j])
         exact = None
         for i in range(A.rows):
             others = [A[i, jj] for jj in range(len(gains)) if jj != j]

@@ -1,8 +1,14 @@
-"""Bounded scalar minimization without scipy.optimize (whose import alone costs about half a second)."""
+"""Bounded minimization and maximization without scipy.optimize (whose import alone costs half a second to a
+second)."""
 from __future__ import annotations
 
+import itertools
 import math
-from typing import Callable
+from fractions import Fraction
+from typing import TYPE_CHECKING, Callable
+
+if TYPE_CHECKING:
+    import numpy as np
 
 _INV_PHI = (math.sqrt(5) - 1) / 2  # 1/φ
 
@@ -28,3 +34,120 @@ def golden_min(f: Callable[[float], float], lo: float, hi: float, xtol: float,
             fd = f(d)
     best = min(((fc, c), (fd, d), (f(lo), float(lo)), (f(hi), float(hi))), key=lambda p: p[0])
     return best[1], best[0]
+
+
+def pattern_max(fn: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, step: np.ndarray,
+                lower: np.ndarray, upper: np.ndarray, xtol: float = 1e-11,
+                max_iter: int = 2000) -> tuple[np.ndarray, float]:
+    """(x, f(x)) a local maximum of a vectorized f (rows of points -> values) near x0, in the box
+    lower <= x <= upper (±inf for a free coordinate), by a pattern search: f at x + h ⊙ d for every d in
+    {-1, 0, 1}^k (the 2k axes past four coordinates), one call per iteration; x moves to the best point while it
+    improves f, otherwise h is halved, until every h_i < xtol (1 + |x_i|). Derivative-free: it also climbs a
+    largest eigenvalue or a spectral norm where two branches cross."""
+    import numpy as np
+    x = np.clip(np.asarray(x0, dtype=float), lower, upper)
+    h = np.asarray(step, dtype=float).copy()
+    k = len(x)
+    if k <= 4:
+        dirs = np.array(list(itertools.product((-1.0, 0.0, 1.0), repeat=k)))
+        dirs = dirs[np.any(dirs != 0, axis=1)]
+    else:
+        dirs = np.vstack([np.eye(k), -np.eye(k)])
+    fx = float(fn(x[None, :])[0])
+    for _ in range(max_iter):
+        if np.all(h < xtol * (1 + np.abs(x))):
+            break
+        pts = np.clip(x + dirs * h, lower, upper)
+        vals = fn(pts)
+        j = int(np.argmax(vals))
+        if vals[j] > fx:
+            x, fx = pts[j], float(vals[j])
+        else:
+            h = h / 2
+    return x, fx
+
+
+def lp_max(c: list, A: list[list], b: list) -> tuple[int, list[Fraction] | None]:
+    """max cᵀx subject to A x ≤ b, x ≥ 0, exactly (every number as a Fraction: floats exactly as they are) by the
+    two-phase simplex method with Bland's rule (no cycling); for the small programs of gain design (a few
+    variables, a few dozen constraints). Returns (status, x) with scipy's codes: 0 optimal, 2 infeasible,
+    3 unbounded (x None unless optimal)."""
+    n, m = len(c), len(A)
+    cf = [Fraction(v) for v in c]
+    T: list[list[Fraction]] = []  # rows [x (n) | slacks (m) | artificials | rhs], in canonical form for `basis`
+    basis: list[int] = []
+    flipped = [Fraction(b[i]) < 0 for i in range(m)]
+    n_art = sum(flipped)
+    width = n + m + n_art
+    a = 0
+    for i in range(m):
+        s = -1 if flipped[i] else 1
+        row = [s * Fraction(v) for v in A[i]] + [Fraction(s if k == i else 0) for k in range(m)]
+        row += [Fraction(0)] * n_art + [s * Fraction(b[i])]
+        if flipped[i]:
+            row[n + m + a] = Fraction(1)
+            basis.append(n + m + a)
+            a += 1
+        else:
+            basis.append(n + i)
+        T.append(row)
+
+    def pivot(r: int, j: int) -> None:
+        p = T[r][j]
+        T[r] = [v / p for v in T[r]]
+        for i in range(len(T)):
+            if i != r and T[i][j]:
+                f = T[i][j]
+                T[i] = [v - f * w for v, w in zip(T[i], T[r])]
+        basis[r] = j
+
+    def run(cost: list[Fraction], allowed: int) -> bool:
+        """Maximize cost·x over the columns < allowed; False when unbounded."""
+        while True:
+            z = [sum((cost[basis[i]] * T[i][j] for i in range(len(T))), Fraction(0)) - cost[j]
+                 for j in range(allowed)]
+            enter = next((j for j in range(allowed) if z[j] < 0), None)
+            if enter is None:
+                return True
+            rows = [(T[i][-1] / T[i][enter], basis[i], i) for i in range(len(T)) if T[i][enter] > 0]
+            if not rows:
+                return False
+            pivot(min(rows)[2], enter)
+
+    if n_art:
+        run([Fraction(0)] * (n + m) + [Fraction(-1)] * n_art, width)
+        if any(basis[i] >= n + m and T[i][-1] != 0 for i in range(len(T))):
+            return 2, None
+        for i in range(len(T) - 1, -1, -1):  # artificials left in the basis at level 0: pivot them out
+            if basis[i] >= n + m:
+                j = next((j for j in range(n + m) if T[i][j] != 0), None)
+                if j is None:
+                    del T[i], basis[i]  # (a redundant row)
+                else:
+                    pivot(i, j)
+    if not run(cf + [Fraction(0)] * (m + n_art), n + m):
+        return 3, None
+    x = [Fraction(0)] * n
+    for i, j in enumerate(basis):
+        if j < n:
+            x[j] = T[i][-1]
+    return 0, x
+
+
+def bisect_root(f: Callable[[float], float], a: float, b: float) -> float:
+    """A zero of f in [a, b] where f(a) f(b) < 0, by bisection down to adjacent doubles (at most about 64
+    halvings from any bracket of finite doubles): the bracket keeps the sign change, so the result is within
+    one ulp-wide bracket of a zero."""
+    fa = f(a)
+    for _ in range(200):
+        m = a + (b - a) / 2
+        if m <= a or m >= b:
+            break
+        fm = f(m)
+        if fm == 0:
+            return m
+        if (fm < 0) == (fa < 0):
+            a, fa = m, fm
+        else:
+            b = m
+    return a if abs(fa) <= abs(f(b)) else b

@@ -20,6 +20,7 @@ import sympy as sp
 from pydantic import BaseModel, Field
 
 from solver.math.numeric import lambdify_np
+from solver.math.search import bisect_root
 from solver.math.simplify import factor_within, tidy
 from solver.registry import ask_kind
 from solver.results import Curve, Figure, Panel, Solution
@@ -80,9 +81,8 @@ def repulsive(eta: sp.Expr, eta0: sp.Expr, k: sp.Expr) -> sp.Expr:
 
 
 def field_zeros(f, lo: np.ndarray, hi: np.ndarray, n: int = 2000) -> list[np.ndarray]:  # type: ignore[no-untyped-def]
-    """Zeros of a field f: R^d -> R^d (d = 1: sign changes on a fine grid, refined by bisection; d = 2: grid
-    minima of ‖f‖ refined by Newton with finite differences)."""
-    from scipy.optimize import brentq, root
+    """Zeros of a field f: R^d -> R^d (d = 1: sign changes on a fine grid, refined by bisection without scipy,
+    whose import costs more than the search; d = 2: grid minima of ‖f‖ refined by scipy's root)."""
     d = len(lo)
     out: list[np.ndarray] = []
     if d == 1:
@@ -95,10 +95,11 @@ def field_zeros(f, lo: np.ndarray, hi: np.ndarray, n: int = 2000) -> list[np.nda
             if a == 0:
                 out.append(np.array([xs[i]]))
             elif a * b < 0:
-                z = brentq(lambda x: f(np.array([x]))[0], xs[i], xs[i + 1], xtol=1e-13)
+                z = bisect_root(lambda x: f(np.array([x]))[0], xs[i], xs[i + 1])
                 if abs(f(np.array([z]))[0]) < 1e-6 * (1 + abs(a) + abs(b)):
                     out.append(np.array([z]))
         return out
+    from scipy.optimize import root
     m = int(round(n ** (1 / d))) + 1
     axes = [np.linspace(lo[i], hi[i], m) for i in range(d)]
     for pt in np.array(np.meshgrid(*axes)).reshape(d, -1).T:
