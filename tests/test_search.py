@@ -37,6 +37,8 @@ def test_lp_max_small_programs_by_hand():
     assert lp_max([1], [[-1], [1]], [-3, 2])[0] == 2             # x >= 3 and x <= 2: infeasible
     assert lp_max([1, 0], [[0, 1]], [1])[0] == 3                 # x free of any bound: unbounded
     assert lp_max([0, 1], [[1, 1], [-1, -1]], [1, -1]) == (0, [Fr(0), Fr(1)])  # x + y = 1 (degenerate)
+    with pytest.raises(ValueError):
+        lp_max([1], [[float("nan")]], [1])
 
 
 @pytest.mark.parametrize("seed", range(40))

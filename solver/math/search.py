@@ -73,6 +73,8 @@ def lp_max(c: list, A: list[list], b: list) -> tuple[int, list[Fraction] | None]
     variables, a few dozen constraints). Returns (status, x) with scipy's codes: 0 optimal, 2 infeasible,
     3 unbounded (x None unless optimal)."""
     n, m = len(c), len(A)
+    if not all(math.isfinite(float(v)) for v in [*c, *b, *(x for row in A for x in row)]):
+        raise ValueError("lp_max: a coefficient is infinite or undefined")
     cf = [Fraction(v) for v in c]
     T: list[list[Fraction]] = []  # rows [x (n) | slacks (m) | artificials | rhs], in canonical form for `basis`
     basis: list[int] = []
