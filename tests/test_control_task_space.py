@@ -380,3 +380,50 @@ def test_vanishes_by_mpmath_agrees_with_evalf():
     pt = [sp.Rational(7, 3), sp.Rational(-5, 4), sp.Rational(2, 9)]
     ref = [abs(complex(x.xreplace(dict(zip(syms, pt))).evalf(40))) for x in exprs]
     assert _magnitudes(exprs, syms, 40)(pt) == pytest.approx(ref, rel=1e-14)
+
+
+def _planar_task(n: int, m: int) -> tuple[sp.Matrix, sp.Matrix, list, list]:
+    """f(q) of a planar nR with links l_i: (x, y) for m = 2, (x, y, φ) for m = 3, x for m = 1."""
+    q = sp.symbols(f"q1:{n + 1}", real=True)
+    dq = sp.symbols(f"dq1:{n + 1}", real=True)
+    ls = sp.symbols(f"l1:{n + 1}", positive=True)
+    th = [sum(q[:i + 1]) for i in range(n)]
+    f = [sum(ls[i] * sp.cos(th[i]) for i in range(n)), sum(ls[i] * sp.sin(th[i]) for i in range(n)), th[-1]][:m]
+    return sp.Matrix(f), sp.Matrix(dq), list(q), list(dq)
+
+
+@pytest.mark.parametrize("n, m, null", [(3, 1, False), (3, 2, True), (4, 2, True), (5, 3, True), (4, 3, False)])
+def test_pinv_law_in_the_trigonometric_algebra_equals_tidied_products(n, m, null):
+    """The pseudoinverse law computed on Fourier coefficients is, entry by entry, the same expression as sympy's
+    products tidied one by one (J^#, P, the accelerations), with and without a null-space term."""
+    from solver.control.cartesian import _pinv_law_canonical, _pinv_law_tidied, task_terms
+    f, v, q, dq = _planar_task(n, m)
+    J, Jdq = task_terms(f, q, dq)
+    ar = sp.Matrix(sp.symbols(f"ar1:{m + 1}"))
+    a0 = sp.Matrix([sp.Symbol("k") * sp.sin(q[-1]) * sp.cos(q[0])] + [-sp.Symbol("kv") * x for x in dq[1:]]) \
+        if null else None
+    fast, slow = _pinv_law_canonical(J, Jdq, ar, a0), _pinv_law_tidied(J, Jdq, ar, a0)
+    assert set(fast) == set(slow)
+    for key in fast:
+        assert fast[key] == slow[key], key
+    # and it is the pseudoinverse: J J^# = I at a random point
+    rng = random.Random(n * m)
+    pt = {x: sp.Rational(rng.randint(2, 9), 5) for x in J.free_symbols}
+    JJ = np.array((J * fast["J_pinv"]).xreplace(pt).evalf(30).tolist(), dtype=float)
+    assert np.allclose(JJ, np.eye(m), atol=1e-12)
+
+
+def test_pinv_law_falls_back_to_tidied_products_off_the_algebra():
+    """A parameter in a denominator (1/m) is not a polynomial coefficient: the tidied sympy path answers."""
+    from solver.control.cartesian import _pinv_law_canonical, pinv_law, task_terms
+    from solver.math.fourier import NotTrigPolynomial
+    f, v, q, dq = _planar_task(3, 2)
+    f = f / sp.Symbol("mu", positive=True)
+    J, Jdq = task_terms(f, q, dq)
+    ar = sp.Matrix(sp.symbols("ar1:3"))
+    with pytest.raises(NotTrigPolynomial):
+        _pinv_law_canonical(J, Jdq, ar, None)
+    out = pinv_law(J, Jdq, ar, None)
+    pt = {x: sp.Rational(3, 7) + i for i, x in enumerate(sorted(J.free_symbols, key=str))}
+    JJ = np.array((J * out["J_pinv"]).xreplace(pt).evalf(30).tolist(), dtype=float)
+    assert np.allclose(JJ, np.eye(2), atol=1e-12)

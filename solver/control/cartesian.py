@@ -32,7 +32,9 @@ from solver.control.laws import (
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.methods import NAMED_H, damping_matrix, named_objective
 from solver.math.budget import BudgetExceeded, cpu_budget
+from solver.math.fourier import NotTrigPolynomial, TrigPoly
 from solver.math.simplify import expand_polynomial, factor_within, tidy
+from solver.math.trigpoly import TrigAlgebra
 from solver.results import Solution
 from solver.spec.expr import shape_of
 from solver.spec.problem import AskReader
@@ -70,6 +72,14 @@ def pinv_law(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix | None) 
     """J^# = Jᵀ(JJᵀ)⁻¹ = Jᵀ adj(JJᵀ)/D = N/D, D = det(JJᵀ), P = I − J^# J = (D I − N J)/D and
     a = J^#(a_r − J̇ q̇) + P a_0, every entry a numerator over D. Numerators and D are kept in the canonical
     trigonometric form (fast; the factoring the redundancy ask applies for display is too slow for an n×n P)."""
+    try:
+        return _pinv_law_canonical(J, Jdq, ar, a0)
+    except NotTrigPolynomial:  # (radicals, parameters in denominators, floats: sympy expressions, tidied)
+        return _pinv_law_tidied(J, Jdq, ar, a0)
+
+
+def _pinv_law_tidied(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix | None) -> dict[str, Any]:
+    """:func:`pinv_law` with sympy products, each tidied (any entries)."""
     n = J.cols
     A = (J * J.T).applyfunc(tidy)
     D = tidy(A.det()) if A.rows > 1 else A[0, 0]
@@ -84,6 +94,36 @@ def pinv_law(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix | None) 
         num = num_ps + num_null
     return {"J_pinv": N.applyfunc(lambda x: x / D), "det": D, "P": PD.applyfunc(lambda x: x / D),
             "a_ps": num_ps.applyfunc(lambda x: x / D), "a_null": a_null, "a": num.applyfunc(lambda x: x / D)}
+
+
+def _pinv_law_canonical(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix | None) -> dict[str, Any]:
+    """:func:`pinv_law` computed in the trigonometric-polynomial algebra (products, det and adjugate on Fourier
+    coefficients, each result written once: what tidying every product gives, without expanding sympy
+    products); NotTrigPolynomial when an entry is not a trigonometric polynomial with polynomial coefficients."""
+    alg = TrigAlgebra.of([J, Jdq, ar] + ([a0] if a0 is not None else []))
+    Jt = alg.matrix(J)
+    D, adj = alg.det_adj(alg.matmul(Jt, alg.T(Jt)))
+    N = alg.matmul(alg.T(Jt), adj)
+    num_ps = alg.matmul(N, alg.matrix(ar - Jdq))
+    NJ = alg.matmul(N, Jt)
+    n = J.cols
+    PD = [[alg.sub(D if i == j else {}, NJ[i][j]) for j in range(n)] for i in range(n)]
+    De = alg.expr(D)
+
+    def printed(M: list[list[TrigPoly]]) -> sp.Matrix:
+        return sp.Matrix([[alg.expr(x) for x in row] for row in M])
+
+    def over(M: sp.Matrix) -> sp.Matrix:
+        return M.applyfunc(lambda x: x / De)
+
+    num = ps = printed(num_ps)
+    a_null = None
+    if a0 is not None:  # (the two numerators added as printed, not in one canonical form: as pinv_law does)
+        num_null = printed(alg.matmul(PD, alg.matrix(a0)))
+        a_null = over(num_null)
+        num = ps + num_null
+    return {"J_pinv": over(printed(N)), "det": De, "P": over(printed(PD)), "a_ps": over(ps), "a_null": a_null,
+            "a": over(num)}
 
 
 class _TaskInputs(AskReader):

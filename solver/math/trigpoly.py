@@ -122,6 +122,26 @@ class TrigAlgebra:
     def T(A: list[list[TrigPoly]]) -> list[list[TrigPoly]]:
         return [list(r) for r in zip(*A)]
 
+    def one(self) -> TrigPoly:
+        return self.alg.const(self.R.one)
+
+    def det_adj(self, A: list[list[TrigPoly]]) -> tuple[TrigPoly, list[list[TrigPoly]]]:
+        """(det A, adj A) of a square matrix by cofactors: adj A_ij = (−1)^(i+j) det A without row j and column i,
+        det A = Σ_j A_0j adj A_j0 (m! products: for the small matrices of a task, m ≤ 4 or so)."""
+        m = len(A)
+        if m == 1:
+            return A[0][0], [[self.one()]]
+
+        def det(M: list[list[TrigPoly]]) -> TrigPoly:
+            if len(M) == 1:
+                return M[0][0]
+            return self.add(*[self.scale(self.mul(M[0][j], det([r[:j] + r[j + 1:] for r in M[1:]])), (-1) ** j)
+                              for j in range(len(M)) if M[0][j]])
+
+        adj = [[self.scale(det([r[:i] + r[i + 1:] for k, r in enumerate(A) if k != j]), (-1) ** (i + j))
+                for j in range(m)] for i in range(m)]
+        return self.add(*[self.mul(A[0][j], adj[j][0]) for j in range(m)]), adj
+
     def size(self, a: TrigPoly) -> int:
         """Number of monomials of ``a`` over all its Fourier coefficients."""
         return sum(len(c) for c in a.values())
