@@ -95,3 +95,22 @@ def test_bisect_root_to_adjacent_doubles(f, a, b, z):
     from solver.math.search import bisect_root
     x = bisect_root(f, a, b)
     assert abs(x - z) <= 4 * math.ulp(z) + (1e-5 if z == 0.1 else 0)
+
+
+# ------------------------------------------------------------------------------------------ newton_root
+def test_newton_root_two_equations_and_a_damped_start():
+    """x² + y² = 4, x = y from (3, 0.5): (√2, √2); a pendulum's equilibrium m g l sin q + k q = u, started far
+    away (the damping keeps ‖f‖ decreasing), equals the bracketed root."""
+    from solver.math.search import bisect_root, newton_root
+    x = newton_root(lambda z: np.array([z[0] ** 2 + z[1] ** 2 - 4, z[0] - z[1]]),
+                    lambda z: np.array([[2 * z[0], 2 * z[1]], [1.0, -1.0]]), np.array([3.0, 0.5]))
+    assert np.allclose(x, [math.sqrt(2), math.sqrt(2)], atol=1e-14)
+
+    def f(z):
+        return np.array([9.81 * math.sin(z[0]) + 20 * z[0] - 7.0])
+    z = newton_root(f, lambda z: np.array([[9.81 * math.cos(z[0]) + 20]]), np.array([4.0]))
+    assert abs(f(z)[0]) < 1e-12
+    assert z[0] == pytest.approx(bisect_root(lambda t: f(np.array([t]))[0], 0.0, 1.0), abs=1e-14)
+    # a singular Jacobian at the start (f = z² − 1 from z = 0, where J = 0): least squares, no exception
+    z = newton_root(lambda z: np.array([z[0] ** 2 - 1]), lambda z: np.array([[2 * z[0]]]), np.array([0.0]))
+    assert z.shape == (1,)

@@ -33,7 +33,7 @@ from solver.control.gravity_bound import GradientBound, box_of, gradient_bound, 
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import identically_zero as _zero
 from solver.math.numeric import lambdify_np
-from solver.math.search import lp_max
+from solver.math.search import lp_max, newton_root
 from solver.math.simplify import expand_polynomial, factor_within, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -1037,7 +1037,6 @@ class _Regulation:
 
     def _iterate(self, q0: sp.Matrix, u0: sp.Matrix, data: dict) -> None:
         """The actual iterates: q_i solves g(q) = K_P (q_d − q) + u_{i−1}, then u_i = u_{i−1} + K_P e_i."""
-        from scipy.optimize import root
         q = self.q
         g = self.g_plant.xreplace(self.values)
         gf = lambdify_np(q, list(g))
@@ -1051,12 +1050,12 @@ class _Regulation:
         actual = None
         for i in range(1, MAX_ITER + 1):
             uprev = u.copy()
-            r = root(lambda z: np.array(gf(*z), dtype=float) - kp * (qd - z) - uprev, x,
-                     jac=lambda z: np.array(gj(*z), dtype=float) + np.diag(kp), method="hybr", tol=1e-13)
-            res = np.array(gf(*r.x), dtype=float) - kp * (qd - r.x) - uprev
+            z = newton_root(lambda z: np.array(gf(*z), dtype=float) - kp * (qd - z) - uprev,
+                            lambda z: np.array(gj(*z), dtype=float) + np.diag(kp), x)
+            res = np.array(gf(*z), dtype=float) - kp * (qd - z) - uprev
             if np.max(np.abs(res)) > 1e-9 * (1 + np.max(np.abs(uprev))):
                 break
-            x = r.x
+            x = z
             e = qd - x
             u = uprev + kp * e
             rows.append((i, x.copy(), float(np.linalg.norm(e)), u.copy()))

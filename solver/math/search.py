@@ -153,3 +153,36 @@ def bisect_root(f: Callable[[float], float], a: float, b: float) -> float:
         else:
             b = m
     return a if abs(fa) <= abs(f(b)) else b
+
+
+def newton_root(f: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
+                xtol: float = 1e-13, max_iter: int = 100) -> np.ndarray:
+    """x near x0 with f(x) = 0 by Newton's method, J(x) Δ = −f(x) (least squares where J is singular), the step
+    halved until ‖f‖ decreases; stops when the step is below xtol (1 + ‖x‖) or ‖f‖ cannot decrease. The caller
+    checks the residual (no convergence is claimed)."""
+    import numpy as np
+    x = np.asarray(x0, dtype=float).copy()
+    fx = np.asarray(f(x), dtype=float)
+    nf = float(np.linalg.norm(fx))
+    for _ in range(max_iter):
+        if nf == 0 or not np.isfinite(nf):
+            break
+        J = np.asarray(jac(x), dtype=float)
+        try:
+            step = np.linalg.solve(J, -fx)
+        except np.linalg.LinAlgError:
+            step = np.linalg.lstsq(J, -fx, rcond=None)[0]
+        t = 1.0
+        while t > 1e-12:
+            xn = x + t * step
+            fn = np.asarray(f(xn), dtype=float)
+            nn = float(np.linalg.norm(fn))
+            if nn < nf:
+                break
+            t /= 2
+        else:
+            break
+        x, fx, nf = xn, fn, nn
+        if t * float(np.linalg.norm(step)) <= xtol * (1 + float(np.linalg.norm(x))):
+            break
+    return x
