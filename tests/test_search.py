@@ -114,3 +114,25 @@ def test_newton_root_two_equations_and_a_damped_start():
     # a singular Jacobian at the start (f = z² − 1 from z = 0, where J = 0): least squares, no exception
     z = newton_root(lambda z: np.array([z[0] ** 2 - 1]), lambda z: np.array([[2 * z[0]]]), np.array([0.0]))
     assert z.shape == (1,)
+
+
+# --------------------------------------------------------------------------- gravity_bound.maximize (grid + refine)
+def test_maximize_refines_off_the_grid_periodic_and_random_modes():
+    """The grid's best points refined by pattern_max: a periodic maximum between grid angles (q = 0.4321, on no
+    multiple of π/12), a bounded one on an edge, and seven coordinates (random samples) with the top at 0.3·i."""
+    from solver.control.gravity_bound import maximize
+    pi = math.pi
+
+    def f(p):  # periodic in q1, q2: top where cos(q1 − 0.4321) = 1 and cos(2(q2 + 1)) = 1
+        return np.cos(p[:, 0] - 0.4321) + 0.5 * np.cos(2 * (p[:, 1] + 1.0))
+    v, x = maximize(f, [(-pi, pi), (-pi, pi)], [True, True])
+    assert v == pytest.approx(1.5, abs=1e-12)
+    assert math.cos(x[0] - 0.4321) == pytest.approx(1, abs=1e-12) and math.cos(2 * (x[1] + 1)) == pytest.approx(1, abs=1e-12)
+    v, x = maximize(lambda p: -(p[:, 0] - 3.0) ** 2, [(0.0, 2.0)], [False])  # the top outside: the edge x = 2
+    assert x[0] == 2.0 and v == -1.0                                          # (a negative maximum)
+    with np.errstate(invalid="ignore"):  # undefined (NaN) on half the box: never the maximum
+        v, x = maximize(lambda p: np.sqrt(p[:, 0]) - p[:, 0], [(-1.0, 1.0)], [False])
+    assert v == pytest.approx(0.25, abs=1e-12) and x[0] == pytest.approx(0.25, abs=1e-6)
+    top = 0.3 * np.arange(1, 8)
+    v, x = maximize(lambda p: -np.sum((p - top) ** 2, axis=1), [(0.0, 3.0)] * 7, [False] * 7)
+    assert v == pytest.approx(0, abs=1e-12) and np.allclose(x, top, atol=1e-6)

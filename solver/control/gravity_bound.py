@@ -197,7 +197,9 @@ def maximize(fn: Callable[[np.ndarray], np.ndarray], box: list[tuple[float, floa
         pts = lo + (hi - lo) * rng.random((GRID_POINTS, k))
         spacing = GRID_POINTS ** (1.0 / k)
     vals = fn(pts)
-    top = np.flatnonzero(vals >= vals.max() * (1 - 1e-12))
+    vals = np.where(np.isnan(vals), -np.inf, vals)  # (undefined points never win)
+    vmax = vals.max()
+    top = np.flatnonzero(vals >= vmax * (1 - 1e-12 if vmax >= 0 else 1 + 1e-12))  # (within 10⁻¹² of the top)
     best = max(top, key=lambda i: tuple(pts[i]))      # ties: the lexicographically largest point
     best_v, best_x = float(vals[best]), pts[best]
     lower = np.array([-np.inf if per else float(b[0]) for b, per in zip(box, periodic)])
@@ -205,7 +207,7 @@ def maximize(fn: Callable[[np.ndarray], np.ndarray], box: list[tuple[float, floa
     step = np.array([(float(hi) - float(lo)) / spacing for lo, hi in box])
     for i in np.argsort(-vals)[:6]:
         x, v = pattern_max(fn, pts[i], step, lower, upper)
-        if v > best_v * (1 + 1e-12) + 1e-14:
+        if v > best_v * (1 + 1e-12 if best_v >= 0 else 1 - 1e-12) + 1e-14:
             best_v, best_x = v, x
     return best_v, best_x
 
