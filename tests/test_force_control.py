@@ -586,3 +586,29 @@ def test_the_response_figure_needs_no_numerical_integrator():
                        text=True, cwd=PROBLEMS.parent, timeout=300)
     n, drawn, imported = r.stdout.split()
     assert int(n) >= 1 and drawn == "True" and imported == "False", r.stdout + r.stderr
+
+
+def test_amgm_exact_program_agrees_with_highs(monkeypatch):
+    """The AM-GM certificate's linear program solved exactly (small programs) and by HiGHS (EXACT_LP_PAIRS = 0)
+    gives the same verdicts on random polynomials in positive symbols; proving x² + y² + z² − xy − yz imports
+    no scipy.optimize."""
+    import random as _random
+    x, y, z = sp.symbols("x y z", positive=True)
+    rng = _random.Random(11)
+    monos = [x**2, y**2, z**2, x * y, y * z, x * z, x, y, z, sp.Integer(1), x**2 * y**2, x * y * z]
+    verdicts = []
+    for _ in range(30):
+        p = sum(rng.choice([1, 2, 3]) * m for m in rng.sample(monos, 5)) - sum(
+            sp.Rational(rng.randint(1, 5), 2) * m for m in rng.sample(monos, 2))
+        exact = lti.amgm_certificate(p)
+        monkeypatch.setattr(lti, "EXACT_LP_PAIRS", 0)
+        highs = lti.amgm_certificate(p)
+        monkeypatch.setattr(lti, "EXACT_LP_PAIRS", 60)
+        assert exact == highs, p
+        verdicts.append(exact)
+    assert True in verdicts and False in verdicts  # (both kinds of program occur)
+    r = subprocess.run([sys.executable, "-c", "import sys, sympy as sp; from solver.interaction import linear; "
+                        "x, y, z = sp.symbols('x y z', positive=True); "
+                        "print(linear.amgm_certificate(x**2 + y**2 + z**2 - x*y - y*z), 'scipy.optimize' in sys.modules)"],
+                       capture_output=True, text=True, cwd=PROBLEMS.parent, timeout=120)
+    assert r.stdout.split() == ["True", "False"], r.stdout + r.stderr

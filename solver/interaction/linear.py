@@ -26,10 +26,12 @@ from solver.math.equivalence import numer_denom, reduce_conditions, ring_numer_d
 from solver.math.fourier import factor_list_expr
 from solver.math.numeric import evaluate_np
 from solver.math.opcount import count_ops
+from solver.math.search import lp_max
 from solver.math.simplify import factor_within, tidy
 
 S = sp.Symbol("s")  # the Laplace variable (the problem's own `s` replaces it when declared)
 MAX_SYMBOLIC_DEGREE = 6  # Routh tables and closed-form poles are symbolic up to this degree
+EXACT_LP_PAIRS = 60      # AM-GM programs with at most this many pairs: exact simplex; larger ones: HiGHS
 
 
 class NotLinear(Exception):
@@ -318,8 +320,9 @@ def amgm_certificate(p: sp.Expr, max_terms: int = 400) -> bool:
 def _amgm(terms: list[tuple[tuple[int, ...], Fraction]], max_terms: int = 400) -> bool:
     """Whether Σ c·m (exponents m, coefficients c, positive symbols) is > 0 by an AM-GM certificate: every negative
     term −c·m is covered by pairs of positive terms a·x, b·y with x·y = m² (a x + b y ≥ 2√(ab)·m), found by a
-    linear program (scipy; not run when some negative term has no pair) and re-checked in exact rational
-    arithmetic. A sufficient test: False means "not proved"."""
+    linear program (exact, :func:`solver.math.search.lp_max`, up to EXACT_LP_PAIRS pairs; scipy's HiGHS for
+    larger ones; not run when some negative term has no pair) and re-checked in exact rational arithmetic. A
+    sufficient test: False means "not proved"."""
     if len(terms) > max_terms:
         return False
     pos = {m: c for m, c in terms if c > 0}
@@ -338,19 +341,27 @@ def _amgm(terms: list[tuple[tuple[int, ...], Fraction]], max_terms: int = 400) -
         return False
     pl, nl = list(pos), list(neg)
     # variables t_k >= 0: pair k uses t_k of x and of y (t_k of x when x == y) and covers 2 t_k (t_k) of m
-    A_ub, b_ub = [], []
+    A_ub: list[list[int]] = []
+    b_ub: list[Fraction] = []
     for x in pl:  # usage of each positive term <= its coefficient
-        A_ub.append([(1.0 if x in (px, py) else 0.0) for (_, px, py) in pairs])
-        b_ub.append(float(pos[x]))
+        A_ub.append([(1 if x in (px, py) else 0) for (_, px, py) in pairs])
+        b_ub.append(pos[x])
     for m in nl:  # coverage of each negative term >= its coefficient
-        A_ub.append([-(1.0 if px == py else 2.0) if pm == m else 0.0 for (pm, px, py) in pairs])
-        b_ub.append(-float(neg[m]))
-    cost = [(1.0 if px == py else 2.0) for (_, px, py) in pairs]  # use as little as possible: keep slack
-    from scipy.optimize import linprog  # (here: its import costs a quarter of a second)
-    res = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=[(0, None)] * len(pairs), method="highs")
-    if res.status != 0:
-        return False
-    t = [Fraction(v).limit_denominator(10**6) for v in res.x]
+        A_ub.append([-(1 if px == py else 2) if pm == m else 0 for (pm, px, py) in pairs])
+        b_ub.append(-neg[m])
+    cost = [(1 if px == py else 2) for (_, px, py) in pairs]  # use as little as possible: keep slack
+    if len(pairs) <= EXACT_LP_PAIRS:  # exact, and without scipy.optimize's import (half a second to a second)
+        status, exact = lp_max([-c for c in cost], A_ub, b_ub)
+        if status != 0 or exact is None:
+            return False
+        t = exact
+    else:
+        from scipy.optimize import linprog
+        res = linprog(cost, A_ub=A_ub, b_ub=[float(b) for b in b_ub], bounds=[(0, None)] * len(pairs),
+                      method="highs")
+        if res.status != 0:
+            return False
+        t = [Fraction(v).limit_denominator(10**6) for v in res.x]
     use = {x: Fraction(0) for x in pl}
     cover = {m: Fraction(0) for m in nl}
     for tk, (m, x, y) in zip(t, pairs):
