@@ -136,3 +136,52 @@ def test_maximize_refines_off_the_grid_periodic_and_random_modes():
     top = 0.3 * np.arange(1, 8)
     v, x = maximize(lambda p: -np.sum((p - top) ** 2, axis=1), [(0.0, 3.0)] * 7, [False] * 7)
     assert v == pytest.approx(0, abs=1e-12) and np.allclose(x, top, atol=1e-6)
+
+
+def test_newton_roots_batched_equals_one_by_one():
+    """Every start at once gives the end points of newton_root started one by one (a circle and a line, starts
+    on a grid, some far or on the singular point of the Jacobian)."""
+    from solver.math.search import newton_root, newton_roots
+
+    def f(z):
+        return np.array([z[0] ** 2 + z[1] ** 2 - 4, z[0] - 2 * z[1] + 1])
+
+    def jac(z):
+        return np.array([[2 * z[0], 2 * z[1]], [1.0, -2.0]])
+    starts = np.array([[a, b] for a in np.linspace(-5, 5, 7) for b in np.linspace(-5, 5, 7)] + [[0.0, 0.0]])
+    batch = newton_roots(lambda X: np.stack([f(x) for x in X]), lambda X: np.stack([jac(x) for x in X]), starts)
+    single = np.array([newton_root(f, jac, x) for x in starts])
+    assert np.allclose(batch, single, atol=1e-12, equal_nan=True)
+    ok = [x for x in batch if np.max(np.abs(f(x))) < 1e-12]
+    assert len(ok) >= 0.8 * len(starts)  # (a start may stop where the Newton step cannot decrease ‖f‖)
+    roots = {tuple(np.round(x, 9)) for x in ok}
+    assert len(roots) == 2 and all(abs(a - 2 * b + 1) < 1e-8 for a, b in roots)
+
+
+def test_find_equilibria_of_a_2r_and_a_3r_without_scipy():
+    """The zeros of φ(q) = g(q) − K_P (q_d − q) for a 2R under gravity with a weak K_P (five equilibria) and a 3R
+    (three): each a zero to 1e-9, pairwise distinct; the search imports no scipy.optimize."""
+    import subprocess
+    import sys
+    code = """
+import sys, numpy as np, sympy as sp
+from solver.control.regulation import find_equilibria
+q1, q2, q3 = sp.symbols('q1 q2 q3', real=True)
+g2 = sp.Matrix([30*sp.cos(q1) + 10*sp.cos(q1 + q2), 10*sp.cos(q1 + q2)])
+phi2 = g2 - 5*sp.Matrix([0.5 - q1, 0.3 - q2])
+g3 = sp.Matrix([20*sp.cos(q1) + 8*sp.cos(q1+q2) + 2*sp.cos(q1+q2+q3), 8*sp.cos(q1+q2) + 2*sp.cos(q1+q2+q3),
+                2*sp.cos(q1+q2+q3)])
+phi3 = g3 - 6*sp.Matrix([0.2 - q1, 0.1 - q2, -0.3 - q3])
+out = []
+for phi, q in ((phi2, [q1, q2]), (phi3, [q1, q2, q3])):
+    sols = find_equilibria(phi, q, [(-np.pi, np.pi)] * len(q), [True] * len(q))
+    f = sp.lambdify(q, list(phi))
+    shifts = [np.array(k) * 2 * np.pi for k in __import__('itertools').product((-1, 0, 1), repeat=len(q))]
+    assert all(min(max(abs(v) for v in f(*(s + k))) for k in shifts) < 1e-9 for s in sols)  # (q wrapped)
+    assert all(np.max(np.abs(a - b)) > 1e-3 for i, a in enumerate(sols) for b in sols[:i])
+    out.append(len(sols))
+print(out, 'scipy.optimize' in sys.modules)
+"""
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                       cwd=str(__import__("pathlib").Path(__file__).resolve().parent.parent))
+    assert r.stdout.split("\n")[0] == "[5, 3] False", r.stdout + r.stderr

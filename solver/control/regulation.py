@@ -33,7 +33,7 @@ from solver.control.gravity_bound import GradientBound, box_of, gradient_bound, 
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import identically_zero as _zero
 from solver.math.numeric import lambdify_np
-from solver.math.search import lp_max, newton_root
+from solver.math.search import bisect_root, lp_max, newton_root, newton_roots
 from solver.math.simplify import expand_polynomial, factor_within, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -253,8 +253,8 @@ def iterations_needed(e1_bound: float, rho: float, eps: float) -> int:
 def find_equilibria(phi: sp.Matrix, q: list[sp.Symbol], box: list[tuple[float, float]], periodic: list[bool],
                     extra: list[np.ndarray] = (), starts: int = 2000) -> list[np.ndarray]:
     """Every zero of the numeric φ(q) in the box: sign changes on a fine grid + Brent (n = 1), multi-start
-    Newton (scipy root) from a grid otherwise; periodic coordinates wrapped to [−π, π)."""
-    from scipy.optimize import brentq, root
+    Newton (:func:`solver.math.search.newton_roots`, every start at once) from a grid otherwise; periodic
+    coordinates wrapped to [−π, π)."""
     n = len(q)
     f = lambdify_np(q, list(phi))
     jac = lambdify_np(q, phi.jacobian(q).tolist())
@@ -275,21 +275,30 @@ def find_equilibria(phi: sp.Matrix, q: list[sp.Symbol], box: list[tuple[float, f
             if ys[i] == 0:
                 add(np.array([xs[i]]))
             elif ys[i] * ys[i + 1] < 0:
-                add(np.array([brentq(lambda x: float(f(x)[0]), xs[i], xs[i + 1], xtol=1e-14)]))
+                add(np.array([bisect_root(lambda x: float(f(x)[0]), xs[i], xs[i + 1])]))
         if ys[-1] == 0:
             add(np.array([xs[-1]]))
         return sorted(sols, key=lambda s: tuple(s))
     m = max(2, int(starts ** (1.0 / n)))
     axes = [np.linspace(lo, hi, m) for lo, hi in box]
     grid = np.array(np.meshgrid(*axes, indexing="ij")).reshape(n, -1).T
-    for x0 in list(extra) + list(grid):
-        try:
-            r = root(lambda x: np.array(f(*x), dtype=float), x0,
-                     jac=lambda x: np.array(jac(*x), dtype=float), method="hybr", tol=1e-13)
-        except (ValueError, FloatingPointError, np.linalg.LinAlgError):
-            continue
-        if np.all(np.isfinite(r.x)) and np.max(np.abs(np.array(f(*r.x), dtype=float))) < 1e-9:
-            add(r.x)
+    X0 = np.array(list(extra) + list(grid), dtype=float)
+
+    def rows(vals: Any, N: int) -> np.ndarray:  # lambdified entries (arrays or constants) as (N, ...) floats
+        return np.stack([np.broadcast_to(np.asarray(v, dtype=float), (N,)) for v in vals], axis=-1)
+
+    def fs(X: np.ndarray) -> np.ndarray:
+        return rows(f(*X.T), len(X))
+
+    def js(X: np.ndarray) -> np.ndarray:
+        return np.stack([rows(r, len(X)) for r in jac(*X.T)], axis=1)
+
+    with np.errstate(all="ignore"):
+        ends = newton_roots(fs, js, X0)
+        res = fs(ends)
+    for x, r in zip(ends, res):
+        if np.all(np.isfinite(x)) and np.max(np.abs(r)) < 1e-9:
+            add(x)
     return sorted(sols, key=lambda s: tuple(s))
 
 

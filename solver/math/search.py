@@ -156,33 +156,67 @@ def bisect_root(f: Callable[[float], float], a: float, b: float) -> float:
 
 
 def newton_root(f: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
-                xtol: float = 1e-13, max_iter: int = 100) -> np.ndarray:
+                xtol: float = 1e-13, max_iter: int = 100, halvings: int = 10) -> np.ndarray:
     """x near x0 with f(x) = 0 by Newton's method, J(x) Δ = −f(x) (least squares where J is singular), the step
-    halved until ‖f‖ decreases; stops when the step is below xtol (1 + ‖x‖) or ‖f‖ cannot decrease. The caller
-    checks the residual (no convergence is claimed)."""
+    halved (at most ``halvings`` times) until ‖f‖ decreases; stops when the step is below xtol (1 + ‖x‖) or ‖f‖
+    does not decrease. The caller checks the residual (no convergence is claimed: a start far from every zero
+    gives up after a few steps). :func:`newton_roots` with one start."""
     import numpy as np
-    x = np.asarray(x0, dtype=float).copy()
-    fx = np.asarray(f(x), dtype=float)
-    nf = float(np.linalg.norm(fx))
+    return newton_roots(lambda X: np.asarray(f(X[0]), dtype=float)[None, :],
+                        lambda X: np.asarray(jac(X[0]), dtype=float)[None, :, :],
+                        np.asarray(x0, dtype=float)[None, :], xtol, max_iter, halvings)[0]
+
+
+def newton_roots(f: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray], X0: np.ndarray,
+                 xtol: float = 1e-13, max_iter: int = 100, halvings: int = 10) -> np.ndarray:
+    """:func:`newton_root` from every row of X0 at once (multi-start searches): f maps the (N, n) points to
+    their (N, n) residuals and jac to the (N, n, n) Jacobians; each row steps, halves and stops on its own as
+    newton_root's rule says, and a few numpy calls per iteration serve all the rows. Returns the (N, n) end
+    points (the caller checks the residuals)."""
+    import numpy as np
+    X = np.array(X0, dtype=float)
+    F = np.asarray(f(X), dtype=float)
+    nF = np.sqrt(np.einsum("ij,ij->i", F, F))
+    active = np.isfinite(nF) & (nF > 0)
     for _ in range(max_iter):
-        if nf == 0 or not np.isfinite(nf):
+        idx = np.flatnonzero(active)
+        if not idx.size:
             break
-        J = np.asarray(jac(x), dtype=float)
+        J = np.asarray(jac(X[idx]), dtype=float)
+        rhs = -F[idx]
         try:
-            step = np.linalg.solve(J, -fx)
-        except np.linalg.LinAlgError:
-            step = np.linalg.lstsq(J, -fx, rcond=None)[0]
-        t = 1.0
-        while t > 1e-12:
-            xn = x + t * step
-            fn = np.asarray(f(xn), dtype=float)
-            nn = float(np.linalg.norm(fn))
-            if nn < nf:
+            S = np.linalg.solve(J, rhs[..., None])[..., 0]
+        except np.linalg.LinAlgError:  # a singular one among them: row by row, least squares where singular
+            S = np.empty_like(rhs)
+            for r in range(len(idx)):
+                try:
+                    S[r] = np.linalg.solve(J[r], rhs[r])
+                except np.linalg.LinAlgError:
+                    try:
+                        S[r] = np.linalg.lstsq(J[r], rhs[r], rcond=None)[0]
+                    except np.linalg.LinAlgError:  # (not finite: this row stops)
+                        S[r] = np.nan
+        t = np.ones(len(idx))
+        accepted = np.zeros(len(idx), dtype=bool)
+        Xn, Fn, nn = X[idx].copy(), F[idx].copy(), nF[idx].copy()
+        pending = np.arange(len(idx))
+        for _h in range(halvings + 1):
+            Xt = X[idx[pending]] + t[pending, None] * S[pending]
+            Ft = np.asarray(f(Xt), dtype=float)
+            with np.errstate(invalid="ignore"):
+                nt = np.sqrt(np.einsum("ij,ij->i", Ft, Ft))
+                ok = nt < nF[idx[pending]]
+            good = pending[ok]
+            Xn[good], Fn[good], nn[good], accepted[good] = Xt[ok], Ft[ok], nt[ok], True
+            pending = pending[~ok]
+            if not pending.size:
                 break
-            t /= 2
-        else:
-            break
-        x, fx, nf = xn, fn, nn
-        if t * float(np.linalg.norm(step)) <= xtol * (1 + float(np.linalg.norm(x))):
-            break
-    return x
+            t[pending] /= 2
+        rows = idx[accepted]
+        X[rows], F[rows], nF[rows] = Xn[accepted], Fn[accepted], nn[accepted]
+        step = t[accepted] * np.sqrt(np.einsum("ij,ij->i", S[accepted], S[accepted]))
+        done = step <= xtol * (1 + np.sqrt(np.einsum("ij,ij->i", X[rows], X[rows])))
+        active[idx[~accepted]] = False
+        active[rows[done]] = False
+        active &= np.isfinite(nF) & (nF > 0)
+    return X
