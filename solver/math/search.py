@@ -1,5 +1,5 @@
-"""Bounded minimization and maximization without scipy.optimize (whose import alone costs half a second to a
-second)."""
+"""Searches without scipy.optimize, whose import alone costs half a second to a second: a bounded scalar minimum,
+a local maximum in a box, exact linear programs, a bracketed zero and Newton's method from one or many starts."""
 from __future__ import annotations
 
 import itertools
