@@ -13,6 +13,7 @@ from sympy.printing.latex import LatexPrinter
 from sympy.printing.str import StrPrinter
 
 from solver.math.nounits import without_units
+from solver.publish.termorder import ordered_terms
 from solver.results import Result, Solution
 from solver.spec.texmath import safe_math
 from solver.spec.problem import Problem
@@ -54,14 +55,16 @@ class _Memo:
         """The terms of a sum in printing order, computed once for the text and the LaTeX printer alike (sympy's
         as_ordered_terms evaluates every coefficient numerically to sort them)."""
         order = order or self.order  # type: ignore[attr-defined]
-        if not self._memo_on or order in ("old", "none"):
+        if order in ("old", "none"):
             return super()._as_ordered_terms(expr, order=order)  # type: ignore[misc]
+        if not self._memo_on:
+            return ordered_terms(expr, order)
         key = (expr, order)
         hit = _TERMS_ORDER.get(key)
         if hit is None:
             if len(_TERMS_ORDER) > self._MEMO_LIMIT:
                 _TERMS_ORDER.clear()
-            hit = _TERMS_ORDER[key] = tuple(super()._as_ordered_terms(expr, order=order))  # type: ignore[misc]
+            hit = _TERMS_ORDER[key] = tuple(ordered_terms(expr, order))
         return list(hit)
 
     def _print(self, expr: Any, **kwargs: Any) -> str:  # type: ignore[override]
@@ -106,10 +109,10 @@ class _Printer(_Memo, LatexPrinter):
         if base.is_Symbol:
             return (1 + self.rank.get(base, 0), base.name)
         if isinstance(base, (sp.sin, sp.cos)):
-            return (6, str(f))
+            return (6, _STR.doprint(f))
         if isinstance(base, sp.Add):
-            return (1.5, str(f))
-        return (5, str(f))
+            return (1.5, _STR.doprint(f))
+        return (5, _STR.doprint(f))
 
     def _print_Mul(self, expr: sp.Expr) -> str:
         coeff, rest = expr.as_coeff_Mul()

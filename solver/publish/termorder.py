@@ -1,0 +1,96 @@
+"""The printing order of the terms of a sum, as sympy's ``Expr.as_ordered_terms`` gives it, computed faster.
+
+sympy sorts the terms t = c·Π bᵢ^eᵢ of a sum by the key (−monomial_key(e), (), ((im ≠ 0, im), (re, im))) over the
+generators bᵢ sorted by ``default_sort_key``, with c = re + i·im evaluated numerically by ``complex(c)``, which
+goes through evalf: most of the printing time of a long sum. For the terms printed here (a rational coefficient
+times commutative symbols, functions and powers with integer exponents) the same key is computed with
+c = p/q in floating point (correctly rounded, as evalf's 53-bit value); a sum with any other term (a number
+factor such as √2 or π, a noncommutative factor, a power with a symbolic or fractional exponent, exp) is left to
+sympy. Same order, same ties (a stable sort of the terms as stored)."""
+from __future__ import annotations
+
+from typing import Any
+
+import sympy as sp
+from sympy.core.sorting import default_sort_key
+from sympy.polys.orderings import monomial_key
+
+_FLOAT_EXACT = 2 ** 53  # rationals whose parts are at most this size convert to the float evalf would give
+_GEN_KEYS: dict[sp.Basic, Any] = {}  # generator -> default_sort_key (sympy's own is recomputed each time)
+
+
+class _Slow(Exception):
+    """A term outside the fast path: the whole sum is ordered by sympy."""
+
+
+def ordered_terms(expr: sp.Expr, order: Any = None) -> list[sp.Expr]:
+    """``expr.as_ordered_terms(order)`` (see the module docstring)."""
+    if not expr.is_Add or _special_case(expr, order):
+        return expr.as_ordered_terms(order=order)
+    try:
+        return _ordered(expr, order)
+    except _Slow:
+        return expr.as_ordered_terms(order=order)
+
+
+def _special_case(expr: sp.Expr, order: Any) -> bool:
+    """sympy's own early return for order None: a positive number plus a product with a negative number (1 - x)."""
+    if order is not None:
+        return False
+    args = expr.args
+    if len(args) != 2:
+        return False
+    return any(isinstance(a, (sp.Number, sp.NumberSymbol)) for a in args)
+
+
+def _split(term: sp.Expr) -> tuple[float, dict[sp.Basic, int]]:
+    """(the coefficient as a float, {base: integer exponent}) of one term, or _Slow."""
+    coeff, rest = term.as_coeff_Mul()
+    if not coeff.is_Rational:
+        raise _Slow
+    p, q = int(coeff.p), int(coeff.q)
+    if abs(p) > _FLOAT_EXACT or q > _FLOAT_EXACT:
+        raise _Slow
+    powers: dict[sp.Basic, int] = {}
+    if rest is not sp.S.One:
+        for factor in sp.Mul.make_args(rest):
+            if isinstance(factor, sp.Pow):
+                base, exp = factor.args
+                if not exp.is_Integer or base.is_number:
+                    raise _Slow
+                powers[base] = int(exp)
+            elif factor.is_Symbol and factor.is_commutative:
+                powers[factor] = 1
+            elif isinstance(factor, (sp.sin, sp.cos, sp.Add)) and not factor.is_number:
+                powers[factor] = 1
+            else:
+                raise _Slow
+    return p / q, powers
+
+
+def _ordered(expr: sp.Expr, order: Any) -> list[sp.Expr]:
+    reverse = False
+    if isinstance(order, str) and order.startswith("rev-"):
+        order, reverse = order[4:], True
+    monom_key = monomial_key(order)
+    terms = [(t, *_split(t)) for t in expr.args]
+    gens = {b for _, _, powers in terms for b in powers}
+    for g in gens:
+        if g not in _GEN_KEYS:
+            if len(_GEN_KEYS) > 100_000:
+                _GEN_KEYS.clear()
+            _GEN_KEYS[g] = default_sort_key(g)
+    index = {g: i for i, g in enumerate(sorted(gens, key=_GEN_KEYS.__getitem__))}
+    keyed = []
+    for t, c, powers in terms:
+        monom = [0] * len(index)
+        for b, e in powers.items():
+            monom[index[b]] = e
+        key = (_neg(monom_key(tuple(monom))), (), ((False, 0.0), (c, 0.0)))
+        keyed.append((key, t))
+    keyed.sort(key=lambda kt: kt[0], reverse=reverse)
+    return [t for _, t in keyed]
+
+
+def _neg(monom: tuple) -> tuple:
+    return tuple(_neg(m) if isinstance(m, tuple) else -m for m in monom)
