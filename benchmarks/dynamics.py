@@ -71,13 +71,14 @@ def describe(name: str) -> dict:
 
 
 def parameters(desc: dict) -> list[str]:
-    """Names of the parameters of a description, sorted."""
-    import sympy as sp
+    """Names of the parameters of a description, sorted (read as identifiers, without sympy: the robosolve worker
+    writes its spec before its clock starts, and sympy's parser is not warmed up for it)."""
+    import re
     names: set[str] = set()
     texts = [x for r in desc["rows"] for x in r] + desc["gravity"]
     texts += [x for m, c, i in desc["links"] for x in [m, *c, *i]]
     for t in texts:
-        names |= {s.name for s in sp.sympify(t).free_symbols}
+        names |= set(re.findall(r"[A-Za-z_]\w*", t)) - {"pi", "sin", "cos"}
     return sorted(n for n in names if not (n.startswith("q") and n[1:].isdigit()))
 
 
@@ -136,9 +137,10 @@ def work_robosolve(name: str, points: list[dict]) -> dict:
     from solver.spec import load_problem_text
     load_all()  # the library's modules imported (the CLI column counts the imports)
     import sympy.tensor.tensor  # noqa: F401  sympy imports it at the first matrix sum; the peers' imports have it
+    text = spec_text(name, describe(name))  # (the user's file: written before the clock starts)
     gc.freeze()  # what the imports made, out of the collector's sight (as `robosolve solve` does; every worker)
     t0 = clock()
-    problem = load_problem_text(spec_text(name, describe(name)))
+    problem = load_problem_text(text)
     t1 = clock()
     sols = solve_problem(problem)
     t2 = clock()
