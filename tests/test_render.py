@@ -302,3 +302,22 @@ def test_a_long_product_is_broken_inside_its_parentheses():
     lines = out.split("\n")[1:-1]
     assert out.startswith("\\begin{multline*}") and lines[0].startswith("x = - L\\Big(") and len(lines) >= 3
     assert lines[-1].endswith("\\Big)") and max(visible_length(ln) for ln in lines) <= 80
+
+
+def test_tree_size_counts_as_preorder_traversal():
+    """is_large's memoized node count equals sympy's preorder traversal, repeated subtrees counted each time."""
+    import random
+    from solver.publish.render import LARGE_TEXT, is_large, tree_size
+    x, y = sp.symbols("x y")
+    rng = random.Random(3)
+    for _ in range(200):
+        e = x
+        for _ in range(rng.randint(1, 30)):
+            a = rng.choice([x, y, sp.Rational(rng.randint(-3, 3), rng.randint(1, 4)), e])
+            e = rng.choice([lambda: e + a, lambda: e * a, lambda: sp.sin(e), lambda: sp.cos(a - e),
+                            lambda: (e + y) ** rng.randint(2, 3)])()
+        assert tree_size(e) == sum(1 for _ in sp.preorder_traversal(e))
+    shared = sp.Add(*[sp.sin(x + k) for k in range(10)])
+    big = sp.Mul(*[shared + k for k in range(120)], evaluate=False)
+    assert tree_size(big) == sum(1 for _ in sp.preorder_traversal(big)) > LARGE_TEXT
+    assert is_large(big, LARGE_TEXT) and not is_large(shared, LARGE_TEXT) and not is_large("text")

@@ -235,15 +235,23 @@ LARGE_TEXT = 1000  # the same for the JSON text (sympy syntax, for programs) pas
 
 
 def is_large(value: Any, limit: int = LARGE_PRINT) -> bool:
-    """Whether a sympy expression has more than ``limit`` nodes."""
-    if not isinstance(value, sp.Basic):
-        return False
-    count = 0
-    for _ in sp.preorder_traversal(value):
-        count += 1
-        if count > limit:
-            return True
-    return False
+    """Whether a sympy expression has more than ``limit`` nodes (as sympy's preorder traversal counts them)."""
+    return isinstance(value, sp.Basic) and tree_size(value) > limit
+
+
+_SIZES: dict[sp.Basic, int] = {}  # expression -> its number of nodes (the results of a problem share subtrees)
+
+
+def tree_size(e: sp.Basic) -> int:
+    """The number of nodes of the tree of ``e`` (each occurrence of a repeated subtree counted), 1 + Σ over its
+    args, memoized by subtree: linear in the distinct subtrees, however often they recur."""
+    n = _SIZES.get(e)
+    if n is None:
+        n = 1 + sum(tree_size(a) for a in e.args) if e.args else 1
+        if len(_SIZES) > 200_000:
+            _SIZES.clear()
+        _SIZES[e] = n
+    return n
 
 
 _TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "#": r"\#", "_": r"\_", "{": r"\{",
