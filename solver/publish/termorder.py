@@ -34,7 +34,8 @@ def ordered_terms(expr: sp.Expr, order: Any = None) -> list[sp.Expr]:
 
 
 def _special_case(expr: sp.Expr, order: Any) -> bool:
-    """sympy's own early return for order None: a positive number plus a product with a negative number (1 - x)."""
+    """Whether the sum may meet sympy's own early return for order None (a positive number plus a product with a
+    negative number, 1 - x, printed in stored order): any two-term sum with a number term is left to sympy."""
     if order is not None:
         return False
     args = expr.args
