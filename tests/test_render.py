@@ -168,9 +168,9 @@ def test_an_entry_zero_at_the_reference_is_not_drawn_flat():
 
 
 def test_terms_of_a_sum_ordered_once_for_text_and_latex(monkeypatch):
-    """Both printers take a sum's terms in sympy's printing order, computed once per sum (as_ordered_terms is
-    slow); the printed text and LaTeX are sympy's own. Sums with floats are not shared (equal floats may print
-    with other precisions)."""
+    """Both printers take a sum's terms in sympy's printing order (termorder.ordered_terms), computed once per sum;
+    the printed text and LaTeX are sympy's own. Sums with floats are not shared (equal floats may print with
+    other precisions)."""
     from sympy.printing.latex import LatexPrinter
 
     import solver.publish.render as R
@@ -179,8 +179,8 @@ def test_terms_of_a_sum_ordered_once_for_text_and_latex(monkeypatch):
     text = str(e)
     tex = LatexPrinter({"fold_short_frac": False, "fold_func_brackets": True}).doprint(e)
     calls = []
-    real = sp.Expr.as_ordered_terms
-    monkeypatch.setattr(sp.Expr, "as_ordered_terms", lambda self, *x, **k: calls.append(self) or real(self, *x, **k))
+    real = R.ordered_terms
+    monkeypatch.setattr(R, "ordered_terms", lambda expr, *x, **k: calls.append(expr) or real(expr, *x, **k))
     R._TERMS_ORDER.clear()
     assert R._Str().doprint(e) == text
     assert R._Printer({}, {}).doprint(e) == tex
