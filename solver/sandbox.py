@@ -105,6 +105,14 @@ def write_all(fd: int, data: bytes) -> None:
         view = view[os.write(fd, view):]
 
 
+HEADER = 8  # bytes of a message's length (big-endian) before its data, in the pipes between robosolve's processes
+
+
+def write_message(fd: int, data: bytes) -> None:
+    """Write one message to ``fd``: the length of ``data`` in HEADER bytes (big-endian), then ``data``."""
+    write_all(fd, len(data).to_bytes(HEADER, "big") + data)
+
+
 def read_all(fd: int) -> bytes:
     """Read the (blocking) descriptor ``fd`` to its end."""
     chunks = []

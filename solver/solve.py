@@ -11,7 +11,7 @@ from typing import Callable
 from solver.math.nounits import without_units
 from solver.registry import get_kind
 from solver.results import Solution
-from solver.sandbox import stop, write_all
+from solver.sandbox import HEADER, stop, write_message
 from solver.spec.problem import Problem
 
 MAX_PARALLEL_ASKS = 30000  # ask numbers are queued in one pipe write (2 bytes each, within its 64 kB buffer)
@@ -228,14 +228,14 @@ def _parallel(problem: Problem, names: _Names, solved: Callable[[int, Solution],
 
 
 def _unpack(buf: bytearray, got: list) -> None:
-    """Take the complete messages (8-byte length, pickled (k, (solution, registered)), (k, (None, None)) when
-    the ask failed, (k, None) when it could not be sent) off ``buf``."""
-    while len(buf) >= 8:
-        size = int.from_bytes(buf[:8], "big")
-        if len(buf) < 8 + size:
+    """Take the complete messages (the length in HEADER bytes, pickled (k, (solution, registered)), (k, (None,
+    None)) when the ask failed, (k, None) when it could not be sent) off ``buf``."""
+    while len(buf) >= HEADER:
+        size = int.from_bytes(buf[:HEADER], "big")
+        if len(buf) < HEADER + size:
             return
-        k, result = pickle.loads(bytes(buf[8:8 + size]))
-        del buf[:8 + size]
+        k, result = pickle.loads(bytes(buf[HEADER:HEADER + size]))
+        del buf[:HEADER + size]
         got[k] = result
 
 
@@ -252,7 +252,7 @@ def _helper(problem: Problem, names: _Names, queue: int, res: int, figures: bool
                 data = _dumps((k, (sol, regs)))
             except BaseException:  # noqa: BLE001 - the parent solves this ask again
                 data = pickle.dumps((k, None))
-            write_all(res, len(data).to_bytes(8, "big") + data)
+            write_message(res, data)
     finally:
         os._exit(0)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Callable, NoReturn
 
 from solver.results import Figure, RobotPose, Sketch, Solution
-from solver.sandbox import read_all, stop, write_all
+from solver.sandbox import HEADER, read_all, stop, write_all, write_message
 
 
 def _categorical(ax, curves: list) -> None:  # type: ignore[no-untyped-def]
@@ -144,7 +144,7 @@ def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
     closed first (a parent reading to EOF, like the sandbox, must not wait for it)."""
     def read(inbox: queue.Queue) -> None:  # a thread: the sender never blocks on a full pipe during the warm-up
         try:
-            while (head := _read_exactly(jobs_fd, 8)) is not None:
+            while (head := _read_exactly(jobs_fd, HEADER)) is not None:
                 item = pickle.loads(_read_exactly(jobs_fd, int.from_bytes(head, "big")) or b"")
                 inbox.put(item)
                 if item[0]:
@@ -291,7 +291,7 @@ class Painter:
         elif self._jobs >= 0 and (jobs or last):
             data = pickle.dumps((last, [(fig.name, fig.panels, str(path)) for fig, path in jobs]))
             try:
-                write_all(self._jobs, len(data).to_bytes(8, "big") + data)
+                write_message(self._jobs, data)
             finally:
                 if last:
                     os.close(self._jobs)
