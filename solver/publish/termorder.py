@@ -1,9 +1,9 @@
 """The printing order of the terms of a sum, as sympy's ``Expr.as_ordered_terms`` gives it, computed faster.
 
-sympy sorts the terms t = c·Π bᵢ^eᵢ of a sum by the key (−monomial_key(e), (), ((im ≠ 0, im), (re, im))) over the
-generators bᵢ sorted by ``default_sort_key``, with c = re + i·im evaluated numerically by ``complex(c)``, which
+sympy sorts the terms t = c·Π bᵢ^eᵢ of a sum by the key of ``Expr._parse_order`` (−monomial_key(e), then c) over
+the generators bᵢ sorted by ``default_sort_key``, with c = re + i·im evaluated numerically by ``complex(c)``, which
 goes through evalf: most of the printing time of a long sum. For the terms printed here (a rational coefficient
-times commutative symbols, functions and powers with integer exponents) the same key is computed with
+times commutative symbols, sines, cosines, sums and their integer powers) the key's input is built with
 c = p/q in floating point (correctly rounded, as evalf's 53-bit value); a sum with any other term (a number
 factor such as √2 or π, a noncommutative factor, a power with a symbolic or fractional exponent, exp) is left to
 sympy. Same order, same ties (a stable sort of the terms as stored)."""
@@ -13,7 +13,6 @@ from typing import Any
 
 import sympy as sp
 from sympy.core.sorting import default_sort_key
-from sympy.polys.orderings import monomial_key
 
 _FLOAT_EXACT = 2 ** 53  # rationals whose parts are at most this size convert to the float evalf would give
 _GEN_KEYS: dict[sp.Basic, Any] = {}  # generator -> default_sort_key (sympy's own is recomputed each time)
@@ -70,10 +69,9 @@ def _split(term: sp.Expr) -> tuple[float, dict[sp.Basic, int]]:
 
 
 def _ordered(expr: sp.Expr, order: Any) -> list[sp.Expr]:
-    reverse = False
-    if isinstance(order, str) and order.startswith("rev-"):
-        order, reverse = order[4:], True
-    monom_key = monomial_key(order)
+    """The terms sorted by sympy's own key (``Expr._parse_order``) over (term, ((re, im), monomial, ())), with
+    the monomials over the generators in default_sort_key order, as ``Expr.as_terms`` builds them."""
+    key, reverse = sp.Expr._parse_order(order)
     terms = [(t, *_split(t)) for t in expr.args]
     gens = {b for _, _, powers in terms for b in powers}
     for g in gens:
@@ -82,16 +80,10 @@ def _ordered(expr: sp.Expr, order: Any) -> list[sp.Expr]:
                 _GEN_KEYS.clear()
             _GEN_KEYS[g] = default_sort_key(g)
     index = {g: i for i, g in enumerate(sorted(gens, key=_GEN_KEYS.__getitem__))}
-    keyed = []
+    rows = []
     for t, c, powers in terms:
         monom = [0] * len(index)
         for b, e in powers.items():
             monom[index[b]] = e
-        key = (_neg(monom_key(tuple(monom))), (), ((False, 0.0), (c, 0.0)))
-        keyed.append((key, t))
-    keyed.sort(key=lambda kt: kt[0], reverse=reverse)
-    return [t for _, t in keyed]
-
-
-def _neg(monom: tuple) -> tuple:
-    return tuple(_neg(m) if isinstance(m, tuple) else -m for m in monom)
+        rows.append((t, ((c, 0.0), tuple(monom), ())))
+    return [t for t, _ in sorted(rows, key=key, reverse=reverse)]
