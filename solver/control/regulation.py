@@ -252,9 +252,9 @@ def iterations_needed(e1_bound: float, rho: float, eps: float) -> int:
 
 def find_equilibria(phi: sp.Matrix, q: list[sp.Symbol], box: list[tuple[float, float]], periodic: list[bool],
                     extra: list[np.ndarray] = (), starts: int = 2000) -> list[np.ndarray]:
-    """Every zero of the numeric φ(q) in the box: sign changes on a fine grid + Brent (n = 1), multi-start
-    Newton (:func:`solver.math.search.newton_roots`, every start at once) from a grid otherwise; periodic
-    coordinates wrapped to [−π, π)."""
+    """Every zero of the numeric φ(q) in the box: sign changes on a fine grid refined by bisection (n = 1,
+    :func:`solver.math.search.bisect_root`), multi-start Newton (:func:`solver.math.search.newton_roots`, every
+    start at once) from a grid otherwise; periodic coordinates wrapped to [−π, π)."""
     n = len(q)
     f = lambdify_np(q, list(phi))
     jac = lambdify_np(q, phi.jacobian(q).tolist())
