@@ -402,6 +402,31 @@ def test_report_renders(fmt):
     assert "\\sin" in out
 
 
+def test_spherical_arm_ik_at_a_decimal_target():
+    """Spherical RRP arm, target (0.5, 0.5, 1.5): four solutions (q3 = ±√3/2), each on the target; the steps are
+    written with the numbers to 4 digits but integer exponents and coefficients exact (q₃², not q₃^{2.0})."""
+    prob = load_problem_text("""
+id: rrp
+title: spherical arm
+robot:
+  joints: [R, R, P]
+asks:
+  - kind: kinematics
+    task: [q3*cos(q1)*sin(q2), q3*sin(q1)*sin(q2), 1 - q3*cos(q2)]
+    singularities: false
+    target: [0.5, 0.5, 1.5]
+""")
+    sols = solve_problem(prob)
+    r = all_results(sols)
+    assert r["n_ik"].value == 4
+    for s_ in r["ik"].value:
+        a, b, c = (float(sp.N(v)) for v in s_)
+        assert np.allclose([c * np.cos(a) * np.sin(b), c * np.sin(a) * np.sin(b), 1 - c * np.cos(b)], [0.5, 0.5, 1.5])
+        assert abs(abs(c) - np.sqrt(3) / 2) < 1e-12
+    md = render(prob, sols, "md")
+    assert "q_{3}^{2} - 0.75 = 0" in md and "2.0}" not in md and "1.0 q" not in md
+
+
 @pytest.mark.skipif(shutil.which("pdflatex") is None, reason="LaTeX not installed")
 def test_report_compiles(tmp_path):
     prob = load_problem_text(SPATIAL_4R.replace("  - kind: kinematics", "  - kind: kinematics\n    jdot: true\n    velocities: true\n    at: {q1: 0, q2: 0.5, q3: 1, q4: 0}"))

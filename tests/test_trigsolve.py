@@ -42,3 +42,26 @@ def test_ring_path_equals_general_path(e: sp.Expr, monkeypatch: pytest.MonkeyPat
 def test_sin_squared_is_one_factor() -> None:
     const, facs = T.trig_factors(sp.expand(l * (1 - sp.cos(q2) ** 2)))
     assert const * sp.Mul(*[f**k for f, k in facs]) == l * sp.sin(q2) ** 2
+
+
+def test_spherical_arm_by_squares_of_two_then_three_equations() -> None:
+    """Spherical RRP arm (q3 the radius): squaring x, y gives q3² sin²q2 = x² + y², squaring all three gives q3²;
+    the same group is not squared again (it once looped until the node budget, and the system was left pending).
+    The four families solve f(q) = r at a random reachable target."""
+    r = sp.symbols("r1:4", real=True)
+    f = [q3 * sp.cos(q1) * sp.sin(q2), q3 * sp.sin(q1) * sp.sin(q2), 1 - q3 * sp.cos(q2)]
+    fams = T.Solver([q1, q2, q3], [q3]).solve([fi - ri for fi, ri in zip(f, r)])
+    assert len(fams) == 4 and not any(fam.pending for fam in fams)
+    methods = [st.method for st in fams[0].stages]
+    assert methods.count("squares") == 2 and len(fams[0].stages) == 5
+    q0 = {q1: 0.7, q2: 1.1, q3: 0.8}
+    target = {ri: float(fi.subs(q0)) for fi, ri in zip(f, r)}
+    found = 0
+    for fam in fams:
+        vals = {x: complex(fam.values[x].subs(target).evalf()) for x in (q1, q2, q3)}
+        if any(abs(v.imag) > 1e-9 for v in vals.values()):
+            continue
+        real = {x: v.real for x, v in vals.items()}
+        assert all(abs(float(fi.subs(real)) - target[ri]) < 1e-9 for fi, ri in zip(f, r))
+        found += 1
+    assert found == 4

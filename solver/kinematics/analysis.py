@@ -235,11 +235,17 @@ def _short(e: Any, ops: int = 24) -> Any:
 
 
 def _nfy(e: sp.Expr) -> sp.Expr:
-    """Every number inside e (also inside atan2, sqrt) to 4 significant digits."""
+    """Every number inside e (also inside atan2, sqrt) to 4 significant digits, but integers and rational exponents
+    exact (q₃², √x, -q₁: not q₃^{2.0}, x^{0.5}, -1.0 q₁)."""
+    if e.is_Integer:
+        return e
     if e.is_number:
-        return e.evalf(4)
+        v = e.evalf(4)
+        return sp.Integer(int(v)) if v.is_Float and v == int(v) else v
     if not e.args:
         return e
+    if e.is_Pow and e.exp.is_Rational:
+        return sp.Pow(_nfy(e.base), e.exp)
     return e.func(*[_nfy(a) for a in e.args])
 
 

@@ -304,8 +304,8 @@ class Solver:
                 parts = [_split(e, node.left) for e in group]
                 new = self.clean(sp.expand(tidy(sp.expand(sum(u**2 for u, _ in parts))) - sum(k**2 for _, k in parts)))
                 nu = set(self.unk(new, node.left))
-                if not nu or not nu < us or new == 0:
-                    continue
+                if not nu or not nu < us or new == 0 or new in node.eqs or -new in node.eqs:
+                    continue  # (an equation derived before: squaring the same group again loops)
                 key = (len(nu), size)
                 if best is None or key < best[0]:
                     best = (key, group, new)
