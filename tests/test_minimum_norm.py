@@ -1,6 +1,9 @@
 """The `minimum_norm` ask: each solution realizes the task, is optimal for its objective (scipy minimize on the
 task manifold and the Lagrange conditions), the bounds and the feasible task fraction; on a planar 3R in a vertical
 plane that no exercise uses."""
+import shutil
+import subprocess
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -108,6 +111,54 @@ def test_render_both_formats(solved):
     md = render(p, sols, "md")
     assert "**Comparison.**" in md and "Minimizing" in md
     assert "Comparison" in render(p, sols, "tex")
+
+
+@pytest.mark.skipif(shutil.which("pdflatex") is None, reason="LaTeX not installed")
+def test_numeric_report_compiles(solved, tmp_path):
+    """The LaTeX of the numeric solutions compiles (its per-objective lines once had unbalanced braces)."""
+    p, sols, _, _, _ = solved
+    (tmp_path / "m.tex").write_text(render(p, sols, "tex"))
+    res = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "m.tex"], cwd=tmp_path,
+                         capture_output=True, timeout=120)
+    assert res.returncode == 0, res.stdout.decode(errors="replace")[-2000:]
+
+
+SINGULAR = """
+id: mn-sing
+title: PR robot where the task Jacobian vanishes
+symbols: {g0: gravity}
+values: {g0: 9.81}
+robot:
+  joints: [P, R]
+  gravity: [0, -g0]
+  links:
+    - {mass: 2, com: [q1, 0]}
+    - {mass: 3/2, com: [q1 + 2/5*cos(q2), 2/5*sin(q2)], angle: q2, inertia: 1/10}
+asks:
+  - kind: minimum_norm
+    task: 4/5*sin(q2)
+    acceleration: [1]
+    at: {q1: 1/5, q2: pi/2}
+    joint_velocity: [3/10, 2]
+    objectives: [acceleration, torque]
+    bounds: [5, 5]
+"""
+
+
+def test_singular_state_reports_the_task_error_not_a_fraction():
+    """At q2 = π/2, J = 0: the least-squares solutions are q̈ = 0 and miss x = r̈_d - J̇q̇ = 1 + 16/5 entirely;
+    the report gives that error and no task fraction s (the task is not realized at any scale)."""
+    p = load_problem_text(SINGULAR)
+    sols = solve_problem(p)
+    r = all_results(sols)
+    for k in ("acc", "tau"):
+        assert r[f"err_{k}"].value == sp.Matrix([sp.Rational(-21, 5)])
+        assert f"scale_{k}" not in r
+    md = render(p, sols, "md")
+    assert "the configuration is singular" in md and "The task acceleration is not realized" in md
+    assert "$J\\ddot q - x$" in md and "| yes | — |" in md
+    tex = render(p, sols, "tex")
+    assert "---" in tex and "\\textbf{The task acceleration is not realized}" in tex
 
 
 def test_errors():

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from typing import Any, Literal, Union
 
+import numpy as np
 import sympy as sp
 from pydantic import Field
 
@@ -201,8 +202,11 @@ def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # ty
         costs = _costs(la, qdd, tau, mat["B"], mat.get("W"))
         for c_name, c_val in costs.items():
             add(f"H_{SHORT[c_name]}_{k}", c_val, None, label=f"{LABEL[c_name]}\\big|_{{{k}}}")
+        realized = all(v == 0 for v in err) if exact else bool(  # (J q̈ = x: not so at a singularity)
+            np.max(np.abs(np.asarray(err, dtype=float))) <= 1e-9 * (1 + np.max(np.abs(np.asarray(x, dtype=float)))))
         row = {"o": o, "k": k, "label": LABEL[o], "qdd": la.sym(qdd), "tau": la.sym(tau), "costs": costs,
-               "qdd_num": la.sym(qdd).evalf(5), "tau_num": la.sym(tau).evalf(5)}
+               "qdd_num": la.sym(qdd).evalf(5), "tau_num": la.sym(tau).evalf(5), "realized": realized,
+               "err_num": la.sym(err).evalf(5)}
         if lo is not None:
             within = all(lo[i] <= tau[i, 0] <= hi[i] for i in range(nq)) if exact else \
                 all(lo[i] - 1e-9 <= float(tau[i, 0]) <= hi[i] + 1e-9 for i in range(nq))
@@ -210,6 +214,8 @@ def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # ty
             ms = rs.max_scaling(la, M @ x, c, lo, hi)
             one = sp.Integer(1) if exact else 1.0
             s = None if (ms.lam is None or ms.low > one) else min(ms.lam, one)  # the largest s in [0, 1]
+            if not realized:  # (a least-squares solution at a singularity: no fraction of the task is realized)
+                s = None
             if s is not None:
                 add(f"scale_{k}", la.scalar(s), "number", label="s_{max}")
             row.update(within=within, scale=None if s is None else la.scalar(s))
@@ -218,6 +224,7 @@ def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # ty
                  c=la.sym(c), exact=exact, weighted=o == "weighted_torque")
     sol.step("compare", table=table, costs=[c for c in ("acceleration", "inertia", "torque", "weighted_torque")
                                             if c in table[0]["costs"]], labels=LABEL, bounds=hi is not None,
+             unrealized=not all(r["realized"] for r in table),
              hi=hi, hi_m=sp.Matrix([la.scalar(v) for v in hi]) if hi is not None else None)
     if hi is not None:
         hv = [float(v) for v in hi]
