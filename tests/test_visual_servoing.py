@@ -198,6 +198,18 @@ def test_report_and_simulation_figure(tmp_path):
     assert len(panels) == 2 and panels[1].curves[0].y[-1] < 0.05 * panels[1].curves[0].y[0]
 
 
+def test_depth_true_unquoted_is_the_current_depth():
+    """`depth: true` as the docs write it (YAML reads a boolean) means the current depth, as `depth: "true"`."""
+    base = spec("[[0.2, 0.1, 2], [-0.2, 0.15, 2], [0.0, -0.2, 2]]", """    desired: [0.25, 0.15, -0.25, 0.2, 0.0, -0.25]
+    gain: 2
+    simulate: {time: 1, steps: 100, depth: DEPTH}
+""") + "values: {lambda: 1}\n"
+    runs = [solve_problem(load_problem_text(base.replace("DEPTH", d)))[0].figures[0].panels for d in ("true", '"true"')]
+    assert runs[0][1].curves[0].y == runs[1][1].curves[0].y
+    with pytest.raises(UserError, match="depth"):
+        load_problem_text(base.replace("DEPTH", "false"))
+
+
 def test_user_errors():
     with pytest.raises(UserError):
         solve_problem(load_problem_text(spec("[[1, 2], [3, 4]]")))

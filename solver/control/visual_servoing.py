@@ -22,7 +22,7 @@ from typing import Any, Literal, Optional, Union
 
 import numpy as np
 import sympy as sp
-from pydantic import BaseModel, Field, model_validator
+from pydantic import BaseModel, Field, field_validator, model_validator
 
 from solver.math.numeric import lambdify_np
 from solver.math.simplify import factor_within, rational_matrix, tidy, zero_or_simplified
@@ -46,6 +46,12 @@ class SimulateSpec(BaseModel):
     steps: int = Field(1000, ge=10, le=MAX_STEPS, description="integration steps (RK4)")
     depth: Literal["true", "desired", "constant"] = Field(
         "true", description="depth used in the law: the current one (true), the desired one, or the initial one")
+
+    @field_validator("depth", mode="before")
+    @classmethod
+    def _yaml_true(cls, v: Any) -> Any:
+        """YAML reads an unquoted ``depth: true`` as the boolean: it means the current depth."""
+        return "true" if v is True else v
 
 
 class VisualServoingAsk(Strict):
