@@ -427,6 +427,41 @@ asks:
     assert "q_{3}^{2} - 0.75 = 0" in md and "2.0}" not in md and "1.0 q" not in md
 
 
+def test_state_at_angles_off_pi_is_evaluated_numerically():
+    """At q = (3/10, 7/10, -2/5) (not rational multiples of π) J⁻¹, w and the values at the state are floats, not
+    exact products of sin(3/10) (the manipulability of a spatial arm ran to 300 KB of LaTeX and 90 s)."""
+    prob = load_problem_text("""
+id: rrp3
+title: spatial RRR arm
+robot:
+  joints: [R, R, R]
+  dh:
+    table:
+      - {a: 0, alpha: pi/2, d: 1, theta: q1}
+      - {a: 1, alpha: 0, d: 0, theta: q2}
+      - {a: 1, alpha: 0, d: 0, theta: q3}
+    links: [{}, {}, {}]
+asks:
+  - kind: kinematics
+    task: position
+    at: {q1: 3/10, q2: 7/10, q3: -2/5}
+    singularities: false
+""")
+    r = all_results(solve_problem(prob))
+    q = (0.3, 0.7, -0.4)
+    J = np.zeros((3, 3))
+    def pos(v):  # noqa: E306  the tip of the arm (DH above)
+        a, b = np.cos(v[1]) + np.cos(v[1] + v[2]), np.sin(v[1]) + np.sin(v[1] + v[2])
+        return np.array([np.cos(v[0]) * a, np.sin(v[0]) * a, 1 + b])
+    for k in range(3):
+        dv = np.zeros(3)
+        dv[k] = 1e-6
+        J[:, k] = (pos(np.array(q) + dv) - pos(np.array(q) - dv)) / 2e-6
+    w = r["manipulability_at"].value
+    assert w.is_Float and abs(float(w) - abs(np.linalg.det(J))) < 1e-8
+    assert all(x.is_Float or x == 0 for x in r["J_inv_at"].value)
+
+
 @pytest.mark.skipif(shutil.which("pdflatex") is None, reason="LaTeX not installed")
 def test_report_compiles(tmp_path):
     prob = load_problem_text(SPATIAL_4R.replace("  - kind: kinematics", "  - kind: kinematics\n    jdot: true\n    velocities: true\n    at: {q1: 0, q2: 0.5, q3: 1, q4: 0}"))

@@ -204,15 +204,21 @@ class _Spec(AskReader):
 
 # ------------------------------------------------------------------------------------------------ helpers
 def _num(M: Any) -> Any:
-    """Exact numbers kept exact; anything with a float evaluated to 15 digits."""
+    """Exact numbers kept exact; anything with a float, or with sin/cos of a number that is not a rational multiple
+    of π (sin(3/10): its exact products run to pages), evaluated to 15 digits."""
     def one(x: sp.Expr) -> sp.Expr:
         if x.is_number:
-            if x.atoms(sp.Float):
+            if x.atoms(sp.Float) or _transcendental(x):
                 return sp.Float(sp.N(x, 15), 15)
             y = sp.nsimplify(x) if x.is_Rational else sp.radsimp(x)
             return y
         return x
     return M.applyfunc(one) if isinstance(M, sp.MatrixBase) else one(sp.sympify(M))
+
+
+def _transcendental(M: Any) -> bool:
+    """Whether M has a sin/cos of a number other than a rational multiple of π (no short closed form)."""
+    return any(f.args[0].is_number and not (f.args[0] / sp.pi).is_Rational for f in M.atoms(sp.sin, sp.cos))
 
 
 def _display(M: Any) -> Any:
@@ -499,6 +505,7 @@ def _at_configuration(sol: Solution, add, spec: _Spec, J, Jg, JtF, dJ, mins) -> 
         data["JtF"], data["F"] = JtFa, _num(spec.force.subs(subs))
     numeric = not Ja.free_symbols
     data["numeric"] = numeric
+    approx = bool(Ja.atoms(sp.Float)) or _transcendental(Ja)  # (the inverse and w in floating point)
     if numeric:
         sp_ = geo.spaces(Ja, spec.options.tol)
         m, nw = Ja.shape
@@ -514,7 +521,7 @@ def _at_configuration(sol: Solution, add, spec: _Spec, J, Jg, JtF, dJ, mins) -> 
             add("det_J_at", d, "number", label="\\det J\\big|_{*}")
             data["det"] = d
             if d != 0 and not (d.is_Float and abs(d) < 1e-12):
-                Jinv = _num(Ja.inv()) if not Ja.atoms(sp.Float) else geo.from_np(np.linalg.inv(geo.to_np(Ja)))
+                Jinv = _num(Ja.inv()) if not approx else geo.from_np(np.linalg.inv(geo.to_np(Ja)))
                 add("J_inv_at", Jinv, "matrix", label="J^{-1}\\big|_{*}")
                 data["J_inv"], data["J_inv_num"] = Jinv, _display(Jinv)
         mins_at = []
@@ -526,7 +533,7 @@ def _at_configuration(sol: Solution, add, spec: _Spec, J, Jg, JtF, dJ, mins) -> 
         data["minors"] = mins_at
         if m <= nw:
             JJt = Ja * Ja.T
-            w = sp.sqrt(_num(JJt.det())) if not Ja.atoms(sp.Float) else sp.Float(np.sqrt(max(0.0, np.linalg.det(
+            w = sp.sqrt(_num(JJt.det())) if not approx else sp.Float(np.sqrt(max(0.0, np.linalg.det(
                 geo.to_np(JJt)))), 15)
             w = _num(sp.sympify(w))
             add("manipulability_at", w, "number", label="w\\big|_{*}")
