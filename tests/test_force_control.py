@@ -612,3 +612,66 @@ def test_amgm_exact_program_agrees_with_highs(monkeypatch):
                         "print(linear.amgm_certificate(x**2 + y**2 + z**2 - x*y - y*z), 'scipy.optimize' in sys.modules)"],
                        capture_output=True, text=True, cwd=PROBLEMS.parent, timeout=120)
     assert r.stdout.split() == ["True", "False"], r.stdout + r.stderr
+
+
+PP_WALL = """
+id: pp-wall
+title: PP robot against a wall along x
+symbols:
+  m1: mass moved by joint 1
+  m2: mass moved by joint 2
+  k_e: wall stiffness
+  x_e: {meaning: wall position, sign: real}
+  kf2: force gain
+  kd1: damping gain 1
+  kd2: damping gain 2
+  kd: damping gain
+robot:
+  joints: [P, P]
+  links:
+    - {mass: m1, com: [0, q1]}
+    - {mass: m2, com: [q2, q1]}
+asks:
+  - kind: force_control
+    law: force
+    contact: {position: q2, rest: x_e, stiffness: k_e}
+    kf: kf2
+    kd: KD
+    design: {poles: [-20, -30, -40, -50]}
+"""
+
+
+@pytest.mark.parametrize("kd", ["[kd1, kd2]", "kd"])
+def test_design_refuses_poles_no_gain_reaches(kd):
+    """q1 has no position feedback: s = 0 stays a pole whatever the gains (the constant term of det A(s) is 0),
+    so the four poles cannot be placed; a scalar kd (twice on the diagonal) is one unknown, not a duplicate."""
+    with pytest.raises(UserError, match="no values of"):
+        solve_problem(load_problem_text(PP_WALL.replace("KD", kd)))
+
+
+def test_design_report_prints_the_gains():
+    """m ẍ + b ẋ against k_e under the PI force law: matching (s + 10)(s + 20)(s + 30) gives the gains, printed as
+    such in the report (the step's data once shadowed dict.values)."""
+    text = """
+id: pi-wall
+title: mass against a spring
+symbols: {m: mass, b: viscous friction, k_e: stiffness, k_f: force gain, k_i: integral gain, k_d: damping gain}
+robot:
+  joints: [P]
+  coordinates: [x]
+  friction: {viscous: [b]}
+  links: [{mass: m, com: [x, 0]}]
+asks:
+  - kind: force_control
+    law: force
+    contact: {position: x, stiffness: k_e}
+    kf: k_f
+    ki: k_i
+    kd: k_d
+    design: {poles: [-10, -20, -30]}
+"""
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    for fmt in ("md", "tex"):
+        out = render(p, sols, fmt)
+        assert "built-in method" not in out and "Gain design" in out and "60 m" in out

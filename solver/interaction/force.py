@@ -1118,14 +1118,15 @@ def _design_force(c: Ctx, S: Setup, law: Law, sol: Solution, add: Any) -> Law:
                              "list symbols that appear in the characteristic polynomial")
             unknowns.append(sym)
     else:
-        unknowns = [x for M in (law.data.get("Kf"), law.data.get("Ki"), law.data.get("KD")) if M is not None
-                    for x in M if isinstance(x, sp.Symbol)]
+        unknowns = list(dict.fromkeys(  # (a scalar gain repeated on a diagonal is one unknown)
+            x for M in (law.data.get("Kf"), law.data.get("Ki"), law.data.get("KD")) if M is not None
+            for x in M if isinstance(x, sp.Symbol)))
     sol_ = lti.match_polynomial(an.poly, target, S.s, unknowns)
     if sol_ is None:
         raise c.fail(("design",), f"no values of {', '.join(map(str, unknowns))} give these poles",
                      "the closed loop has " + str(deg) + " poles; list the gains to solve for in gains:")
     add("gains", sp.Matrix([sol_.get(k, k) for k in unknowns]), "vector", label="\\text{gains}")
-    _step(sol, "design", target=target, unknowns=sp.Matrix(unknowns), values=sp.Matrix([sol_.get(k, k) for k in unknowns]),
+    _step(sol, "design", target=target, unknowns=sp.Matrix(unknowns), gains=sp.Matrix([sol_.get(k, k) for k in unknowns]),
              s=S.s)
     sub = {k: v for k, v in sol_.items()}
     law.u = law.u.xreplace(sub)

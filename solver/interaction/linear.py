@@ -424,7 +424,8 @@ def match_polynomial(p: sp.Expr, target: sp.Expr, s: sp.Symbol, unknowns: Sequen
     lead = P.LC()
     eqs = [sp.expand(c - lead * t) for c, t in zip(P.all_coeffs()[1:], T.all_coeffs()[1:])]
     eqs = [e for e in eqs if e != 0]
-    sol = sp.solve(eqs, list(unknowns), dict=True)
+    sol = [x for x in sp.solve(eqs, list(unknowns), dict=True)  # (sympy drops an equation free of the unknowns,
+           if all(sp.simplify(e.xreplace(x)) == 0 for e in eqs)]   #  e.g. a constant term that no gain reaches)
     if not sol:
         return None
     return {k: factor_within(v) for k, v in sol[0].items()}
