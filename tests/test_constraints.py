@@ -674,3 +674,29 @@ def test_default_desired_acceleration_is_not_written_twice():
         assert "To obtain $\\dot v = \\dot v_d$ " in text and "\\dot v_d = \\dot v_d" not in text, fmt
     p, sols, _ = solved(R2C + "    D: [[0, 1]]\n    dv_d: 2*r\n")
     assert "To obtain $\\dot v = \\dot v_d = 2 r$" in render(p, sols, "tex")
+
+
+def test_at_state_where_the_chosen_complement_is_singular():
+    """2R with its tip on y = k: D selects q1, det [A; D] = -l2 cos(q1 + q2) vanishes at (0, π/2), a state on the
+    constraint with A q̇ = 0; the ask says so at the at: line (it crashed in an SVD of NaN entries)."""
+    text = """
+id: cd-sing
+title: 2R with its tip on a horizontal line
+symbols: {l1: length 1, l2: length 2, k: height of the line}
+values: {l1: 1, l2: 4/5, k: 4/5}
+robot:
+  joints: [R, R]
+  links:
+    - {mass: 2, com: [l1/2*cos(q1), l1/2*sin(q1)], angle: q1, inertia: 1/6}
+    - {mass: 1, com: [l1*cos(q1) + l2/2*cos(q1 + q2), l1*sin(q1) + l2/2*sin(q1 + q2)], angle: q1 + q2, inertia: 4/75}
+asks:
+  - kind: constrained_dynamics
+    h: l1*sin(q1) + l2*sin(q1 + q2) - k
+    multiplier: false
+    at: {q1: 0, q2: pi/2, dq1: 0, dq2: 1}
+"""
+    with pytest.raises(UserError, match="singular at this state") as exc:
+        solve_problem(load_problem_text(text))
+    assert ":15:" in str(exc.value) and "give a D" in str(exc.value)
+    r = all_results(solve_problem(load_problem_text(text.replace("q1: 0, q2: pi/2, dq1: 0, dq2: 1", "q1: pi/2, q2: acos(-1/4)"))))
+    assert "F_at" in r and all(x.is_number for x in r["F_at"].value)

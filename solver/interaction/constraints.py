@@ -1209,6 +1209,11 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
     data: dict[str, Any] = {"state": state, "values": problem.values, "A": A_at, "lam": lam,
                             "B": _evaluate(dm.B, subs), "nvec": _evaluate(nvec, subs)}
     if red is not None:
+        det_at = red.det.xreplace(subs)
+        if not (det_at.free_symbols & set(q)) and not _nonzero(det_at):
+            raise spec.fail(("at",), "the reduction is singular at this state: det [A; D] = 0 there, so E and F "
+                                     "are not defined", "give a D with [A; D] invertible at the state (D:), or "
+                                                        "another state")
         F_at = _evaluate(red.F, subs)
         add("F_at", F_at, "matrix", label="F\\big|_{*}")
         data["F"] = F_at
