@@ -411,3 +411,28 @@ def test_torque_limits_vertices_and_zero_condition():
     feasible = all(float(c.xreplace(st)) > 0 for c in conds)
     nn = [float(x.xreplace(st)) for x in nv]
     assert feasible == (abs(nn[0]) < 5 and abs(nn[1]) < 3)
+
+
+def test_eigenvalues_of_a_three_by_three_inertia_matrix_are_reported():
+    """PPP robot, B = [[6, 5, 0], [5, 5, 0], [0, 0, 3]] (no closed-form eigenvalue list past n = 2): the extreme
+    eigenvalues (11 ∓ √101)/2 and both reports render (the template once required the n ≤ 2 list)."""
+    p = load_problem_text("""
+id: eig3
+title: PPP
+symbols: {m1: mass 1, m2: mass 2, m3: mass 3}
+values: {m1: 1, m2: 2, m3: 3}
+robot:
+  joints: [P, P, P]
+  links:
+    - {mass: m1, com: [q1, 0]}
+    - {mass: m2, com: [q1 + q2, 0]}
+    - {mass: m3, com: [q1 + q2, q3]}
+asks:
+  - {kind: dynamic_properties, find: [eigenvalues]}
+""")
+    sols = solve_problem(p)
+    r = all_results(sols)
+    lo, hi = (11 - np.sqrt(101)) / 2, (11 + np.sqrt(101)) / 2
+    assert abs(float(r["lambda_min"].value) - lo) < 1e-12 and abs(float(r["lambda_max"].value) - hi) < 1e-12
+    for fmt in ("md", "tex"):
+        assert "Eigenvalues of the inertia matrix" in render(p, sols, fmt)
