@@ -22,7 +22,7 @@ import numpy as np
 import sympy as sp
 from sympy.polys.rings import sring
 
-from solver.math.equivalence import numer_denom, reduce_conditions, ring_numer_denom
+from solver.math.equivalence import identically_zero, numer_denom, reduce_conditions, ring_numer_denom
 from solver.math.fourier import factor_list_expr
 from solver.math.numeric import evaluate_np
 from solver.math.opcount import count_ops
@@ -425,7 +425,7 @@ def match_polynomial(p: sp.Expr, target: sp.Expr, s: sp.Symbol, unknowns: Sequen
     eqs = [sp.expand(c - lead * t) for c, t in zip(P.all_coeffs()[1:], T.all_coeffs()[1:])]
     eqs = [e for e in eqs if e != 0]
     sol = [x for x in sp.solve(eqs, list(unknowns), dict=True)  # (sympy drops an equation free of the unknowns,
-           if all(sp.simplify(e.xreplace(x)) == 0 for e in eqs)]   #  e.g. a constant term that no gain reaches)
+           if all(identically_zero(e.xreplace(x)) for e in eqs)]   #  e.g. a constant term that no gain reaches)
     if not sol:
         return None
     return {k: factor_within(v) for k, v in sol[0].items()}
