@@ -400,6 +400,26 @@ def test_hybrid_law_decouples_by_constrained_dynamics():
         assert abs(vy_dot - N(a_y)) < 1e-20 and abs(x[2] - N(af_x)) < 1e-20
 
 
+def test_hybrid_nominal_command_at_a_state_off_the_pi_grid():
+    """`at:` with angles that are not rational multiples of π (q = 0.3, 0.7): u_nominal_at is u_nominal there, its
+    sin(3/10)... evaluated to floats (their exact products are what made a 3R's substitution run for minutes)."""
+    text = HYB.replace("    motion: [y]\n", "    motion: [y]\n    nominal: {acceleration: {y: A_y}, force: {x: F_x}}\n"
+                       "    at: {q1: 0.3, q2: 0.7, dq1: 0.5, dq2: -1.2}\n").replace("phi: wall angle", "phi: wall angle, "
+                                                                                   "A_y: A_y, F_x: F_x")
+    p, _, res = solved(text)
+    una, un = res["u_nominal_at"].value, res["u_nominal"].value
+    assert not any(f.args[0].is_number for f in una.atoms(sp.sin, sp.cos))
+    r = p.robot
+    state = dict(zip(list(r.q) + list(r.dq), [sp.Rational(3, 10), sp.Rational(7, 10), sp.Rational(1, 2),
+                                              sp.Rational(-6, 5)]))
+    rng = random.Random(4)
+    for _ in range(3):
+        pt = {s: sp.Rational(rng.randint(150, 950), 311) for s in un.free_symbols - set(state)}
+        exact = un.xreplace(state).xreplace(pt).evalf(20)
+        approx = una.xreplace(pt).evalf(20)
+        assert max(abs(a - b) for a, b in zip(exact, approx)) < 1e-9 * (1 + max(abs(a) for a in exact))
+
+
 def test_hybrid_property_check_rejects_a_wrong_law():
     from solver.interaction.force import check_law
     p, _, res = solved(HYB)

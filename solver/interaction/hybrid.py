@@ -25,7 +25,7 @@ import sympy as sp
 
 from solver.dynamics.model import derive, has_model
 from solver.math.equivalence import scalar_equiv
-from solver.math.simplify import tidy
+from solver.math.simplify import evaluate_transcendental, tidy
 from solver.registry import PropertyVerdict
 from solver.results import Solution
 from solver.spec.expr import shape_of
@@ -196,7 +196,10 @@ def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
                 if not isinstance(sym, sp.Symbol):
                     raise c.fail(("at", k), f"unknown name '{k}' in at:")
                 subs[sym] = c.ctx.expr("at", k)
-            una = un.xreplace(subs).applyfunc(lambda x: tidy(sp.expand(x)))
+            # sin(3/10), cos(1): evaluated (their exact products are unbounded), also those tidy's Fourier form
+            # of an angle left symbolic makes (cos(φ − 1) = cos φ cos 1 + sin φ sin 1)
+            una = un.xreplace(subs).applyfunc(
+                lambda x: evaluate_transcendental(tidy(sp.expand(evaluate_transcendental(x)))))
             add("u_nominal_at", una, "vector", label="u_d\\big|_{*}")
             data.update(at=subs, una=una)
     _step(sol, "hybrid_law", **data, raw=dict(data))

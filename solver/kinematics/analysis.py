@@ -22,7 +22,7 @@ from pydantic import Field, model_validator
 
 from solver.kinematics import geometry as geo
 from solver.kinematics.sketch import robot_sketch, skeleton
-from solver.math.simplify import tidy
+from solver.math.simplify import tidy, transcendental
 from solver.math.trigsolve import Solver, Stage, check_families, numeric_function, trig_factors
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -208,17 +208,12 @@ def _num(M: Any) -> Any:
     of π (sin(3/10): its exact products run to pages), evaluated to 15 digits."""
     def one(x: sp.Expr) -> sp.Expr:
         if x.is_number:
-            if x.atoms(sp.Float) or _transcendental(x):
+            if x.atoms(sp.Float) or transcendental(x):
                 return sp.Float(sp.N(x, 15), 15)
             y = sp.nsimplify(x) if x.is_Rational else sp.radsimp(x)
             return y
         return x
     return M.applyfunc(one) if isinstance(M, sp.MatrixBase) else one(sp.sympify(M))
-
-
-def _transcendental(M: Any) -> bool:
-    """Whether M has a sin/cos of a number other than a rational multiple of π (no short closed form)."""
-    return any(f.args[0].is_number and not (f.args[0] / sp.pi).is_Rational for f in M.atoms(sp.sin, sp.cos))
 
 
 def _display(M: Any) -> Any:
@@ -505,7 +500,7 @@ def _at_configuration(sol: Solution, add, spec: _Spec, J, Jg, JtF, dJ, mins) -> 
         data["JtF"], data["F"] = JtFa, _num(spec.force.subs(subs))
     numeric = not Ja.free_symbols
     data["numeric"] = numeric
-    approx = bool(Ja.atoms(sp.Float)) or _transcendental(Ja)  # (the inverse and w in floating point)
+    approx = bool(Ja.atoms(sp.Float)) or transcendental(Ja)  # (the inverse and w in floating point)
     if numeric:
         sp_ = geo.spaces(Ja, spec.options.tol)
         m, nw = Ja.shape

@@ -489,6 +489,20 @@ def fourier_form(expr: sp.Expr) -> tuple[dict, list[sp.Symbol]] | None:
     return None
 
 
+def transcendental(M: Any) -> bool:
+    """Whether M has a sin/cos of a number other than a rational multiple of π (no short closed form: the exact
+    products of sin(3/10), cos(7/10), ... run to pages)."""
+    return any(f.args[0].is_number and not (f.args[0] / sp.pi).is_Rational for f in M.atoms(sp.sin, sp.cos))
+
+
+def evaluate_transcendental(expr: sp.Expr, digits: int = 15) -> sp.Expr:
+    """``expr`` with each sin/cos of a number that is not a rational multiple of π evaluated to ``digits`` digits
+    (other numbers, and the symbols, kept exact)."""
+    rep = {f: sp.Float(sp.N(f, digits), digits) for f in expr.atoms(sp.sin, sp.cos)
+           if f.args[0].is_number and not (f.args[0] / sp.pi).is_Rational}
+    return expr.xreplace(rep) if rep else expr
+
+
 @lru_cache(maxsize=20000)
 def tidy(expr: sp.Expr) -> sp.Expr:
     """Simplify ``expr`` to the compact form a teacher prints (canonical for trigonometric polynomials)."""
@@ -497,6 +511,8 @@ def tidy(expr: sp.Expr) -> sp.Expr:
         return sp.nsimplify(expr) if expr.is_Float else sp.simplify(expr)
     if not expr.free_symbols:
         return expr
+    if expr.has(sp.Float) and not angle_symbols(expr) and expr.is_polynomial(*expr.free_symbols):
+        return sp.expand(expr)  # numbers substituted: sympy's factoring of float coefficients is unbounded
     if not angle_symbols(expr) and _sum_denominator(expr):
         return _rational(expr)
     try:
