@@ -342,6 +342,69 @@ def test_linearization_cartpole_controllable():
     assert res["controllable"].value is True and res["rank_ctrb"].value == 4
 
 
+ELASTIC_2R_LIN = """
+id: el2
+title: two elastic joints, linearization
+symbols:
+  m1: m1
+  m2: m2
+  l1: l1
+  d1: d1
+  d2: d2
+  I1: I1
+  I2: I2
+  Im1: Im1
+  Im2: Im2
+  K1: K1
+  K2: K2
+  g0: g0
+robot:
+  coordinates: [q1, q2, theta1, theta2]
+  joints: [R, R, R, R]
+  gravity: [0, -g0, 0]
+  input_map: [[0, 0], [0, 0], [1, 0], [0, 1]]
+  links:
+    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [l1*cos(q1) + d2*cos(q1 + q2), l1*sin(q1) + d2*sin(q1 + q2)], angle: q1 + q2, inertia: I2}
+  extra:
+    kinetic: ["1/2*Im1*dtheta1^2", "1/2*Im2*dtheta2^2"]
+    potential: ["1/2*K1*(q1 - theta1)^2", "1/2*K2*(q2 - theta2)^2"]
+asks:
+  - kind: control_law
+    law: linearization
+    equilibrium: {q1: -pi/2, q2: 0, theta1: -pi/2, theta2: 0}
+"""
+
+
+def test_linearization_of_two_elastic_joints():
+    """n = 4 (links and motors): the symbolic 8×8 Kalman matrix ran for minutes (rank with simplify); the rank is
+    now the exact rank at random rational points and det(sI − A) = det(B_e s² + K_e)/det B_e. Checked with numpy
+    at random parameter values: the characteristic polynomial's coefficients and the rank of [B, AB, ..., A⁷B]."""
+    import random
+    p, sols, res = solved(ELASTIC_2R_LIN)
+    assert "ctrb" not in res and res["rank_ctrb"].value == 8 and res["controllable"].value is True
+    A, Bl, cp = res["A_lin"].value, res["B_lin"].value, res["char_poly"].value
+    s = sp.Symbol("s")
+    rng = random.Random(3)
+    for _ in range(2):
+        pt = {x: sp.Rational(rng.randint(50, 500), 97) for x in (A.free_symbols | cp.free_symbols) - {s}}
+        An, Bn = (np.array(M.xreplace(pt).evalf(), dtype=float) for M in (A, Bl))
+        want = np.poly(An)
+        got = np.array([float(sp.Poly(cp.xreplace(pt), s).coeff_monomial(s ** k)) for k in range(8, -1, -1)])
+        assert np.allclose(got, want, rtol=1e-9, atol=1e-9)
+        assert np.linalg.matrix_rank(np.hstack([np.linalg.matrix_power(An, k) @ Bn for k in range(8)])) == 8
+    assert "too large to print" in render(p, sols, "md")
+
+
+def test_kalman_rank_at_random_points_finds_a_rank_deficiency():
+    """Two equal mass-spring systems driven by one force: rank 2 of 4, for every value of m and k."""
+    from solver.control.linearization import kalman_rank
+    m, k = sp.symbols("m k", positive=True)
+    A = sp.Matrix([[0, 0, 1, 0], [0, 0, 0, 1], [-k / m, 0, 0, 0], [0, -k / m, 0, 0]])
+    assert kalman_rank(A, sp.Matrix([0, 0, 1 / m, 1 / m])) == 2
+    assert kalman_rank(A, sp.Matrix([0, 0, 1 / m, 0]).row_join(sp.Matrix([0, 0, 0, 1]))) == 4
+
+
 def test_linearization_not_controllable_and_not_an_equilibrium():
     # two uncoupled masses, one actuated: the other cannot be reached
     text = """

@@ -9,6 +9,9 @@ Controllable iff rank [B_l, A B_l, ..., A^{2n−1} B_l] = 2n (Kalman).
 """
 from __future__ import annotations
 
+import itertools
+from typing import Any
+
 import sympy as sp
 
 from solver.control.laws import ControlLawAsk, _zero
@@ -80,6 +83,53 @@ def controllability(A: sp.Matrix, Bl: sp.Matrix) -> sp.Matrix:
     return sp.Matrix.hstack(*blocks)
 
 
+def kalman_rank(A: sp.Matrix, Bl: sp.Matrix, trials: int = 3) -> int:
+    """rank [B_l, A B_l, ..., A^{N−1} B_l] for generic parameter values, without the symbolic matrix (whose entries
+    are rational functions that grow with every power of A): the exact rank at random rational points of the
+    parameters (a rank is never larger at one point than generically, so a full rank at one point proves it; the
+    largest of ``trials`` points is the generic rank with probability ≈ 1)."""
+    from fractions import Fraction
+
+    from solver.math.equivalence import NotRational, random_points
+    N = A.rows
+    best = 0
+    entries = [x for x in list(A) + list(Bl) if not x.is_number]
+    for point in itertools.islice(random_points(entries), 3 * trials):
+        try:
+            a = [[point.value(x) for x in A.row(i)] for i in range(N)]
+            b = [[point.value(x) for x in Bl.row(i)] for i in range(N)]
+        except (ZeroDivisionError, NotRational):
+            continue
+        cols: list[list[Fraction]] = []
+        block = [[b[i][j] for i in range(N)] for j in range(Bl.cols)]
+        for _ in range(N):
+            cols += block
+            block = [[sum((a[i][k] * v[k] for k in range(N)), Fraction(0)) for i in range(N)] for v in block]
+        best = max(best, _rank(cols))
+        trials -= 1
+        if best == N or trials == 0:
+            break
+    return best
+
+
+def _rank(vectors: list[list[Any]]) -> int:
+    """Exact rank of a list of vectors of Fractions (Gaussian elimination)."""
+    rows = [list(v) for v in vectors]
+    rank = 0
+    for col in range(len(rows[0]) if rows else 0):
+        piv = next((r for r in range(rank, len(rows)) if rows[r][col] != 0), None)
+        if piv is None:
+            continue
+        rows[rank], rows[piv] = rows[piv], rows[rank]
+        p = rows[rank]
+        for r in range(len(rows)):
+            if r != rank and rows[r][col] != 0:
+                f = rows[r][col] / p[col]
+                rows[r] = [x - f * y for x, y in zip(rows[r], p)]
+        rank += 1
+    return rank
+
+
 def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: u_eq, K_e, A_lin, B_lin, ctrb, rank_ctrb, controllable, det_ctrb (single input), char_poly."""
     robot = require_model(problem)
@@ -120,27 +170,37 @@ def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # ty
     ue = sp.Matrix(list(next(iter(sols)))).applyfunc(tidy)
     ue = ue.xreplace({s: 0 for s in us})   # free inputs (more inputs than needed) set to 0
     A, Bl, Ke = linearize(Bm, gm, G, Fv, q, at, ue)
-    C = controllability(A, Bl)
-    rank = C.rank(simplify=True)
     lam = sp.Symbol("s")
-    cp = factor_within(sp.simplify(exact_det(lam * sp.eye(2 * n) - A)))
+    Be = Bm.xreplace(at).applyfunc(tidy)
+    if n <= 2 or not (A.free_symbols | Bl.free_symbols):
+        C = controllability(A, Bl)
+        rank = C.rank(simplify=True)
+        cp = factor_within(sp.simplify(exact_det(lam * sp.eye(2 * n) - A)))
+    else:  # the powers of A are rational functions that grow without bound: rank at random points, and
+        C = None  # det(sI − A) = det(B_e s² + F_v s + K_e) / det B_e, an n×n polynomial determinant
+        rank = kalman_rank(A, Bl)
+        Fe = Fv.xreplace(at)
+        num = sp.Poly(exact_det(Be * lam ** 2 + Fe * lam + Ke), lam)
+        den = factor_within(exact_det(Be))
+        cp = sp.Add(*(factor_within(sp.cancel(c / den)) * lam ** k for (k,), c in num.terms()))
     sol = Solution("control_law", title=options.title or "Linear approximation at an equilibrium")
     sol.add("q_eq", sp.Matrix([at[x] for x in q]), "vector", label="q_e")
     sol.add("u_eq", ue, "vector", label="u_e")
     sol.add("K_e", Ke, "matrix", label="K_e = \\partial(g - G u_e)/\\partial q")
     sol.add("A_lin", A, "matrix", label="A")
     sol.add("B_lin", Bl, "matrix", label="B")
-    sol.add("ctrb", C, "matrix", label="\\mathcal{C}")
+    if C is not None:
+        sol.add("ctrb", C, "matrix", label="\\mathcal{C}")
     sol.add("rank_ctrb", sp.Integer(rank), "number", label="\\operatorname{rank}\\mathcal{C}")
     sol.add("controllable", bool(rank == 2 * n), "bool", label="\\text{controllable}")
     detc = None
-    if m == 1:
+    if m == 1 and C is not None:
         detc = factor_within(sp.simplify(exact_det(C)))
         sol.add("det_ctrb", detc, "scalar", label="\\det\\mathcal{C}")
     sol.add("char_poly", cp, "scalar", label="\\det(sI - A)")
     sol.step("model", B=dm.B, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, n=n, friction=dm.Fv is not None)
     sol.step("linearization", qe=sp.Matrix([at[s] for s in q]), ue=ue, Ke=Ke, A=A, Bl=Bl, C=C, rank=rank, N=2 * n,
-             detc=detc, cp=cp, Be=Bm.xreplace(at).applyfunc(tidy), friction=dm.Fv is not None,
+             detc=detc, cp=cp, Be=Be, friction=dm.Fv is not None,
              zero_g=all(_zero(x) for x in ge), solved_for=sp.Matrix(solved_for) if solved_for else None,
              passive_eq=_passive_rows(dm.g, G) if solved_for else None)
     return sol
