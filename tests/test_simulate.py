@@ -232,3 +232,28 @@ def test_iterative_gravity_compensation_iterations():
     assert int(res["iterations_sim"].value) == int(res["iterations_actual"].value) == len(errs)
     rho = float(sp.N(res["rho"].value))
     assert all(b < rho * a for a, b in zip(errs, errs[1:]))
+
+
+# ------------------------------------------------------------------------------------------------ regulation laws
+# the reference values below come from an independent numpy/scipy simulation of the same closed loops (the 2R model
+# B, c, g written by hand, LSODA with rtol 1e-10)
+ELV = ELASTIC1.replace("symbols:", "values: {m: 1, d: 0.3, I: 0.05, Im: 0.02, K: 100, g0: 9.81}\nsymbols:")
+
+
+@pytest.mark.parametrize("where", ["regulation", "simulate"], ids=["qd in the law", "qd in simulate"])
+def test_regulation_elastic_integrates_links_and_motors(where):
+    """The state is (q1, theta1, dq1, dtheta1) from q0/dq0 (all coordinates); the error is on the link q1."""
+    qd_law, qd_sim = ("    qd: [0.5]\n", "") if where == "regulation" else ("", "    qd: [0.5]\n")
+    text = ELV + "  - kind: regulation\n    law: elastic\n" + qd_law + "    kp: 20\n    kd: 2\n" \
+        "  - kind: simulate\n    T: 10\n" + qd_sim
+    _, sols, res = run(text)
+    assert res["condition"].value is True and res["completed"].value is True
+    assert len(res["e_final"].value) == 1 and fnum(res["e_final_norm"].value) < 1e-9
+    assert abs(fnum(res["e_max_norm"].value) - 0.501921) < 1e-5   # e1(0) = 0.5, a small overshoot (on the samples)
+    assert str(sols[1].steps[-1].data["tracked"]) == "Matrix([[q1]])"
+    # a start off the rest state: both coordinates and velocities are initial conditions
+    _, _, res = run(text + "    q0: [0.2, 0.3]\n    dq0: [0, 1]\n")
+    assert fnum(res["e_final_norm"].value) < 1e-9 and abs(fnum(res["e_max_norm"].value) - 0.3) < 1e-6   # e1(0)
+    with pytest.raises(UserError, match="qd must list 1 values"):
+        run(ELV + "  - kind: regulation\n    law: elastic\n    kp: 20\n    kd: 2\n"
+            "  - kind: simulate\n    qd: [0.5, 1]\n")

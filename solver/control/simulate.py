@@ -99,12 +99,21 @@ def _vector(problem, ctx, key: str, n: int, names: dict) -> list[sp.Expr]:  # ty
 
 def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped-def]
     """What the law tracks and the symbols of its desired signals: the record left by control_law, or, for
-    regulation, the joint coordinates with the desired symbols found by name (qd1, dqd1, ...)."""
+    regulation, the joint coordinates with the desired symbols found by name (qd1, dqd1, ...); elastic: the link
+    (non-actuated) coordinates and their q_d, read from the law's step."""
     sfx = getattr(ask.options, "suffix", "")
     rec = problem.__dict__.get("_law" + sfx) if ask.kind == "control_law" else None
     if rec is not None and rec.get("kind") == ask.kind:
         return rec
     robot = problem.robot
+    law = getattr(ask.options, "law", "")
+    if law == "elastic":
+        step = next(st.data for st in sol.steps if st.name == "law")
+        want = sp.Matrix(step["qd"])
+        return {"kind": ask.kind, "tracked": list(step["qs"]),
+                "desired": [[s if isinstance(s, sp.Symbol) else None, None, None] for s in want],
+                "qd": list(want) if ask.options.qd is not None else None, "subs": {}, "ahat": [], "adot": None,
+                "true_a": None}
     desired = []
     for c in robot.q:
         row = []
