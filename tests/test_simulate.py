@@ -257,3 +257,10 @@ def test_regulation_elastic_integrates_links_and_motors(where):
     with pytest.raises(UserError, match="qd must list 1 values"):
         run(ELV + "  - kind: regulation\n    law: elastic\n    kp: 20\n    kd: 2\n"
             "  - kind: simulate\n    qd: [0.5, 1]\n")
+
+
+def test_reference_with_parameters():
+    """A reference may use parameters with values (qd: [l1, 0.5]); the error is evaluated with them."""
+    _, _, res = run(R2 + "  - kind: regulation\n    law: pd_gravity\n    kp: 50\n    kd: 15\n"
+                    "  - kind: simulate\n    qd: [l1, 0.5]\n    T: 5\n")
+    assert fnum(res["e_final_norm"].value) < 1e-6 and abs(fnum(res["e_max_norm"].value) - np.hypot(0.5, 0.5)) < 1e-6

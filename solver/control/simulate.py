@@ -204,7 +204,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     if free:
         raise UserError("simulate needs numbers for " + ", ".join(sorted(map(str, free))),
                         _place(problem, ctx, "set"), "give them in the problem's values: or in set: {name: value}")
-    err_expr = [ref[i] - tracked[i].xreplace(vals) for i in range(m)]
+    err_expr = [(ref[i] - tracked[i]).xreplace(vals) for i in range(m)]
     args = [t] + state + ff
     f_u = lambdify_np(args, list(u_num))
     f_B = lambdify_np(args, plant_B)
