@@ -259,6 +259,41 @@ def test_regulation_elastic_integrates_links_and_motors(where):
             "  - kind: simulate\n    qd: [0.5, 1]\n")
 
 
+PID = R2 + """  - kind: regulation
+    law: pid
+    qd: [1, 0.5]
+    kp: 50
+    kd: KD
+    ki: KI
+  - kind: simulate
+"""
+
+
+def test_regulation_pid_integrates_the_controller_state():
+    """ξ̇ = e, ξ(0) = 0: with gravity and a constant q_d the error goes to 0 and ξ to K_I⁻¹ g(q_d)."""
+    text = PID.replace("KD", "15").replace("KI", "20") + "    T: 10\n"
+    p, sols, res = run(text)
+    assert res["locally_stable"].value is True and res["completed"].value is True
+    e = [fnum(x) for x in res["e_final"].value]
+    assert abs(e[0] - 9.08269e-5) < 1e-7 and abs(e[1] + 7.13546e-4) < 1e-7
+    xi = [fnum(x) for x in res["xi_final"].value]
+    assert abs(xi[0] - 0.341424) < 1e-5 and abs(xi[1] - 0.0118317) < 1e-6
+    # ξ_eq = K_I⁻¹ g(q_d) = (0.34168, 0.01041): ξ1 is there, ξ2 still on its way (a slow integral mode)
+    xi_eq = [float(x.xreplace(p.values)) for x in res["xi_eq"].value]
+    assert abs(xi[0] - xi_eq[0]) < 1e-3 and abs(xi_eq[0] - 0.341682) < 1e-5
+    md = render(p, sols, "md")
+    assert "\\dot\\xi = e" in md and "\\xi(T) = ($ 0.3414, 0.01183" in md
+
+
+def test_regulation_pid_unstable_gains_diverge():
+    """K_D = 2, K_I = 500 violate the Routh condition: the linearization has eigenvalues 2.51 ± ..i and e grows."""
+    _, _, res = run(PID.replace("KD", "2").replace("KI", "500") + "    T: 2\n")
+    assert res["locally_stable"].value is False
+    e = [fnum(x) for x in res["e_final"].value]   # e(0) = (1, 0.5), e(2) = (1.74339, 0.48368)
+    assert abs(e[0] - 1.74339) < 1e-3 and abs(e[1] - 0.48368) < 1e-3
+    assert fnum(res["e_max_norm"].value) > 5
+
+
 def test_reference_with_parameters():
     """A reference may use parameters with values (qd: [l1, 0.5]); the error is evaluated with them."""
     _, _, res = run(R2 + "  - kind: regulation\n    law: pd_gravity\n    kp: 50\n    kd: 15\n"

@@ -2,9 +2,10 @@
 
 The law is the ``u`` of another ask of the problem (``control_law`` or ``regulation``, chosen by ``ask:``), the plant
 the spec's robot with its numeric ``values``:
-    B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u(t, q, q̇, â),       â̇ = Γ Y_rᵀ s   (adaptive law only),
-integrated with scipy's ``solve_ivp`` from (q₀, q̇₀, â₀) in chunks, within a budget of right-hand-side evaluations
-and wall seconds. The reference q_d(t) is any expression of t (constant, polynomial, sinusoidal, ...): its
+    B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u(t, q, q̇, â, ξ),    â̇ = Γ Y_rᵀ s   (adaptive law only),
+                                                               ξ̇ = e         (PID regulation only),
+integrated with scipy's ``solve_ivp`` from (q₀, q̇₀, â₀, ξ₀ = 0) in chunks, within a budget of right-hand-side
+evaluations and wall seconds. The reference q_d(t) is any expression of t (constant, polynomial, sinusoidal, ...): its
 derivatives are taken exactly. Reported: the error e = q_d − q (or r_d − r) at the end and at its largest, the
 settling time (the instant after which ‖e‖ stays below ``settle``), the largest inputs, the final estimates; figures of
 errors, inputs and estimates.
@@ -99,21 +100,22 @@ def _vector(problem, ctx, key: str, n: int, names: dict) -> list[sp.Expr]:  # ty
 
 def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped-def]
     """What the law tracks and the symbols of its desired signals: the record left by control_law, or, for
-    regulation, the joint coordinates with the desired symbols found by name (qd1, dqd1, ...); elastic: the link
-    (non-actuated) coordinates and their q_d, read from the law's step."""
+    regulation, read from the law's step: the joint coordinates with the desired symbols found by name (qd1, dqd1,
+    ...); elastic: the link (non-actuated) coordinates and their q_d; pid also the controller state ξ and its rate
+    ξ̇ = e."""
     sfx = getattr(ask.options, "suffix", "")
     rec = problem.__dict__.get("_law" + sfx) if ask.kind == "control_law" else None
     if rec is not None and rec.get("kind") == ask.kind:
         return rec
     robot = problem.robot
     law = getattr(ask.options, "law", "")
+    step = next((st.data for st in sol.steps if st.name == "law"), {})
+    out = {"kind": ask.kind, "subs": {}, "ahat": [], "adot": None, "true_a": None, "xi": [], "xidot": None}
     if law == "elastic":
-        step = next(st.data for st in sol.steps if st.name == "law")
         want = sp.Matrix(step["qd"])
-        return {"kind": ask.kind, "tracked": list(step["qs"]),
-                "desired": [[s if isinstance(s, sp.Symbol) else None, None, None] for s in want],
-                "qd": list(want) if ask.options.qd is not None else None, "subs": {}, "ahat": [], "adot": None,
-                "true_a": None}
+        desired = [[s if isinstance(s, sp.Symbol) else None, None, None] for s in want]
+        given = list(want) if ask.options.qd is not None else None
+        return {**out, "tracked": list(step["qs"]), "desired": desired, "qd": given}
     desired = []
     for c in robot.q:
         row = []
@@ -125,14 +127,16 @@ def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped
     if getattr(ask.options, "qd", None) is not None:
         val = ask.ctx.expr("qd")
         qd_given = [sp.sympify(x) for x in (val if isinstance(val, list) else [val])]
-    return {"kind": ask.kind, "tracked": list(robot.q), "desired": desired, "qd": qd_given, "subs": {},
-            "ahat": [], "adot": None, "true_a": None}
+    if law == "pid":
+        out["xi"] = list(step["xi"])
+        out["xidot"] = sp.Matrix(sol.results["controller_rate" + sfx].value)
+    return {**out, "tracked": list(robot.q), "desired": desired, "qd": qd_given}
 
 
 @ask_kind("simulate", SimulateAsk, "closed-loop simulation of a control law (errors, inputs, estimates)")
 def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (with the suffix): e_final, e_final_norm, e_max_norm, settling_time, u_max, t_end, completed,
-    nfev; adaptive also ahat_final."""
+    nfev; adaptive also ahat_final; pid also xi_final."""
     from solver.registry import get_kind
     robot = require_model(problem)
     dm = derive(robot)
@@ -181,7 +185,8 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         setv[s] = sp.sympify(val)
     vals = dict(problem.values)
     ahat = list(rec["ahat"])
-    state = q + dq + ahat
+    xi = list(rec.get("xi", []))    # pid: the controller state, ξ̇ = e, ξ(0) = 0
+    state = q + dq + ahat + xi
     # the iterative gravity compensation: constant feedforward symbols û, updated between iterations
     ff = sorted([x for x in set().union(*(e.free_symbols for e in u)) if x.name.startswith("uhat")
                  and ask.kind == "regulation" and getattr(ask.options, "law", "") == "iterative"], key=str)
@@ -194,12 +199,14 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
 
     u_num = u.applyfunc(close)
     adot = rec["adot"].applyfunc(close) if rec["adot"] is not None else None
+    xidot = rec["xidot"].applyfunc(close) if rec.get("xidot") is not None else None
     plant_B = dm.B.xreplace(vals)
     Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
     plant_n = (dm.c + dm.g + Fv * sp.Matrix(dq)).xreplace(vals)
     G = (dm.G if dm.G is not None else sp.eye(n)).xreplace(vals)
     free = set()
-    for x in list(u_num) + list(plant_B) + list(plant_n) + list(G) + (list(adot) if adot is not None else []):
+    for x in (list(u_num) + list(plant_B) + list(plant_n) + list(G) + (list(adot) if adot is not None else [])
+              + (list(xidot) if xidot is not None else [])):
         free |= x.free_symbols - allowed
     if free:
         raise UserError("simulate needs numbers for " + ", ".join(sorted(map(str, free))),
@@ -211,11 +218,12 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     f_n = lambdify_np(args, list(plant_n))
     f_G = lambdify_np(args, G)
     f_a = lambdify_np(args, list(adot)) if adot is not None else None
+    f_xi = lambdify_np(args, list(xidot)) if xidot is not None else None
     f_e = lambdify_np(args, err_expr)
     q0 = _floats(problem, options, ctx, "q0", n)
     dq0 = _floats(problem, options, ctx, "dq0", n)
     a0 = _floats(problem, options, ctx, "ahat0", len(ahat)) if ahat else []
-    y0 = np.array(q0 + dq0 + a0, dtype=float)
+    y0 = np.array(q0 + dq0 + a0 + [0.0] * len(xi), dtype=float)
     budget = {"nfev": 0, "deadline": time.monotonic() + options.wall}
     ffv = np.array([float(x) for x in (dm.g.xreplace(vals).xreplace(dict(zip(q, q0))) if ff else [])])
     if ff and getattr(ask.options, "u0", None) is not None:
@@ -236,6 +244,8 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         out = [y[n:2 * n], ddq]
         if f_a is not None:
             out.append(np.array(f_a(*a), dtype=float).ravel())
+        if f_xi is not None:
+            out.append(np.array(f_xi(*a), dtype=float).ravel())
         return np.concatenate(out)
 
     from scipy.integrate import solve_ivp
@@ -309,13 +319,16 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     add("t_end", sp.Float(Ts[-1], 6), "number", "t_{end}")
     add("completed", bool(completed), "bool", "\\text{completed}")
     add("nfev", sp.Integer(budget["nfev"]), "number", "\\text{evaluations}")
-    A = Y[:, 2 * n:]
+    A = Y[:, 2 * n:2 * n + len(ahat)]
+    XI = Y[:, 2 * n + len(ahat):]
     if ff:
         done = bool(iter_errors) and iter_errors[-1] < eps
         add("iterations_sim", sp.Integer(len(iter_errors)) if done else sp.oo, "number", "i")
         add("iteration_errors", [sp.Float(x, 6) for x in iter_errors], "list", "\\|e_i\\|")
     if ahat:
         add("ahat_final", sp.Matrix([sp.Float(x, 6) for x in A[-1]]), "vector", "\\hat a(T)")
+    if xi:
+        add("xi_final", sp.Matrix([sp.Float(x, 6) for x in XI[-1]]), "vector", "\\xi(T)")
     true_a = None
     if rec.get("true_a") is not None:
         try:
@@ -330,6 +343,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
              umax=[float(x) for x in np.abs(U).max(axis=0)],
              ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a, crossings=crossings,
+             integral=bool(xi), xi_final=[float(x) for x in XI[-1]] if xi else None,
              iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=float(sp.sympify(options.T)))
     return sol
 
