@@ -294,6 +294,30 @@ def test_regulation_pid_unstable_gains_diverge():
     assert fnum(res["e_max_norm"].value) > 5
 
 
+CART = R2 + """  - kind: regulation
+    law: cartesian_pd
+    task: [l1*cos(q1) + l2*cos(q1 + q2), l1*sin(q1) + l2*sin(q1 + q2)]
+    kp: 50
+    kd: 15
+PD  - kind: simulate
+    q0: [0.3, 1.2]
+    T: 10
+"""
+
+
+@pytest.mark.parametrize("where", ["regulation", "simulate"], ids=["pd in the law", "qd in simulate"])
+def test_regulation_cartesian_pd_error_in_task_space(where):
+    """e = p_d − f(q) (2 components), from the independent run: e(10) = (−0.0101178, −0.0098846)."""
+    text = CART.replace("PD", "    pd: [0.5, 0.3]\n" if where == "regulation" else "") + \
+        ("    qd: [0.5, 0.3]\n" if where == "simulate" else "")
+    _, _, res = run(text)
+    e = [fnum(x) for x in res["e_final"].value]
+    assert abs(e[0] + 0.0101178) < 1e-6 and abs(e[1] + 0.0098846) < 1e-6
+    # e(0) = p_d − f(0.3, 1.2): the largest error is the initial one
+    f0 = np.array([0.5 * np.cos(0.3) + 0.4 * np.cos(1.5), 0.5 * np.sin(0.3) + 0.4 * np.sin(1.5)])
+    assert abs(fnum(res["e_max_norm"].value) - np.linalg.norm([0.5, 0.3] - f0)) < 1e-6
+
+
 def test_reference_with_parameters():
     """A reference may use parameters with values (qd: [l1, 0.5]); the error is evaluated with them."""
     _, _, res = run(R2 + "  - kind: regulation\n    law: pd_gravity\n    kp: 50\n    kd: 15\n"

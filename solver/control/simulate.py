@@ -101,8 +101,8 @@ def _vector(problem, ctx, key: str, n: int, names: dict) -> list[sp.Expr]:  # ty
 def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped-def]
     """What the law tracks and the symbols of its desired signals: the record left by control_law, or, for
     regulation, read from the law's step: the joint coordinates with the desired symbols found by name (qd1, dqd1,
-    ...); elastic: the link (non-actuated) coordinates and their q_d; pid also the controller state ξ and its rate
-    ξ̇ = e."""
+    ...); elastic: the link (non-actuated) coordinates and their q_d; cartesian_pd: the task f(q) and p_d; pid also
+    the controller state ξ and its rate ξ̇ = e."""
     sfx = getattr(ask.options, "suffix", "")
     rec = problem.__dict__.get("_law" + sfx) if ask.kind == "control_law" else None
     if rec is not None and rec.get("kind") == ask.kind:
@@ -111,11 +111,12 @@ def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped
     law = getattr(ask.options, "law", "")
     step = next((st.data for st in sol.steps if st.name == "law"), {})
     out = {"kind": ask.kind, "subs": {}, "ahat": [], "adot": None, "true_a": None, "xi": [], "xidot": None}
-    if law == "elastic":
-        want = sp.Matrix(step["qd"])
+    if law in ("elastic", "cartesian_pd"):
+        tracked, want, key = ((list(step["qs"]), sp.Matrix(step["qd"]), "qd") if law == "elastic"
+                              else (list(step["f"]), sp.Matrix(step["pd"]), "pd"))
         desired = [[s if isinstance(s, sp.Symbol) else None, None, None] for s in want]
-        given = list(want) if ask.options.qd is not None else None
-        return {**out, "tracked": list(step["qs"]), "desired": desired, "qd": given}
+        given = list(want) if getattr(ask.options, key, None) is not None else None
+        return {**out, "tracked": tracked, "desired": desired, "qd": given}
     desired = []
     for c in robot.q:
         row = []
