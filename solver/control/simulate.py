@@ -344,8 +344,8 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
              umax=[float(x) for x in np.abs(U).max(axis=0)],
              ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a, crossings=crossings,
-             integral=bool(xi), xi_final=[float(x) for x in XI[-1]] if xi else None,
-             iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=float(sp.sympify(options.T)))
+             iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=float(sp.sympify(options.T)),
+             **({"integral": True, "xi_final": [float(x) for x in XI[-1]]} if xi else {}))
     return sol
 
 
