@@ -700,3 +700,36 @@ asks:
     assert ":15:" in str(exc.value) and "give a D" in str(exc.value)
     r = all_results(solve_problem(load_problem_text(text.replace("q1: 0, q2: pi/2, dq1: 0, dq2: 1", "q1: pi/2, q2: acos(-1/4)"))))
     assert "F_at" in r and all(x.is_number for x in r["F_at"].value)
+
+
+ORIENT = """
+id: cd-orient
+title: 2R whose last link keeps a horizontal orientation
+robot:
+  joints: [R, R]
+  links:
+    - {mass: 1, com: [cos(q1), sin(q1)], angle: q1, inertia: 0}
+    - {mass: 1, com: [cos(q1) + cos(q1 + q2), sin(q1) + sin(q1 + q2)], angle: q1 + q2, inertia: 0}
+asks:
+  - kind: constrained_dynamics
+    h: sin(q1 + q2)
+    D: [[0, 1]]
+    v: [w]
+"""
+
+
+def test_one_constraint_is_singular_in_the_text():
+    """One constraint reads "The holonomic constraint ... gives" (it said "The 1 holonomic constraint", "The 1
+    constraint is independent"), two read "The 2 holonomic constraints ... give"; the same for Pfaffian ones."""
+    p, sols, _ = solved(ORIENT)
+    for fmt in ("md", "tex"):
+        text = render(p, sols, fmt)
+        assert "The holonomic constraint $h(q) = 0$" in text and "The constraint is effective" in text, fmt
+        assert "The 1 " not in text, fmt
+    p, sols, _ = solved(ORIENT.replace("h: sin(q1 + q2)", "A: [cos(q1 + q2), cos(q1 + q2)]"))
+    for fmt in ("md", "tex"):
+        assert "The Pfaffian constraint on the velocities is $A(q)\\dot q = 0$" in render(p, sols, fmt), fmt
+    p, sols, _ = solved(R3_K2)
+    md = render(p, sols, "md")
+    assert "The 2 holonomic constraints $h(q) = 0$" in md and "The 2 constraints are independent" in md
+
