@@ -733,3 +733,30 @@ def test_one_constraint_is_singular_in_the_text():
     md = render(p, sols, "md")
     assert "The 2 holonomic constraints $h(q) = 0$" in md and "The 2 constraints are independent" in md
 
+
+def test_qddot_is_simplified():
+    """q̈ = F v̇ + Ḟ v with det [A; D] = cos(q1 + q2), F = (-1, 1), Ḟ = 0 is (-ẇ, ẇ); it was printed over the common
+    denominator as ẇ (cos(2q1 + 2q2) + 1)/(2 cos²(q1 + q2)). Checked against F v̇ + Ḟ v of the results, and by
+    differentiating q̇ = F(q) v along a motion on the constraint."""
+    p, _, res = solved(ORIENT)
+    w, dw = p.names["w"], p.names["dw"]
+    assert value(res, "qddot") == sp.Matrix([-dw, dw])
+    assert value(res, "F") == sp.Matrix([-1, 1]) and value(res, "Fdot") == sp.zeros(2, 1)
+    # q1 + q2 = 0 on the constraint: q = (-s, s), q̇ = (-w, w), q̈ = (-ẇ, ẇ) for any s(t)
+    t = sp.Symbol("t")
+    s = sp.sin(t) + t ** 2
+    q = {p.robot.q[0]: -s, p.robot.q[1]: s}
+    dq = {p.robot.dq[0]: -s.diff(t), p.robot.dq[1]: s.diff(t)}
+    got = value(res, "qddot").xreplace({w: s.diff(t), dw: s.diff(t, 2)}).xreplace(q).xreplace(dq)
+    assert all(sp.simplify(a - b) == 0 for a, b in zip(got, [-s.diff(t, 2), s.diff(t, 2)]))
+
+
+def test_qddot_is_f_dv_plus_fdot_v_on_a_height_constraint():
+    """On the 3R with one height constraint, q̈ (now the shorter of the two forms, entry by entry) is still
+    F v̇ + Ḟ v."""
+    p, _, res = solved(R3 + f"  - kind: constrained_dynamics\n    h: {HEIGHT}\n    multiplier: false\n"
+                            "    D: [[1, 0, 0], [0, 1, 1]]\n")
+    v, dv = sp.Matrix([p.names["v1"], p.names["v2"]]), sp.Matrix([p.names["dv1"], p.names["dv2"]])
+    want = value(res, "F") * dv + value(res, "Fdot") * v
+    assert all(zero(a - b) for a, b in zip(value(res, "qddot"), want))
+

@@ -602,7 +602,7 @@ def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None,
     Fdot = over(NFdot, det ** 2)
     v_def = (D * dqv).applyfunc(tidy)
     dv_def = (D * ddqv + time_derivative(D, q, dq) * dqv).applyfunc(tidy)
-    qddot = over(NF * det * dv + NFdot * v, det ** 2)
+    qddot = _shorter(over(NF * det * dv + NFdot * v, det ** 2), F * dv + Fdot * v)
     nvec = c + g + (Fv * dqv if Fv is not None else sp.zeros(B.rows, 1))
     Bz, NFz, NEz, detz, NFdotz = z(B), z(NF), z(NE), z(det), z(NFdot)
     BF = over(Bz * NFz, detz)
@@ -628,6 +628,13 @@ def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None,
     on_v = dict(zip(dq, F * v))
     return Reduction(D, AD, det, E, F, v, dv, v_def, dv_def, Fdot, qddot, BF, FtBF, FtBFdot, Ftn, Ftu, EtBF,
                      EtBFdot, Etn, Etu, on_v, model, vdot, lam, NF, Fdv, n2)
+
+
+def _shorter(M: sp.Matrix, N: sp.Matrix) -> sp.Matrix:
+    """Entry by entry the shorter of two equal matrices (M on a tie): q̈ = F v̇ + Ḟ v over one denominator δ²
+    (M) or as the sum of the simplified F v̇ and Ḟ v (N). The common denominator keeps a factor of δ that the
+    tidy (Fourier) numerator no longer shows: ẇ(cos(2q₁ + 2q₂) + 1)/(2cos²(q₁ + q₂)) where N gives ẇ."""
+    return sp.Matrix(M.rows, M.cols, [b if count_ops(b) < count_ops(a) else a for a, b in zip(M, N)])
 
 
 @dataclass
