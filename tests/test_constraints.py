@@ -760,3 +760,19 @@ def test_qddot_is_f_dv_plus_fdot_v_on_a_height_constraint():
     want = value(res, "F") * dv + value(res, "Fdot") * v
     assert all(zero(a - b) for a, b in zip(value(res, "qddot"), want))
 
+
+def test_simulation_prints_the_initial_state_as_written():
+    """simulate.q0: [0.3333, -0.3333] is printed as written, not as 3333/10000; dq0 "1.5e-3" as 1.5 · 10^{-3}."""
+    text = ORIENT + """    simulate:
+      u: [0, 0]
+      q0: [0.3333, -0.3333]
+      dq0: ["-1.5e-3", 1.5e-3]
+      time: 0.2
+      points: 11
+"""
+    p, sols, _ = solved(text)
+    for fmt in ("md", "tex"):
+        out = render(p, sols, fmt)
+        assert "q_0 = \\begin{bmatrix} 0.3333 \\\\ -0.3333 \\end{bmatrix}" in out, fmt
+        assert "\\dot q_0 = \\begin{bmatrix} -1.5 \\cdot 10^{-3} \\\\ 0.0015 \\end{bmatrix}" in out, fmt
+        assert "3333" not in out.replace("0.3333", ""), fmt

@@ -24,6 +24,7 @@ import dataclasses
 import itertools
 import math
 import random
+import re
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Literal, Optional, Union
@@ -1325,7 +1326,25 @@ def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> No
         return panels
 
     sol.figures.append(Figure("lambda", caption, sample))
-    sol.step("simulation", T=T, q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), u=sp.Matrix(u_t), unit=unit, t=t)
+    shown = {key: [as_written(r, x) for r, x in zip(raw if isinstance(raw, list) else [raw] * len(vals), vals)]
+             for key, raw, vals in (("q0", opts.q0, q0), ("dq0", opts.dq0, dq0))}
+    sol.step("simulation", T=T, q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), u=sp.Matrix(u_t), unit=unit, t=t,
+             q0_shown=shown["q0"], dq0_shown=shown["dq0"],
+             written=any(isinstance(x, str) for x in shown["q0"] + shown["dq0"]))
+
+
+_DECIMAL = re.compile(r"[+-]?(\d+\.\d*|\.\d+|\d+(\.\d*)?[eE][+-]?\d+)")
+
+
+def as_written(raw: Any, value: sp.Expr) -> Any:
+    """A number of the spec as the user wrote it, for the report: a decimal literal (0.3333, -1.5e-3) as its text
+    (the template prints it) instead of the exact rational it was read as (3333/10000); any other entry (an
+    integer, a fraction, an expression) as its value."""
+    if isinstance(raw, float):
+        return repr(raw)
+    if isinstance(raw, str) and _DECIMAL.fullmatch(raw.strip()):
+        return raw.strip()
+    return value
 
 
 def constrained_rhs(f: dict, n: int, k: int):  # type: ignore[no-untyped-def]
