@@ -348,3 +348,29 @@ def test_dls_inverse_solves_the_damped_normal_equations(J):
             assert np.allclose(num(D.xreplace({**pt, s: 0})), np.linalg.inv(num(J.xreplace(pt))), atol=1e-9)
     if J.rows == 2 and J.cols == 2:  # the printed form (2017-05-29, line 8794)
         assert D[0, 0] == sp.cos(T) / (1 + s ** 2) and D[1, 1] == R * sp.cos(T) / (R ** 2 + s ** 2)
+
+
+def test_ibvs_text_follows_the_rank_of_a_tall_matrix():
+    """Three points through a 5-joint arm: J = J_s J_m is 6×5 of rank 5, so J J^# ≠ I and ė = −k J J^# e (the text
+    claimed ė = −k e "while J keeps full row rank", impossible for a tall J); with J_s alone (6×6, rank 6) the
+    claim is right and stays. The gain, the symbol k, is not written "k = k"; a gain with a value is."""
+    pts = "[[0.2, 0.1, 2], [-0.2, 0.15, 2], [0.0, -0.2, 2]]"
+    law = "    desired: [0.25, 0.15, -0.25, 0.2, 0.0, -0.25]\n"
+    Jm = "    robot_jacobian: [[1, 0, 0, 0, 0], [0, 1, 0, 0, 0], [0, 0, 1, 0, 0], [0, 0, 0, 1, 0], [0, 0, 0, 0, 1], " \
+         "[0, 0, 0, 0, 0]]\n"
+    p = load_problem_text(spec(pts, law + Jm, "  k: gain\n") + "values: {lambda: 1}\n")
+    sols = solve_problem(p)
+    J = num(all_results(sols)["J_task"].value.subs(sp.Symbol("lambda", positive=True), 1))
+    assert J.shape == (6, 5) and np.linalg.matrix_rank(J) == 5
+    assert not np.allclose(J @ np.linalg.pinv(J), np.eye(6))  # independent check: ė = −k J J^# e ≠ −k e
+    for fmt in ("md", "tex"):
+        text = render(p, sols, fmt)
+        assert "keeps full row rank" not in text and "never has full row rank" in text, fmt
+        assert "J J^\\# e$, where $J = J_s J_m$ is" in text and "of rank 5" in text, fmt
+        assert "gain $k$," in text and "k = k" not in text, fmt
+    p = load_problem_text(spec(pts, law + "    gain: 2\n") + "values: {lambda: 1}\n")
+    sols = solve_problem(p)
+    for fmt in ("md", "tex"):
+        text = render(p, sols, fmt)
+        assert "gives $\\dot e = -k e$ while $J$ keeps full row rank." in text and "gain $k = 2$," in text, fmt
+
