@@ -374,3 +374,24 @@ def test_ibvs_text_follows_the_rank_of_a_tall_matrix():
         text = render(p, sols, fmt)
         assert "gives $\\dot e = -k e$ while $J$ keeps full row rank." in text and "gain $k = 2$," in text, fmt
 
+
+def test_null_motions_of_a_symmetric_average_are_primitive():
+    """Four points symmetric about the image center at one depth: the barycenter stays still under a translation
+    along the optical axis, (0, 0, 1, 0, 0, 0) (it kept the spurious factor 4 of Σ λ/Z_i = 4λ/Z), and under a
+    rotation about it; each is checked with J x = 0."""
+    text = spec("[[a, a, Z], [-a, a, Z], [-a, -a, Z], [a, -a, Z]]", "    feature: average\n",
+                "  a: {meaning: half side, sign: positive}\n  Z: depth\n")
+    res = all_results(solve_problem(load_problem_text(text)))
+    J = res["J_s"].value
+    for name, want in (("null_translation", [0, 0, 1, 0, 0, 0]), ("null_axis_motion", [0, 0, 0, 0, 0, 1])):
+        assert res[name].value == sp.Matrix(want), name
+        assert (J * res[name].value).applyfunc(sp.simplify) == sp.zeros(2, 1), name
+    origin = all_results(solve_problem(load_problem_text(spec("[0, 0, Z]", "", "  Z: depth\n"))))
+    assert origin["null_rotation"].value == sp.Matrix([0, 0, 0, 0, 0, 1])  # (0, 0, 0, 0, 0, λ) before
+
+
+def test_primitive_divides_by_the_rational_content_only():
+    from solver.control.visual_servoing import primitive
+    assert primitive(sp.Matrix([0, 0, 4 * L, 0])) == sp.Matrix([0, 0, L, 0])
+    assert primitive(sp.Matrix([sp.Rational(1, 2), sp.Rational(-1, 3) * U])) == sp.Matrix([3, -2 * U])
+    assert primitive(sp.Matrix([U, 2 * V, L])) == sp.Matrix([U, 2 * V, L])

@@ -154,6 +154,18 @@ def content_free(vec: sp.Matrix) -> sp.Matrix:
     return vec.applyfunc(lambda x: sp.expand(x / c)) if c != 1 else vec
 
 
+def primitive(vec: sp.Matrix) -> sp.Matrix:
+    """vec divided by the rational content of its terms (the gcd of their numeric coefficients): (0, 0, 4) ->
+    (0, 0, 1), (1/2, 1/3) -> (3, 2); the signs as they are."""
+    coeffs = [t.as_coeff_Mul()[0] for x in vec for t in sp.Add.make_args(sp.expand(x)) if t != 0]
+    if not coeffs or not all(c.is_Rational for c in coeffs):
+        return vec
+    c = sp.Integer(0)
+    for x in coeffs:
+        c = sp.gcd(c, abs(x))
+    return vec if c in (0, 1) else vec.applyfunc(lambda x: sp.expand(x / c) if x.is_number else sp.factor_terms(x / c))
+
+
 def cleared(vec: sp.Matrix) -> sp.Matrix:
     """vec times the lcm of its denominators, divided by the gcd of the numerators, with the last non-zero entry's
     leading coefficient positive (a canonical representative of the direction)."""
@@ -561,13 +573,13 @@ def _special_motions(J: sp.Matrix, Jv: sp.Matrix, Jw: sp.Matrix, cart: list, lam
         tu = sum((p[0] / p[2] for p in cart), sp.Integer(0))
         tv = sum((p[1] / p[2] for p in cart), sp.Integer(0))
         tz = lam * sum((1 / p[2] for p in cart), sp.Integer(0))
-        out["null_translation"] = (content_free(sp.Matrix.vstack(sp.Matrix([tu, tv, tz]), z3)), "(V; 0)")
+        out["null_translation"] = (primitive(content_free(sp.Matrix.vstack(sp.Matrix([tu, tv, tz]), z3))), "(V; 0)")
         axis = sp.Matrix([sum((p[1] for p in cart), sp.Integer(0)), -sum((p[0] for p in cart), sp.Integer(0)), 0,
                           0, 0, tz])
-        out["null_axis_motion"] = (content_free(axis), "(V_{xy}; \\Omega_z)")
+        out["null_axis_motion"] = (primitive(content_free(axis)), "(V_{xy}; \\Omega_z)")
         if len(cart) == 1:
             u, v, _ = cart[0]
-            out["null_rotation"] = (sp.Matrix([0, 0, 0, u, v, lam]), "(0; \\Omega)")
+            out["null_rotation"] = (primitive(content_free(sp.Matrix([0, 0, 0, u, v, lam]))), "(0; \\Omega)")
         elif J.rows <= 2:
             Nw = _null_directions(Jw)
             if len(Nw) == 1:
