@@ -494,7 +494,9 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
         add("e", e, "vector", label="e = s_d - s")
         Jlaw = J if Jm is None else J * Jm  # ė = −k Jlaw Jlaw^# e: −k e only when Jlaw has full row rank
         rank_law = r if Jm is None else generic_rank(Jlaw, random.Random(7))
-        data.update(sd=sd, e=e, k=k, rank_law=rank_law, shape_law=Jlaw.shape)
+        data.update(sd=sd, e=e, k=k)
+        if rank_law < Jlaw.rows:  # (rows, columns, rank) of a J without full row rank
+            data["deficient"] = (Jlaw.rows, Jlaw.cols, rank_law)
         if options.norm:
             Jfull = J if Jm is None else J * Jm
             eta = sp.sqrt(sum((x ** 2 for x in e), sp.Integer(0)))

@@ -1328,9 +1328,9 @@ def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> No
     sol.figures.append(Figure("lambda", caption, sample))
     shown = {key: [as_written(r, x) for r, x in zip(raw if isinstance(raw, list) else [raw] * len(vals), vals)]
              for key, raw, vals in (("q0", opts.q0, q0), ("dq0", opts.dq0, dq0))}
+    written = any(isinstance(x, str) for x in shown["q0"] + shown["dq0"])  # (decimals: their entries as written)
     sol.step("simulation", T=T, q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), u=sp.Matrix(u_t), unit=unit, t=t,
-             q0_shown=shown["q0"], dq0_shown=shown["dq0"],
-             written=any(isinstance(x, str) for x in shown["q0"] + shown["dq0"]))
+             **({"q0_shown": shown["q0"], "dq0_shown": shown["dq0"]} if written else {}))
 
 
 _DECIMAL = re.compile(r"[+-]?(\d+\.\d*|\.\d+|\d+(\.\d*)?[eE][+-]?\d+)")
