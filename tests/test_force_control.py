@@ -695,3 +695,69 @@ asks:
     for fmt in ("md", "tex"):
         out = render(p, sols, fmt)
         assert "built-in method" not in out and "Gain design" in out and "60 m" in out
+
+
+def _state_matrix(loop, subs):
+    """ẋ = M x of A2 ẍ + A1 ẋ + A0 x = 0 (A2 invertible), numerically."""
+    A2, A1, A0 = (np.array(X.xreplace(subs).evalf().tolist(), dtype=float) for X in (loop.A2, loop.A1, loop.A0))
+    n = A2.shape[0]
+    inv = np.linalg.inv(A2)
+    return np.block([[np.zeros((n, n)), np.eye(n)], [-inv @ A0, -inv @ A1]])
+
+
+def _growth(M, times=(10.0, 100.0, 1000.0)):
+    """‖e^{M t}‖ at increasing times (bounded for a marginally stable loop, growing like t for a Jordan block)."""
+    from scipy.linalg import expm
+    return [np.linalg.norm(expm(M * t), 2) for t in times]
+
+
+@pytest.mark.parametrize("kd, kind", [("[kd1, kd2]", "marginal"), ("[0, kd2]", "unstable")])
+def test_undriven_axis_is_marginally_stable_not_unstable(kd, kind):
+    """PP robot pushing on a wall along q2 with no position feedback on q1: det A(s) = s (m1 s + kd1) (...), a simple
+    pole at s = 0 (q1 keeps any offset, bounded): marginally stable, in the results, the text and the figure
+    caption (it said "the closed loop is unstable"). Without damping on q1 the pole at 0 is double with one mode:
+    unstable. Checked independently by the growth of ‖e^{Mt}‖ of the state matrix."""
+    text = PP_WALL.replace("KD", kd).replace("    design: {poles: [-20, -30, -40, -50]}\n", "    simulate: true\n") \
+        + "values: {m1: 2, m2: 1, k_e: 100, x_e: 0.1, kf2: 2, kd1: 5, kd2: 4}\n"
+    p, sols, res = solved(text)
+    assert res["stable"].value is False
+    assert res["marginally_stable"].value is (kind == "marginal")
+    assert res["marginally_stable_num"].value is (kind == "marginal")
+    r = p.robot
+    loop = lti.linear_loop(sp.Matrix(res["closed_loop"].value), list(r.q), list(r.dq), list(r.ddq))
+    g = _growth(_state_matrix(loop, p.values))
+    if kind == "marginal":
+        assert g[2] < 2 * g[0]  # bounded
+    else:
+        assert g[2] > 50 * g[0]  # grows like t
+    for fmt, (b1, b2) in (("md", ("**", "**")), ("tex", ("\\textbf{", "}"))):
+        out = render(p, sols, fmt)
+        if kind == "marginal":
+            assert f"the closed loop is {b1}marginally stable{b2} for all positive parameters" in out, fmt
+            assert f"the closed loop is {b1}marginally stable{b2} (bounded, but not convergent)" in out, fmt
+            assert "unstable" not in out, fmt
+        else:
+            assert f"the closed loop is {b1}unstable{b2} (a drift growing like $t$)" in out, fmt
+            assert f"With these values the closed loop is {b1}unstable{b2}" in out, fmt
+    caption = sols[0].figures[0].caption
+    if kind == "marginal":
+        assert "The closed loop is marginally stable (no pole in the right half-plane" in caption
+        assert "unstable" not in caption
+    else:
+        assert "The closed loop is unstable: the response diverges" in caption
+
+
+def test_classify_semisimple_roots_on_the_imaginary_axis():
+    """The classification against the growth of ‖e^{Mt}‖: s(s + 1) per axis twice (double root 0, two modes):
+    marginal; s² on one axis: unstable; two equal undamped oscillators: marginal; the same coupled into a
+    Jordan block: unstable; all roots in the left half-plane: asymptotic."""
+    s = sp.Symbol("s")
+    x, dx, ddx = list(sp.symbols("x1 x2")), list(sp.symbols("dx1 dx2")), list(sp.symbols("ddx1 ddx2"))
+    cases = [([[1, 0], [0, 1]], [[0, 0], [0, 0]], "marginal"), ([[1, 0], [0, 0]], [[3, 0], [0, 0]], "unstable"),
+             ([[0, 0], [0, 0]], [[3, 0], [0, 3]], "marginal"), ([[0, 0], [0, 0]], [[3, 1], [0, 3]], "unstable"),
+             ([[1, 0], [0, 2]], [[3, 0], [0, 1]], "asymptotic")]
+    for A1, A0, want in cases:
+        loop = lti.LinearLoop(x, dx, ddx, sp.eye(2), sp.Matrix(A1), sp.Matrix(A0), sp.zeros(2, 1))
+        assert lti.classify(loop, {}, s) == want, (A1, A0)
+        g = _growth(_state_matrix(loop, {}))
+        assert bool(g[2] > 50 * g[0]) is (want == "unstable") and bool(g[2] < 1e-3) is (want == "asymptotic"), (A1, A0)

@@ -386,6 +386,7 @@ class Analysis:
     columns: list[list[sp.Expr]] = field(default_factory=list)
     deltas: list[sp.Expr] = field(default_factory=list)
     poles: list[sp.Expr] | None = None
+    marginal: bool | None = None     # not asymptotically stable: marginally stable for all parameters (or not)
     eq: sp.Matrix | None = None
     extras: dict[str, Any] = field(default_factory=dict)
 
@@ -411,6 +412,8 @@ def analyze(residual: sp.Matrix, x: list, dx: list, ddx: list, s: sp.Symbol, ste
         out.column = out.columns[0] if len(out.factors) == 1 and out.factors[0][1] == 1 else []
         out.conditions = lti.hurwitz_conditions([c for col in out.columns for c in col])
         out.stable, out.witness = lti.stable_for_all(out.conditions) if out.conditions else (True, None)
+        if any(x == -1 for x in out.conditions):  # a Routh entry ≤ 0 for all parameters: a root at s = 0?
+            out.marginal = lti.marginal_for_all(loop, out.factors, s)
     roots = [lti.short_poles(f, s) for f, k in out.factors for _ in range(k)]
     out.poles = None if any(r is None for r in roots) else [x for r in roots for x in r]
     st = lti.LinearLoop(loop.x, loop.dx, loop.ddx, loop.A2, loop.A1, loop.A0, loop.r0.xreplace(steady))
@@ -1028,6 +1031,9 @@ def _report_analysis(c: Ctx, S: Setup, law: Law, an: Analysis, sol: Solution, ad
             never = any(x == -1 for x in an.conditions)
             if an.stable is not None:
                 add("stable", bool(an.stable), "bool", label="\\text{stable for all parameters}")
+            if never and an.marginal is not None:
+                add("marginally_stable", bool(an.marginal), "bool",
+                    label="\\text{marginally stable for all parameters}")
         if an.poles is not None:
             add("poles", sp.Matrix(an.poles), "vector", label="\\text{poles}")
         num = None
@@ -1036,6 +1042,10 @@ def _report_analysis(c: Ctx, S: Setup, law: Law, an: Analysis, sol: Solution, ad
             if all(f.free_symbols <= {s} for f, _ in fs):
                 num = [x for f, k in fs for _ in range(k) for x in lti.poles(f, s)]
                 add("poles_num", sp.Matrix(num), "vector", label="\\text{poles}")
+        kind_num = lti.classify(an.loop, c.problem.values, s) if num is not None or not (an.poly.free_symbols - {s}) \
+            else None
+        if kind_num in ("marginal", "unstable"):
+            add("marginally_stable_num", kind_num == "marginal", "bool", label="\\text{marginally stable}")
         witness = None
         if an.witness:
             point = dict(an.witness)
@@ -1045,6 +1055,8 @@ def _report_analysis(c: Ctx, S: Setup, law: Law, an: Analysis, sol: Solution, ad
         _step(sol, "stability", poly=an.poly, column=an.column, stable=an.stable,
               conditions=[x for x in an.conditions if x != -1], never=bool(an.columns) and never,
               witness=witness, poles=an.poles, poles_num=num, s=s, degree=sp.Poly(an.poly, s).degree(),
+              **({"marginal": an.marginal} if an.marginal is not None else {}),
+              **({"kind_num": kind_num} if kind_num in ("marginal", "unstable") else {}),
               factors=factors, factor_terms=[frac_terms(f, s)[0] for f, _ in an.factors] if factors else None,
               columns=an.columns if factors else None, deltas=an.deltas,
               long_column=any(count_ops(x) > 40 for x in an.column))
@@ -1173,21 +1185,24 @@ def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
     if x0 is None:
         return None
     pn = lti.poles(an.poly.xreplace(nums), S.s) if an.poly is not None else None
-    unstable = bool(pn) and max(complex(p).real for p in pn) >= 0
+    kind = lti.classify(st, nums, S.s)
+    if kind is None:  # (symbols left in A(s) that det A(s) does not have: the poles decide, as before)
+        kind = "unstable" if pn and max(complex(p).real for p in pn) >= 0 else "asymptotic"
+    unstable = kind == "unstable"
+    decaying = [abs(complex(p).real) for p in pn or [] if complex(p).real < -1e-9 * max(1.0, abs(complex(p)))]
     if spec.time is not None:
         t_end = float(spec.time)
     elif pn and unstable:
         t_end = float(min(max(5.0 / max(max(complex(p).real for p in pn), 1e-3), 0.5), 200.0))
-    elif pn:
-        slow = min(abs(complex(p).real) for p in pn) if pn else 1.0
-        t_end = float(min(max(10.0 / max(slow, 1e-3), 0.5), 200.0))
+    elif decaying:  # (marginal: the poles on the imaginary axis do not decay, the others set the time)
+        t_end = float(min(max(10.0 / max(min(decaying), 1e-3), 0.5), 200.0))
     else:
         t_end = 10.0
     eq = an.eq.xreplace(nums) if an.eq is not None else None
     names = c.problem.latex_names
     tex = lambda x: names.get(x, sp.latex(x))  # noqa: E731
 
-    word = "equilibrium" if unstable else "predicted"
+    word = "predicted" if kind == "asymptotic" else "equilibrium"
 
     def sample() -> list[Panel]:
         t, X, _ = lti.simulate(st, nums, x0, [0.0] * len(loop.x), t_end)
@@ -1227,8 +1242,14 @@ def _figure(c: Ctx, S: Setup, law: Law, an: Analysis) -> Figure | None:
     else:
         what = "Closed-loop response from rest under the constant contact force " + ", ".join(
             f"${tex(f)} = {float(f.xreplace(nums)):.4g}$" for f in ct.force) + ": position"
-    tail = (". The closed loop is unstable: the response diverges from the equilibrium (dashed)." if unstable
-            else ", with the predicted steady state (dashed).")
+    if kind == "marginal":
+        tail = (". The closed loop is marginally stable (no pole in the right half-plane; those on the imaginary "
+                "axis, such as s = 0, semisimple): the response stays bounded but does not converge"
+                + (" to the equilibrium (dashed)." if eq is not None else
+                   " (no isolated equilibrium: an offset along an undriven direction stays)."))
+    else:
+        tail = (". The closed loop is unstable: the response diverges from the equilibrium (dashed)." if unstable
+                else ", with the predicted steady state (dashed).")
     return Figure("response", f"{what}{tail}{ref}{note}", sample)
 
 

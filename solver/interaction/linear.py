@@ -405,6 +405,71 @@ def stable_for_all(conditions: Sequence[sp.Expr], samples: int = 3000,
     return None, None
 
 
+def classify(loop: LinearLoop, subs: dict, s: sp.Symbol) -> str | None:
+    """The stability of the closed loop at numeric parameter values ``subs``: "asymptotic" (every root of det A(s)
+    in the open left half-plane), "marginal" (none in the right half-plane, and each root s₀ on the imaginary axis
+    semisimple: dim ker A(s₀) equal to its multiplicity, e.g. a simple pole at s = 0 of an undriven direction) or
+    "unstable" (a root in the right half-plane, or a repeated one on the axis with fewer independent modes: a
+    response growing like t); None when symbols remain or det A(s) is constant. Exact where it matters: the
+    values as rationals, the multiplicities from the square-free factorization, the kernel at s = 0 exactly."""
+    exact = {k: sp.Rational(float(v)) if isinstance(v, (float, sp.Float)) else v for k, v in subs.items()}
+    A2, A1, A0 = (M.xreplace(exact) for M in (loop.A2, loop.A1, loop.A0))
+    if any(e.free_symbols for M in (A2, A1, A0) for e in M):
+        return None
+    p = sp.Poly(char_poly(LinearLoop(loop.x, loop.dx, loop.ddx, A2, A1, A0, loop.r0), s), s)
+    if p.degree() < 1:
+        return None
+    if not all(c.is_Rational for c in p.all_coeffs()):  # (radicals, π: their rational approximations)
+        p = sp.Poly([sp.Rational(float(c)) if c != 0 else 0 for c in p.all_coeffs()], s)
+    try:
+        factors = sp.sqf_list(p)[1]
+    except (sp.PolynomialError, sp.DomainError):
+        factors = [(p, 1)]
+    axis: list[tuple[complex, int]] = []
+    for f, k in factors:
+        roots = np.roots([complex(c) for c in f.all_coeffs()])
+        scale = max([1.0] + [abs(r) for r in roots])
+        for r in roots:
+            if r.real > 1e-9 * scale:
+                return "unstable"
+            if r.real >= -1e-9 * scale:
+                axis.append((complex(0.0, r.imag), k))
+    if not axis:
+        return "asymptotic"
+    n = A0.rows
+    for s0, k in axis:
+        if k == 1:
+            continue  # a simple root: one mode
+        if s0 == 0:
+            nullity = n - A0.rank()
+        else:
+            M = np.array((A2 * s0 ** 2 + A1 * s0 + A0).evalf().tolist(), dtype=complex)
+            sv = np.linalg.svd(M, compute_uv=False)
+            nullity = int(np.sum(sv <= 1e-9 * max(1.0, sv[0])))
+        if nullity < k:
+            return "unstable"
+    return "marginal"
+
+
+def marginal_for_all(loop: LinearLoop, factors: Sequence[tuple[sp.Expr, int]], s: sp.Symbol) -> bool | None:
+    """For a loop whose only roots off the open left half-plane are at s = 0 (factors c·s, total multiplicity k)
+    for every positive value of the parameters (every other factor's Routh conditions proved): True (marginally
+    stable) when dim ker A(0) = k for generic values (then for all: it cannot exceed k), False (unstable) when it
+    is smaller; None when another factor is not proved stable or there is no root at s = 0."""
+    k = 0
+    for f, m in factors:
+        P = sp.Poly(f, s)
+        if P.degree() == 1 and P.nth(0) == 0:
+            k += m
+            continue
+        conditions = hurwitz_conditions(routh_column(coefficients(f, s)))
+        if conditions and stable_for_all(conditions)[0] is not True:
+            return None
+    if k == 0:
+        return None
+    return loop.A0.rows - loop.A0.rank(simplify=True) == k
+
+
 # ------------------------------------------------------------------------------------------------ design
 def desired_polynomial(s: sp.Symbol, poles: Sequence[sp.Expr] | None = None, omega_n: sp.Expr | None = None,
                        zeta: sp.Expr | None = None) -> sp.Expr:
