@@ -527,3 +527,119 @@ def test_latex_report_compiles(tmp_path, text):
     r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "r.tex"], cwd=tmp_path,
                        capture_output=True, text=True, timeout=180)
     assert r.returncode == 0, r.stdout[-2000:]
+
+
+# --- equilibria of a given g(q): distinct sets, families in the coordinates, conditions on the input -----------------
+
+def model_robot(joints: str, g: str, inputs: str = "", symbols: str = "{a: a, b: b}") -> str:
+    """A robot with B = I and g given in model: (no exercise uses these)."""
+    n = len(joints.split(","))
+    eye = "[" + ", ".join("[" + ", ".join("1" if i == j else "0" for j in range(n)) + "]" for i in range(n)) + "]"
+    return f"""
+id: model_g
+title: g given in the model
+symbols: {symbols}
+robot:
+  joints: [{joints}]
+  model: {{B: "{eye}", g: "{g}"}}
+asks:
+  - kind: equilibria
+{inputs}"""
+
+
+def _covered(x: np.ndarray, configs: list, q: list) -> bool:
+    """The numeric root x is in one of the reported configurations or families (angles modulo 2π)."""
+    for c in configs:
+        free = {s: x[i] for i, s in enumerate(q) if c[i] == s}
+        pt = np.array([float(sp.N(e.xreplace(free))) for e in c])
+        if np.max(np.abs((pt - x + np.pi) % (2 * np.pi) - np.pi)) < 1e-6:
+            return True
+    return False
+
+
+@pytest.mark.parametrize("g, want", [
+    # rows that cancel in a sum (the angles were looked for in g1 + g2 = 0: no solution was reported)
+    ("[a*sin(q1 - q2), -a*sin(q1 - q2)]", [["q2", "q2"], ["q2 + pi", "q2"]]),
+    # families in the coordinates (were atan2(s_q2, ±sqrt(1 - s_q2^2)) with the solver's sine symbol, 8 of them)
+    ("[sin(q1 + q2), sin(q1 + q2)]", [["-q2", "q2"], ["pi - q2", "q2"]]),
+    # the same family found on two branches, and points inside a family (were 8 entries)
+    ("[sin(q1)*sin(q2), cos(q1)*sin(q2)]", [["q1", "0"], ["q1", "pi"]]),
+])
+def test_equilibria_families_are_distinct_sets(g, want):
+    """Each set of equilibria is listed once: the families of the solver written in the coordinates (equal as sets,
+    angles modulo 2π), the points inside a listed family dropped. Checked numerically: every listed configuration
+    zeroes g at random values of its free coordinates, and every root found by least squares from random starts
+    lies in a listed one."""
+    from scipy.optimize import least_squares
+    _, _, res = run(model_robot("R, R", g))
+    q = [sp.Symbol("q1", real=True), sp.Symbol("q2", real=True)]
+    got = res["equilibria"].value
+    assert res["n_equilibria"].value == len(want) == len(got)
+    names = {"q1": q[0], "q2": q[1], "pi": sp.pi}
+    for w in want:
+        wm = sp.Matrix([sp.sympify(x, locals=names) for x in w])
+        assert any(sp.simplify(c - wm) == sp.zeros(2, 1) for c in got), (w, got)
+    gf = sp.lambdify(q, sp.sympify(g.replace("a*", "").replace("^", "**"), locals=names))
+    rng = np.random.default_rng(5)
+    for c in got:
+        assert not (set().union(*(e.free_symbols for e in c)) - set(q))   # no symbol of the solver left
+        for _ in range(3):
+            free = {s: rng.uniform(-3, 3) for s in q}
+            assert np.abs(gf(*[float(e.xreplace(free)) for e in c])).max() < 1e-12
+    found = 0
+    for _ in range(60):
+        r = least_squares(lambda x: gf(*x), rng.uniform(-np.pi, np.pi, 2), xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        if np.abs(gf(*r.x)).max() < 1e-12:
+            found += 1
+            assert _covered(r.x, got, q), r.x
+    assert found > 30
+
+
+def test_equilibria_three_angles_listed_once():
+    """sin q3 cos q3 = 0 and two products: 2 families (q3 = 0, π) and 16 points (q3 = ±π/2) -- 48 were listed,
+    each point four times."""
+    _, _, res = run(model_robot("R, R, R", "[a*sin(q1)*cos(q2)*sin(q3), b*cos(q1)*sin(q2)*sin(q3), sin(q3)*cos(q3)]"))
+    got = res["equilibria"].value
+    assert len(got) == 18 and res["n_equilibria"].value == 18
+    pts = [tuple(np.round(np.array([float(x) for x in c]) % (2 * np.pi), 9)) for c in got if all(x.is_number for x in c)]
+    assert len(pts) == 16 == len(set(pts))
+
+
+def test_equilibria_condition_on_a_constant_input():
+    """A vertical prismatic joint under the input F: g(q) = m g0 = F at every q iff F = m g0 (the report said "no
+    solution"): every configuration, with the condition as a result and in the text."""
+    text = """
+id: vert
+title: a mass on a vertical prismatic joint, held by F
+symbols: {m: m, g0: g0, F: F}
+robot:
+  joints: [P]
+  gravity: [0, -g0, 0]
+  links:
+    - {mass: m, com: [0, q1, 0]}
+asks:
+  - kind: equilibria
+    input: {u1: F}
+"""
+    p, sols, res = run(text)
+    assert [[plain(x) for x in e] for e in res["equilibria"].value] == [[sp.Symbol("q1")]]
+    assert res["n_equilibria"].value == sp.oo
+    (cond,) = res["equilibrium_conditions"].value
+    assert same(cond.subs(S("F"), S("m") * S("g0")), 0) and not same(cond, 0)
+    md = render(p, sols, "md")
+    assert "**every configuration** is an equilibrium if $- F + g_{0} m = 0$, and none is otherwise" in md
+    assert "no solution" not in md
+    assert "\\textbf{every configuration}" in render(p, sols, "tex", fragment=True)
+    # without the input: m g0 = 0 never holds (positive symbols): no equilibrium, as before
+    _, _, res0 = run(text.replace("    input: {u1: F}\n", ""))
+    assert res0["equilibria"].value == [] and "equilibrium_conditions" not in res0
+
+
+def test_equilibria_condition_with_other_rows():
+    """A horizontal spring joint and a vertical prismatic one under (0, F): q1 = 0, any q2, iff F = m2 g0."""
+    text = model_robot("R, P", "[k*q1, m2*g0]", "    input: {u2: F}\n", "{k: k, m2: m2, g0: g0, F: F}")
+    p, sols, res = run(text)
+    assert [[plain(x) for x in e] for e in res["equilibria"].value] == [[0, sp.Symbol("q2")]]
+    (cond,) = res["equilibrium_conditions"].value
+    assert same(cond, S("m2") * S("g0") - S("F")) or same(cond, S("F") - S("m2") * S("g0"))
+    assert "free of $q$ require $- F + g_{0} m_{2} = 0$" in render(p, sols, "md")

@@ -16,6 +16,11 @@ a polynomial in t whose coefficients must all vanish (for springs: E(q̄) = 0 an
 deform them). An angle either stays (v̄_θ = 0) or rotates; for each set of rotating angles E must not depend on
 them (every coefficient of E as a polynomial in cos θ, sin θ, reduced by sin²θ = 1 − cos²θ, vanishes: exact for
 one rotating angle, and for several ones rotating at speeds with irrational ratios). v̄ = 0 gives the equilibria.
+
+The configurations are listed as distinct sets: an angle left free by the solver (cos θ in terms of sin θ on half
+a circle) is written as θ in the other values, equal sets (angles modulo 2π) are kept once and, at rest, a point
+inside a listed family is dropped. At rest, a row of g(q) − G ū free of q is a condition on the parameters
+(F − m g0 = 0), reported with the configurations of the other rows instead of "no solution".
 """
 from __future__ import annotations
 
@@ -74,26 +79,44 @@ def _to_polynomial(g: list[sp.Expr], angles: list[sp.Symbol]) -> tuple[list[sp.E
 
 
 def equilibria(g: sp.Matrix, q: list[sp.Symbol]) -> tuple[list[sp.Matrix], list[sp.Expr], bool]:
-    """(configurations, conditions, every_configuration) for g(q) = 0."""
+    """(configurations, conditions, every_configuration) for g(q) = 0 (none when a row free of q is not 0)."""
+    configs, conditions, every, requires = conditional_equilibria(g, q)
+    return ([], [], False) if requires else (configs, conditions, every)
+
+
+def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol]
+                           ) -> tuple[list[sp.Matrix], list[sp.Expr], bool, list[sp.Expr]]:
+    """(configurations, conditions, every_configuration, requirements) for g(q) = 0, distinct as sets (angles
+    modulo 2π). A row of g free of q (a constant input against a constant force, m g0 − F) is a requirement r = 0
+    on the parameters: the configurations are those of the other rows, and exist iff every r = 0 (none when some r
+    is non-zero for every value of the parameters, e.g. m g0 without input)."""
     g_list = [tidy(x) for x in g]
+    requires = [x for x in g_list if x != 0 and not (x.free_symbols & set(q))]
+    if any(x.is_zero is False for x in requires):
+        return [], [], False, []
+    requires = list(dict.fromkeys(requires))
+    g_list = [x for x in g_list if x.free_symbols & set(q)]
     if all(x == 0 for x in g_list):
-        return [sp.Matrix(q)], [], True
-    angles = [a for a in angle_symbols(sp.Add(*g_list)) if a in q]
+        return [sp.Matrix(q)], [], True, requires
+    angles = _angles(g_list, q)
     eqs, cs = _to_polynomial(g_list, angles)
     unknowns = [v for a in angles for v in cs[a]] + [x for x in q if x not in angles]
     sols = sp.solve(eqs, unknowns, dict=True)
     configs, conditions = [], []
     for s in sols:
         vals = []
+        free = [x for x in angles if _is_free(s, *cs[x])]
+        subs = [_free_angle(s, x, *cs[x]) for x in free]
         for x in q:
-            if x in angles:
+            if x in free:
+                vals.append(x)  # free angle
+            elif x in angles:
                 c, sn = s.get(cs[x][0], cs[x][0]), s.get(cs[x][1], cs[x][1])
-                if c.free_symbols & {cs[x][0], cs[x][1]} or sn.free_symbols & {cs[x][0], cs[x][1]}:
-                    vals.append(x)  # free angle
-                else:
-                    vals.append(tidy(sp.atan2(sn, c)) if not (c.is_number and sn.is_number) else sp.atan2(sn, c))
+                c, sn = _in_free_angles(c, subs), _in_free_angles(sn, subs)
+                vals.append(_atan2_angle(tidy(sp.atan2(sn, c))) if not (c.is_number and sn.is_number)
+                            else sp.atan2(sn, c))
             else:
-                vals.append(tidy(s.get(x, x)))
+                vals.append(tidy(_in_free_angles(sp.sympify(s.get(x, x)), subs)))
         if any(v.has(sp.I) for v in vals):
             continue
         for v in vals:
@@ -102,7 +125,119 @@ def equilibria(g: sp.Matrix, q: list[sp.Symbol]) -> tuple[list[sp.Matrix], list[
                     conditions.append(sp.GreaterThan(p.base, 0))
         configs.append(sp.Matrix(vals))
     configs.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in m])
-    return configs, list(dict.fromkeys(conditions)), False
+    return distinct_configurations(configs, q, set(angles)), list(dict.fromkeys(conditions)), False, requires
+
+
+def _angles(rows: list[sp.Expr], q: list[sp.Symbol]) -> list[sp.Symbol]:
+    """The coordinates inside sin/cos of any row (of each row: rows may cancel in a sum), sorted by name."""
+    found = set().union(*(angle_symbols(x) for x in rows)) if rows else set()
+    return sorted((a for a in found if a in q), key=lambda a: a.name)
+
+
+def _is_free(s: dict, c: sp.Symbol, sn: sp.Symbol) -> bool:
+    """Whether the solution leaves the angle of (cos, sin) = (c, sn) free (one of them in terms of the other)."""
+    cv, sv = s.get(c, c), s.get(sn, sn)
+    return bool((cv.free_symbols | sv.free_symbols) & {c, sn})
+
+
+def _free_angle(s: dict, x: sp.Symbol, c: sp.Symbol, sn: sp.Symbol) -> Optional[tuple]:
+    """How to write a solution's values in the free angle x instead of its (cos, sin) symbols: the solver keeps
+    one of them, say s, and gives c = σ√(1 − s²) (σ = ±1: half a circle): there s = sin x and √(1 − s²) = σ cos x
+    (and the same with the roles swapped). Returns (radicand, σ f(x), replacements of the symbols) or None when the
+    solution is not of that form."""
+    cv, sv = s.get(c, c), s.get(sn, sn)
+    if cv == c and sv == sn:
+        return (None, None, {c: sp.cos(x), sn: sp.sin(x)})
+    for own, other, f_own, f_other in ((sn, c, sp.sin, sp.cos), (c, sn, sp.cos, sp.sin)):
+        own_v, other_v = s.get(own, own), s.get(other, other)
+        if own_v != own or other_v == other or other_v.free_symbols & {other}:
+            continue
+        roots = [p for p in other_v.atoms(sp.Pow) if p.exp == sp.Rational(1, 2)]
+        if len(roots) != 1 or sp.expand(roots[0].base - (1 - own ** 2)) != 0:
+            return None
+        sigma = sp.cancel(other_v / roots[0])
+        if sigma not in (1, -1):
+            return None
+        return (roots[0].base, sigma * f_other(x), {own: f_own(x), other: f_other(x)})
+    return None
+
+
+def _in_free_angles(e: sp.Expr, subs: list[Optional[tuple]]) -> sp.Expr:
+    """e with the (cos, sin) symbols of the free angles written as cos x, sin x (see :func:`_free_angle`)."""
+    for sub in subs:
+        if sub is None:
+            continue
+        base, value, names = sub
+        if base is not None:
+            e = e.replace(lambda p: p.is_Pow and p.exp.is_Rational and p.exp.q == 2
+                          and sp.expand(p.base - base) == 0, lambda p: value ** (2 * p.exp))
+        e = e.xreplace(names)
+    return e
+
+
+def _atan2_angle(e: sp.Expr) -> sp.Expr:
+    """atan2(±sin a, ±cos a) written as a, π − a, −a, a + π (equal modulo 2π)."""
+    def angle(y: sp.Expr, x: sp.Expr) -> Optional[sp.Expr]:
+        sy, ay = (-1, -y) if y.could_extract_minus_sign() else (1, y)
+        sx, ax = (-1, -x) if x.could_extract_minus_sign() else (1, x)
+        if not (isinstance(ay, sp.sin) and isinstance(ax, sp.cos) and ay.args[0] == ax.args[0]):
+            return None
+        a = ay.args[0]
+        return {(1, 1): a, (1, -1): sp.pi - a, (-1, 1): -a, (-1, -1): a + sp.pi}[(sy, sx)]
+
+    return e.replace(lambda f: isinstance(f, sp.atan2) and angle(*f.args) is not None, lambda f: angle(*f.args))
+
+
+def _same_value(a: sp.Expr, b: sp.Expr, periodic: bool) -> bool:
+    """a ≡ b (exactly; modulo 2π with equal cosine and sine when ``periodic``); undecided counts as different."""
+    from solver.math.equivalence import identically_zero
+    a, b = sp.sympify(a), sp.sympify(b)
+    if a == b:
+        return True
+    if a.is_number and b.is_number:   # a quick numeric rejection before the exact test
+        d = complex(sp.N(a - b, 30))
+        if abs(d.imag) > 1e-20:
+            return False
+        k = d.real / (2 * float(sp.pi)) if periodic else d.real
+        if abs((k - round(k)) if periodic else k) > 1e-12:
+            return False
+    try:
+        if not periodic:
+            return identically_zero(a - b)
+        return identically_zero(sp.cos(a) - sp.cos(b)) and identically_zero(sp.sin(a) - sp.sin(b))
+    except (TypeError, ValueError, sp.PolynomialError):
+        return False
+
+
+def _contained(a: sp.Matrix, b: sp.Matrix, q: list[sp.Symbol], periodic: set[sp.Symbol]) -> bool:
+    """Every configuration of the family a is one of the family b (a coordinate written as itself is free): b's
+    free coordinates take a's values there, and then every entry must agree (angles modulo 2π)."""
+    free_b = {x: a[i] for i, x in enumerate(q) if b[i] == x}
+    if any((v.free_symbols & set(q)) - set(free_b) for v in b):
+        return all(_same_value(x, y, q[i] in periodic) for i, (x, y) in enumerate(zip(a, b)))
+    return all(_same_value(x, y.xreplace(free_b), q[i] in periodic) for i, (x, y) in enumerate(zip(a, b)))
+
+
+def same_configurations(a: sp.Matrix, b: sp.Matrix, q: list[sp.Symbol], periodic: set[sp.Symbol]) -> bool:
+    """Whether two configurations or families of configurations are the same set (the angles in ``periodic``
+    modulo 2π): [q1, q1 + π] and [q2 − π, q2] are."""
+    if a.shape != b.shape:
+        return False
+    if a == b:
+        return True
+    return _contained(a, b, q, periodic) and _contained(b, a, q, periodic)
+
+
+def distinct_configurations(configs: list[sp.Matrix], q: list[sp.Symbol], periodic: set[sp.Symbol]
+                            ) -> list[sp.Matrix]:
+    """The configurations (or families) without repetitions as sets, the first of equal ones kept, and without the
+    ones inside a family also listed (the points [π/2, π/2] of the family [q2, q2])."""
+    out: list[sp.Matrix] = []
+    for c in configs:
+        if not any(same_configurations(c, o, q, periodic) for o in out):
+            out.append(c)
+    families = [o for o in out if any(o[i] == x for i, x in enumerate(q))]
+    return [c for c in out if not any(o is not c and _contained(c, o, q, periodic) for o in families)]
 
 
 @dataclass
@@ -189,7 +324,7 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
     t = sp.Dummy("t")
     E = [tidy(sp.expand(r - h).xreplace(given_v)) for r, h in zip(rows, rhs)]
     vel = {x: given_v.get(d, d) for x, d in zip(q, dq)}
-    angles = [a for a in angle_symbols(sp.Add(*E)) if a in q]
+    angles = _angles(E, q)
     forced = [a for a in angles if given_v.get(vel_sym(a, q, dq), 0) != 0]
     optional = [a for a in angles if a not in forced and vel_sym(a, q, dq) not in given_v]
     partial = len(optional) > max_rotating
@@ -200,6 +335,7 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
     cs = {a: (sp.Symbol(f"c_{a.name}", real=True), sp.Symbol(f"s_{a.name}", real=True)) for a in angles}
     motions: list[SteadyMotion] = []
     conditions: list[sp.Expr] = []
+    names = list(q) + list(dq) + [w if w in unknown_u else sp.Dummy() for w in u]   # a slot equal to its name is free
     for rotating in subsets:
         stay = {vel_sym(a, q, dq): sp.Integer(0) for a in angles
                 if a not in rotating and vel_sym(a, q, dq) not in given_v}
@@ -228,21 +364,24 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
         named = _branches(sols, still, cs2)
         for k, s in enumerate(sols):
             qs, trig, raw = [], {}, []
+            free = [x for x in still if _is_free(s, *cs2[x])]
+            subs = [_free_angle(s, x, *cs2[x]) for x in free]
             for x in q:
                 if x in still:
                     c, sn = s.get(cs2[x][0], cs2[x][0]), s.get(cs2[x][1], cs2[x][1])
-                    if (c.free_symbols | sn.free_symbols) & set(cs2[x]):
+                    if x in free:
                         qs.append(x)
                     else:
-                        qs.append(named.get((k, x)) or (tidy(sp.atan2(sn, c)) if not (c.is_number and sn.is_number)
-                                                        else sp.atan2(sn, c)))
+                        c, sn = _in_free_angles(c, subs), _in_free_angles(sn, subs)
+                        qs.append(named.get((k, x)) or (_atan2_angle(tidy(sp.atan2(sn, c)))
+                                                        if not (c.is_number and sn.is_number) else sp.atan2(sn, c)))
                         raw += [c, sn]
                         th = named.get((k, x))   # with its own cosine and sine (the branch the name says)
                         trig |= {sp.cos(x): sp.cos(th), sp.sin(x): sp.sin(th)} if th is not None else \
                             {sp.cos(x): c, sp.sin(x): sn}
                 else:
-                    qs.append(tidy(sp.sympify(s.get(x, x))))
-            vs = [tidy(sp.sympify(s.get(d, vel[x].xreplace(stay)))) for x, d in zip(q, dq)]
+                    qs.append(tidy(_in_free_angles(sp.sympify(s.get(x, x)), subs)))
+            vs = [tidy(_in_free_angles(sp.sympify(s.get(d, vel[x].xreplace(stay))), subs)) for x, d in zip(q, dq)]
             if any(vs[q.index(a)] == 0 for a in rotating):
                 continue  # found with that angle at rest
             at = {x: v for x, v in zip(q, qs) if x not in trig and x != v} | {d: v for d, v in zip(dq, vs)}
@@ -256,10 +395,14 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                     if p.exp == sp.Rational(1, 2) and not p.base.is_nonnegative:
                         conditions.append(sp.GreaterThan(p.base, 0))
             m = SteadyMotion(sp.Matrix(qs), sp.Matrix(vs), sp.Matrix(us))
-            if not any(m.q == o.q and m.v == o.v and m.u == o.u for o in motions):
+            if not any(same_configurations(_stacked(m), _stacked(o), names, set(angles)) for o in motions):
                 motions.append(m)
     motions.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in list(m.v) + list(m.q)])
     return motions, list(dict.fromkeys(conditions)), angles, partial
+
+
+def _stacked(m: SteadyMotion) -> sp.Matrix:
+    return sp.Matrix.vstack(m.q, m.v, m.u)
 
 
 def _has_sqrt(e: sp.Expr) -> bool:
@@ -385,16 +528,19 @@ def solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type:
     defs = [sp.sympify(x) for x in ctx.expr("deformations")] if options.deformations else []
     sfx = options.suffix
     if options.steady == "rest" and not unknown:
-        configs, conditions, every = equilibria((dm.g - rhs).applyfunc(tidy), q)
+        configs, conditions, every, requires = conditional_equilibria((dm.g - rhs).applyfunc(tidy), q)
         sol = Solution("equilibria", title=options.title or "Equilibrium configurations")
         sol.add("equilibria" + sfx, configs, "set", label="q_e")
         sol.add("n_equilibria" + sfx, sp.Integer(len(configs)) if not every else sp.oo, "number", label="N_e")
+        if requires:
+            sol.add("equilibrium_conditions" + sfx, sp.Matrix(requires), "vector",
+                    label="\\text{conditions } (=0)")
         dvals = [sp.Matrix([tidy(x.xreplace(dict(zip(q, c)))) for x in defs]) for c in configs] if defs else []
         if defs:
             sol.add("deformations" + sfx, _distinct(dvals), "set", label="\\delta")
         sol.step("equilibria", g=dm.g, q=q, configs=configs, conditions=conditions, every=every,
                  free=[list(dict.fromkeys(x for x in c if x in q)) for c in configs], input=given_u, rhs=rhs,
-                 defs=sp.Matrix(defs) if defs else None, dvals=dvals)
+                 defs=sp.Matrix(defs) if defs else None, dvals=dvals, **({"requires": requires} if requires else {}))
         return sol
     Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
     rest = options.steady == "rest"
