@@ -436,3 +436,46 @@ asks:
     assert abs(float(r["lambda_min"].value) - lo) < 1e-12 and abs(float(r["lambda_max"].value) - hi) < 1e-12
     for fmt in ("md", "tex"):
         assert "Eigenvalues of the inertia matrix" in render(p, sols, fmt)
+
+
+def test_alternative_factorization_with_a_zero_component():
+    """c₃ ≡ 0 (a 2R arm and a decoupled prismatic joint): the monomial factorization has a zero third row (it fell
+    back to S₁ + S₀ because Poly(0) has no quadratic monomial)."""
+    text = """
+id: t
+title: 2R with a decoupled prismatic joint (c3 = 0)
+symbols: {a1: a1, a2: a2, a3: a3, m3: m3}
+robot:
+  joints: [R, R, P]
+  model:
+    B: [[a1 + 2*a2*cos(q2), a3 + a2*cos(q2), 0], [a3 + a2*cos(q2), a3, 0], [0, 0, m3]]
+asks:
+  - kind: dynamic_properties
+    find: [factorizations]
+"""
+    p, r = results(text)
+    a2 = sp.Symbol("a2", positive=True)
+    q2, dq1, dq2 = sp.symbols("q2 dq1 dq2", real=True)
+    s = sp.sin(q2)
+    want = sp.Matrix([[-2 * a2 * dq2 * s, -a2 * dq2 * s, 0], [a2 * dq1 * s, 0, 0], [0, 0, 0]])
+    S2 = r["S_alt"].value
+    assert (S2 - want).applyfunc(sp.expand) == sp.zeros(3, 3)
+    dm = derive(p.robot)
+    assert (S2 * sp.Matrix(p.robot.dq) - dm.c).applyfunc(sp.expand) == sp.zeros(3, 1)
+    assert r["skew_alt"].value is False
+    N = r["N_alt"].value
+    assert (N + N.T).applyfunc(sp.expand) != sp.zeros(3, 3)
+    # numerically: S₂ q̇ = c with c from finite differences of B (c = Ḃ q̇ − ½ ∂(q̇ᵀ B q̇)/∂q)
+    rng = np.random.default_rng(2)
+    vals = {s_: rng.uniform(0.5, 2) for s_ in p.symbols.values()}
+    Bf = sp.lambdify(p.robot.q, dm.B.xreplace(vals))
+    S2f = sp.lambdify(p.robot.q + p.robot.dq, S2.xreplace(vals))
+    for _ in range(3):
+        x, v = rng.uniform(-2, 2, 3), rng.uniform(-2, 2, 3)
+        h = 1e-6
+        Bdot = (np.array(Bf(*(x + h * v)), float) - np.array(Bf(*(x - h * v)), float)) / (2 * h)
+        dK = [(v @ np.array(Bf(*(x + h * e)), float) @ v - v @ np.array(Bf(*(x - h * e)), float) @ v) / (4 * h)
+              for e in np.eye(3)]
+        c = Bdot @ v - np.array(dK)
+        assert np.allclose(np.array(S2f(*x, *v), float) @ v, c, atol=1e-6)
+

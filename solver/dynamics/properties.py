@@ -63,11 +63,14 @@ def is_skew(N: sp.Matrix) -> bool:
 
 def monomial_factorization(c: sp.Matrix, dq: list[sp.Symbol]) -> sp.Matrix:
     """S with (S)_{ki} = Σ_{j ≥ i} γ_kij q̇_j, where c_k = Σ_{i ≤ j} γ_kij q̇_i q̇_j (each monomial in the column of
-    its first velocity)."""
+    its first velocity); a component c_k ≡ 0 gives a zero row."""
     n = len(dq)
     S = sp.zeros(n, n)
     for k in range(n):
-        poly = sp.Poly(sp.expand(c[k]), *dq)
+        ck = sp.expand(c[k])
+        if ck == 0:
+            continue   # (Poly(0).terms() is one constant term 0, not a quadratic monomial)
+        poly = sp.Poly(ck, *dq)
         for mono, coeff in poly.terms():
             idx = [i for i, e in enumerate(mono) for _ in range(e)]
             if len(idx) != 2:
