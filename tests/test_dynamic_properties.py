@@ -479,3 +479,74 @@ asks:
         c = Bdot @ v - np.array(dK)
         assert np.allclose(np.array(S2f(*x, *v), float) @ v, c, atol=1e-6)
 
+
+FD3 = """
+id: t
+title: planar PPR in a vertical plane with viscous friction and numeric values (B⁻¹ with the values)
+symbols: {m1: m1, m2: m2, m3: m3, l3: l3, g0: g0, fv: fv, k: k, lam: lam}
+values: {m1: 3, m2: 2, m3: 1, l3: 0.5, g0: 9.81, fv: 0.7, k: 2, lam: 4}
+robot:
+  joints: [P, P, R]
+  gravity: [0, -g0]
+  friction: {viscous: [fv, fv, fv]}
+  links:
+    - {mass: m1, com: [q1, 0]}
+    - {mass: m2, com: [q1, q2]}
+    - {mass: m3, com: [q1 + l3*cos(q3), q2 + l3*sin(q3)]}
+asks:
+  - kind: dynamic_properties
+    find: [forward_dynamics]
+    u: [k, 0, 1]
+    state: {q1: 0.3, q2: -0.4, q3: 1.1, dq1: 0.5, dq2: -1, dq3: 2}
+"""
+
+
+def _fd3_numeric(q: np.ndarray, dq: np.ndarray, u: np.ndarray, ext: np.ndarray | None = None) -> np.ndarray:
+    """q̈ of FD3 from its kinetic and potential energy (independent of the derivation): B = Σ mᵢ JᵢᵀJᵢ and g with
+    Jacobians by complex steps, c = Ḃ q̇ − ½ ∂(q̇ᵀ B q̇)/∂q by central differences."""
+    m, l3, g0, fv = [3, 2, 1], 0.5, 9.81, 0.7
+
+    def pcs(x):
+        a, b, c = x
+        return [np.array([a, 0 * a]), np.array([a, b]), np.array([a + l3 * np.cos(c), b + l3 * np.sin(c)])]
+
+    def jac(f, x, h):
+        return np.array([(f(x + h * e) - f(x - h * e)) / (2 * h) for e in np.eye(len(x))]).T
+
+    def B(x):
+        out = np.zeros((3, 3))
+        for i in range(3):
+            J = np.array([pcs(x + 1e-30j * e)[i].imag / 1e-30 for e in np.eye(3)]).T   # complex step: exact
+            out += m[i] * J.T @ J
+        return out
+
+    g = np.array([sum(m[i] * g0 * pcs(q + 1e-30j * e)[i][1].imag / 1e-30 for i in range(3)) for e in np.eye(3)])
+    h = 1e-4
+    c = (B(q + h * dq) - B(q - h * dq)) @ dq / (2 * h) - jac(lambda x: np.array([dq @ B(x) @ dq / 2]), q, h).ravel()
+    return np.linalg.solve(B(q), u - c - g - fv * dq - (0 if ext is None else ext))
+
+
+def test_forward_dynamics_substitutes_every_value():
+    """n = 3: B⁻¹ needs the values, and c, g, F_v q̇ and u get them too (fv, m3 l3 in c, the masses and g0 in g and
+    k in u were left symbolic next to the numeric B⁻¹): q̈ is a number, the one of the model by finite differences."""
+    _, r = results(FD3)
+    ddq = r["ddq"].value
+    assert not set().union(*(x.free_symbols for x in ddq))
+    want = _fd3_numeric(np.array([0.3, -0.4, 1.1]), np.array([0.5, -1, 2.0]), np.array([2, 0, 1.0]))
+    assert np.allclose(np.array(ddq.evalf(), float).ravel(), want, rtol=1e-6, atol=1e-8)
+
+
+def test_fault_substitutes_every_value():
+    """The fault torque of the same PPR: τ_f at joint 2 imposing q̈₂ = −λ q̇₂ (λ = 4), at the state: a number, and
+    with it the forward dynamics (finite differences) give q̈₂ = −4 · (−1) = 4 and the other q̈."""
+    text = FD3.replace("[forward_dynamics]", "[fault]").replace("    u: [k, 0, 1]\n",
+                                                                  "    u: [k, 0, 1]\n    fault: {joint: 2, ddq: -lam*dq2}\n")
+    _, r = results(text)
+    st = {sp.Symbol(n, real=True): v for n, v in
+          {"q1": 0.3, "q2": -0.4, "q3": 1.1, "dq1": 0.5, "dq2": -1, "dq3": 2}.items()}
+    tau = r["tau_f"].value.xreplace(st)
+    assert not tau.free_symbols
+    ddq = np.array(r["ddq_fault"].value.xreplace(st).evalf(), float).ravel()
+    want = _fd3_numeric(np.array([0.3, -0.4, 1.1]), np.array([0.5, -1, 2.0]), np.array([2, 0, 1.0]),
+                        np.array([0, float(tau), 0]))
+    assert abs(want[1] - 4) < 1e-6 and np.allclose(ddq, want, rtol=1e-6, atol=1e-8)

@@ -682,14 +682,17 @@ def _read_state(problem, options, ctx, robot) -> dict:  # type: ignore[no-untype
 MAX_SYMBOLIC_INVERSE = 2   # B⁻¹ with symbolic parameters only up to this size (3x3 trigonometric inverses explode)
 
 
-def _inverse(problem, ctx, B: sp.Matrix, q: list[sp.Symbol]) -> sp.Matrix:  # type: ignore[no-untyped-def]
-    """B⁻¹ (entries simplified); beyond MAX_SYMBOLIC_INVERSE the parameter values are substituted first."""
+def _inverse(problem, ctx, B: sp.Matrix, q: list[sp.Symbol]) -> tuple[sp.Matrix, dict]:  # type: ignore[no-untyped-def]
+    """(B⁻¹ (entries simplified), the parameter values substituted in it): beyond MAX_SYMBOLIC_INVERSE the values
+    are substituted first, and the caller must substitute them in every other term too."""
+    used: dict = {}
     if B.rows > MAX_SYMBOLIC_INVERSE:
-        B = B.xreplace(problem.values)
+        used = dict(problem.values)
+        B = B.xreplace(used)
         if set().union(*[e.free_symbols for e in B]) - set(q):
             raise UserError(f"B⁻¹ of a {B.rows}x{B.rows} inertia matrix with symbolic parameters is too large",
                             _place(problem, ctx, "find"), "give numeric values: for the parameters")
-    return B.inv().applyfunc(tidy)
+    return B.inv().applyfunc(tidy), used
 
 
 def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
@@ -702,9 +705,11 @@ def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-
         raise UserError(f"u must be a list of {m} expressions", _place(problem, ctx, "u"))
     G = robot.input_map if robot.input_map is not None else sp.eye(robot.n)
     v = sp.Matrix(robot.dq)
-    rhs = G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(robot.n, 1))
     state = _read_state(problem, options, ctx, robot)
-    Binv = _inverse(problem, ctx, dm.B, robot.q)
+    Binv, used = _inverse(problem, ctx, dm.B, robot.q)
+    u = [sp.sympify(x).xreplace(used) for x in u]   # the values of B⁻¹ in every term (c, g, F_v, u) too
+    rhs = (G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(robot.n, 1))).xreplace(used)
+    state = {x: sp.sympify(e).xreplace(used) for x, e in state.items()}
     ddq = tidy_matrix((Binv * rhs).xreplace(state))
     sol.add("ddq", ddq, "vector", label="\\ddot q")
     sol.step("forward_dynamics", u=sp.Matrix(u), Binv=Binv.applyfunc(tidy), rhs=rhs.applyfunc(tidy), state=state,
@@ -731,8 +736,9 @@ def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-un
         raise UserError("ddq must be one expression", _place(problem, ctx, "fault", "ddq"))
     G = robot.input_map if robot.input_map is not None else sp.eye(n)
     v = sp.Matrix(robot.dq)
-    w = G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1))
-    H = _inverse(problem, ctx, dm.B, robot.q)
+    H, used = _inverse(problem, ctx, dm.B, robot.q)
+    u, a = [sp.sympify(x).xreplace(used) for x in u], sp.sympify(a).xreplace(used)   # the values of H everywhere
+    w = (G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1))).xreplace(used)
     k = i - 1
     tau_f = tidy((H[k, :] * w)[0] / H[k, k] - a / H[k, k])
     ddq = (H * w - H[:, k] * tau_f).applyfunc(tidy)
