@@ -377,6 +377,60 @@ def test_alpha_exact_numeric_and_termwise():
         solved(RP + regulation("pd_constant", alpha="true"))
 
 
+
+R3_POTENTIAL = """
+id: t3
+title: three joints with the gravity of a planar 3R (U given), numeric values -- used by no exercise
+symbols: {g0: g0}
+values: {g0: 10}
+robot:
+  joints: [R, R, R]
+  model:
+    B: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    U: g0*(6*sin(q1) + 3*sin(q1 + q2) + sin(q1 + q2 + q3))
+asks:
+  - kind: regulation
+    law: pd_constant
+    kp: 500
+    kd: 20
+    suffix: _c
+  - kind: regulation
+    law: pd
+    kp: [100, 150, 200]
+    kd: 20
+    suffix: _p
+  - kind: dynamic_properties
+    find: [alpha]
+"""
+
+
+def test_alpha_of_a_cubic_with_three_real_roots():
+    """At the maximizing q = (π/2, 0, 0), ∂g/∂q = −g0 [[10, 4, 1], [4, 4, 1], [1, 1, 1]]: its characteristic cubic has
+    three real roots, whose radicals need I (casus irreducibilis). α was 1 500 characters with I that no float()
+    accepts, so condition_c / condition_p were missing; now α is the root's value (a float), the same as numpy's
+    eigenvalue there and the maximum of ‖∂g/∂q‖ over a grid, and the conditions are given."""
+    p, res = solved(R3_POTENTIAL)
+    want = float(np.abs(np.linalg.eigvalsh(np.array([[10, 4, 1], [4, 4, 1], [1, 1, 1.0]]))).max())
+    for name in ("alpha_c", "alpha_max_c", "kp_threshold_c", "alpha_p", "alpha"):
+        a = res[name].value
+        assert not a.has(sp.I) and len(str(a)) < 40
+        assert float(a.xreplace(p.values)) == pytest.approx(10 * want, rel=1e-13)
+    assert [float(x) for x in res["alpha_q_c"].value] == pytest.approx([np.pi / 2, 0, 0])
+    assert res["condition_c"].value is True          # K_P = 500 > α ≈ 121.6
+    assert res["condition_p"].value is False         # K_P,m = 100 < α
+    # independently: ‖∂²U/∂q²‖ (second differences of U) is at most α everywhere on a grid and reaches it
+    U = lambda x: 10 * (6 * np.sin(x[0]) + 3 * np.sin(x[0] + x[1]) + np.sin(x.sum()))  # noqa: E731
+    E, h = np.eye(3), 1e-4
+
+    def hess_norm(x):
+        Hm = np.array([[(U(x + h * E[i] + h * E[j]) - U(x + h * E[i] - h * E[j]) - U(x - h * E[i] + h * E[j])
+                         + U(x - h * E[i] - h * E[j])) / (4 * h * h) for j in range(3)] for i in range(3)])
+        return np.linalg.norm(Hm, 2)
+
+    grid = np.linspace(-np.pi, np.pi, 13)
+    norms = [hess_norm(np.array([a, b, c])) for a in grid for b in grid for c in grid]
+    assert max(norms) <= 10 * want * (1 + 1e-6) and max(norms) == pytest.approx(10 * want, rel=1e-6)
+
 # ------------------------------------------------------------------------------------------------ grading
 def _opts():
     return ItemSpec()

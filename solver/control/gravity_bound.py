@@ -236,11 +236,24 @@ def exact_norm(M: sp.Matrix, symmetric: bool, frobenius: bool = False) -> Option
     try:
         if symmetric:
             ev = list(M.eigenvals().keys())
-            return sp.nsimplify(max(ev, key=lambda v: abs(complex(sp.N(v))))) if ev else None
+            if not ev:
+                return None
+            top = max(ev, key=lambda v: abs(complex(sp.N(v))))
+            return _real_root(top) if top.has(sp.I) else sp.nsimplify(top)
         ev = list((M.T * M).eigenvals().keys())
-        return sp.sqrt(max(ev, key=lambda v: abs(complex(sp.N(v))))) if ev else None
+        if not ev:
+            return None
+        top = max(ev, key=lambda v: abs(complex(sp.N(v))))
+        return sp.sqrt(_real_root(top)) if top.has(sp.I) else sp.sqrt(top)
     except Exception:  # pragma: no cover - sympy could not find the roots
         return None
+
+
+def _real_root(v: sp.Expr) -> sp.Float:
+    """A real eigenvalue whose closed form needs complex radicals (a cubic with three real roots, casus
+    irreducibilis: 2 400 characters with I that do not even convert to float): its value, from the radicals
+    evaluated to 30 digits (the imaginary part there is rounding), as a 15-digit float."""
+    return sp.Float(sp.re(sp.N(v, 30)), 15)
 
 
 def gradient_bound(g: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol],
@@ -308,7 +321,7 @@ def _recognize(Abar: sp.Matrix, coords: list[sp.Symbol], x: np.ndarray, v: float
         at = dict(zip(coords, snapped))
         val = exact_norm(Abar.xreplace(at).applyfunc(sp.nsimplify), symmetric, frobenius)
         if val is not None:
-            val = sp.nsimplify(sp.radsimp(val))
+            val = val if val.atoms(sp.Float) else sp.nsimplify(sp.radsimp(val))
             if abs(abs(complex(sp.N(val))) - v) <= _REL * max(1.0, v):
                 return k * sp.Abs(val) if not val.is_nonnegative else k * val, \
                     sp.Matrix([at.get(c, sp.Integer(0)) for c in q])

@@ -840,12 +840,15 @@ class _Regulation:
             self._bound_for(b, thr if thr is not None else b.alpha)
 
     def _num(self, x: Any) -> Optional[float]:
+        """x with the parameter values as a float; a real number written with complex radicals (an imaginary part
+        that vanishes at 30 digits) counts as real."""
         v = sp.sympify(x).xreplace(self.values)
         if v.is_number and v.is_real is not False:
             try:
                 return float(v)
             except TypeError:
-                return None
+                z = complex(sp.N(v, 30))
+                return z.real if abs(z.imag) <= 1e-20 * max(1.0, abs(z.real)) else None
         return None
 
     def _lasalle_ok(self) -> bool:
