@@ -162,8 +162,9 @@ def check(specs: list[Path] = typer.Argument(..., help="spec files (or exam file
 
 def _check_file(path: Path, ask_jobs: int = 1) -> list[str]:
     """`check` of one file (in a bounded worker): ["<file>: ok ..."] or the error messages. Imports only what the
-    file needs: the modules of its ask kinds, the solver only when it has expected values, the handout module only
-    for an exam file."""
+    file needs: the modules of its ask kinds, the handout module only for an exam file. Every ask's options are
+    read and checked without solving (its kind's validate hook; every failing ask reported); a file with expected
+    values is then solved, so that each expected entry names a result."""
     from solver.spec.loader import SpecLoader
     from solver.spec.models import is_exam_data
     from solver.spec.yamlpos import load_file
@@ -176,6 +177,10 @@ def _check_file(path: Path, ask_jobs: int = 1) -> list[str]:
         problem = SpecLoader(located).load()
         from solver.grading.options import grading_spec
         grading_spec(problem)
+        from solver.solve import validate_problem
+        invalid = validate_problem(problem)
+        if invalid:
+            return [str(exc) for exc in invalid]
         if not problem.expected:
             return [f"{path}: ok"]
         from solver.verify import ERROR, check_problem

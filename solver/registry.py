@@ -30,16 +30,21 @@ class AskKind:
     options: type[BaseModel]
     solve: Callable[["Problem", BaseModel, "AskContext"], "Solution"]
     summary: str
+    validate: Callable[["Problem", BaseModel, "AskContext"], None] | None = None
 
 
 ASKS: dict[str, AskKind] = {}
 
 
-def ask_kind(name: str, options: type[BaseModel], summary: str) -> Callable:
-    """Decorator registering ``solve(problem, options, ctx) -> Solution`` for ``kind: name``."""
+def ask_kind(name: str, options: type[BaseModel], summary: str,
+             validate: Callable[["Problem", BaseModel, "AskContext"], None] | None = None) -> Callable:
+    """Decorator registering ``solve(problem, options, ctx) -> Solution`` for ``kind: name``. ``validate(problem,
+    options, ctx)``, optional: the ask's options read and checked as ``solve`` reads them, without solving (no
+    dynamic model derived where it can be avoided), raising the UserError ``solve`` would raise; ``robosolve
+    check`` runs it for every ask (:func:`solver.solve.validate_problem`)."""
 
     def wrap(fn: Callable) -> Callable:
-        ASKS[name] = AskKind(name, options, fn, summary)
+        ASKS[name] = AskKind(name, options, fn, summary, validate)
         return fn
 
     return wrap

@@ -12,6 +12,7 @@ from solver.math.nounits import without_units
 from solver.registry import get_kind
 from solver.results import Solution
 from solver.sandbox import HEADER, stop, write_message
+from solver.spec.errors import UserError
 from solver.spec.problem import Problem
 
 MAX_PARALLEL_ASKS = 30000  # ask numbers are queued in one pipe write (2 bytes each, within its 64 kB buffer)
@@ -42,6 +43,74 @@ def solve_problem(problem: Problem, solved: Callable[[int, Solution], None] | No
                     solved(k + 1, out[-1])
     names.finish()
     return out
+
+
+def validate_problem(problem: Problem) -> list[UserError]:
+    """The spec errors of ``problem``'s asks found without solving them (``robosolve check``): each ask's options
+    read and checked by its kind's ``validate`` hook (``@ask_kind(..., validate=)``; kinds without one are
+    skipped), at most one error per ask, in the order of the asks. As in :func:`solve_problem`, an ask is read
+    from the problem as loaded, then, if that fails, with the names the earlier asks' hooks registered; an
+    unknown name that an earlier ask may register only when it is solved (a law's desired symbols) is looked up
+    once more after solving the earlier asks. The problem is left as loaded."""
+    names = _Names(problem)
+    records = set(problem.__dict__)
+    read = names.base.copy()                      # the names the hooks registered, merged in order
+    solver: list[_Solved] = []                    # the earlier asks solved in order, on demand
+    errors: list[UserError] = []
+
+    def attempt(k: int, state: _State, hook: Callable) -> tuple[UserError | None, _State | None]:
+        before = names.reset(state)
+        try:
+            hook(problem, problem.asks[k].options, problem.asks[k].ctx)
+        except UserError as exc:
+            return exc, None
+        return None, names.registered(before)
+
+    try:
+        with without_units():
+            for k, ask in enumerate(problem.asks):
+                hook = get_kind(ask.kind).validate
+                if hook is None:
+                    continue
+                err, regs = attempt(k, names.base, hook)
+                if err is not None and k:
+                    err, regs = attempt(k, read, hook)
+                if err is not None and k and err.message.startswith("unknown name "):
+                    if not solver:
+                        names.reset()
+                        solver.append(_Solved(_Names(problem)))
+                    err, regs = attempt(k, solver[0].upto(k), hook)
+                if regs is not None:
+                    read.names.update(regs.names)
+                    read.latex.update(regs.latex)
+                    for key, v in regs.sets.items():
+                        read.sets.setdefault(key, set()).update(v)
+                if err is not None:
+                    errors.append(err)
+    finally:
+        names.reset()
+        for key in set(problem.__dict__) - records:
+            del problem.__dict__[key]
+    return errors
+
+
+@dataclass
+class _Solved:
+    """The asks of a problem solved in order, as far as :func:`validate_problem` needs them (solving may be slow:
+    only for an unknown name in a later ask)."""
+
+    names: _Names
+    count: int = 0
+
+    def upto(self, k: int) -> _State:
+        """The names asks 0..k−1 register when solved in order (an ask that fails is left out)."""
+        for j in range(self.count, k):
+            try:
+                self.names.settle(j, *self.names.attempt(j))
+            except Exception:  # noqa: BLE001 - its own error is reported by its hook or by solving, not here
+                continue
+        self.count = max(self.count, k)
+        return self.names.merged
 
 
 def _solve_ask(problem: Problem, k: int) -> Solution:

@@ -1,3 +1,5 @@
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -36,3 +38,23 @@ def write(tmp_path):
         return p
 
     return _write
+
+
+def check_and_solve(path: Path) -> tuple[subprocess.CompletedProcess, subprocess.CompletedProcess]:
+    """`robosolve check` and `robosolve solve` of one spec file (a spec error: both exit 2, the same message)."""
+    def run(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "solver", *args, str(path)], capture_output=True, text=True,
+                              cwd=ROOT, timeout=600)
+    return run("check"), run("solve", "--format", "json")
+
+
+def error_found_without_solving(text: str) -> str:
+    """The UserError solving the spec raises, which the asks' validate hooks (what `check` runs, no solving) give
+    too, alone and with the same message: that message."""
+    from solver.solve import solve_problem, validate_problem
+    from solver.spec import load_problem_text
+    from solver.spec.errors import UserError
+    with pytest.raises(UserError) as exc:
+        solve_problem(load_problem_text(text))
+    assert [str(e) for e in validate_problem(load_problem_text(text))] == [str(exc.value)]
+    return str(exc.value)

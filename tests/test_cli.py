@@ -73,3 +73,70 @@ def test_check_exam_files(tmp_path):
     bad.write_text("title: X\nproblems:\n  - problem: nope\n")
     r = run("check", str(bad))
     assert r.returncode == 2 and "e.yaml:3:14: error: problem 'nope' not found" in r.stderr
+
+
+# ------------------------------------------------------------------------------------------------ check: validation
+def test_every_library_problem_validates_and_is_left_as_loaded():
+    """The validate hooks (what `check` runs for each ask before solving) accept every shipped problem — no
+    false error from reading an ask without the asks before it — and leave the problem as loaded."""
+    from solver.registry import load_all
+    from solver.solve import validate_problem
+    from solver.spec import load_problem
+    load_all()
+    for path in sorted(PROBLEMS.glob("*.yaml")):
+        problem = load_problem(path)
+        names, latex, fields = dict(problem.names), dict(problem.latex_names), set(problem.__dict__)
+        assert validate_problem(problem) == [], path
+        assert (problem.names, problem.latex_names, set(problem.__dict__)) == (names, latex, fields), path
+
+
+TWO_BAD = """id: two
+title: two bad asks
+robot: {joints: [R, R, R]}
+asks:
+  - {kind: kinematics, task: [q1 + q4, q2]}
+  - {kind: kinematics, task: [q1, q2, q3]}
+  - {kind: redundancy, task: [q1 + q2 + q3], at: {q5: 1}}
+"""
+
+
+def test_check_reports_every_bad_ask(tmp_path):
+    """Each ask is validated: both errors, at their lines, exit 2 (solve stops at the first)."""
+    spec = tmp_path / "two.yaml"
+    spec.write_text(TWO_BAD)
+    r = run("check", str(spec))
+    assert r.returncode == 2 and r.stdout == "", r.stdout
+    assert f"{spec}:5:36: error: unknown name 'q4'" in r.stderr
+    assert f"{spec}:7:" in r.stderr and "'q5' in at: is not a coordinate" in r.stderr
+    assert r.stderr.count("error:") == 2 and "Traceback" not in r.stderr
+
+
+LATER_NAME = """id: later
+title: a name a law registers when solved
+symbols: {m1: m1, m2: m2, l1: l1, l2: l2}
+robot:
+  joints: [R, R]
+  links:
+    - {mass: m1, com: [l1*cos(q1), l1*sin(q1)]}
+    - {mass: m2, com: [l1*cos(q1) + l2*cos(q1 + q2), l1*sin(q1) + l2*sin(q1 + q2)]}
+asks:
+  - kind: control_law
+    law: computed_torque
+  - {kind: kinematics, task: [q1 - qd1, q2 - qd2]}
+  - {kind: kinematics, task: [q1 + qd2, q2], suffix: _b}
+"""
+
+
+def test_a_name_an_earlier_ask_registers_when_solved_is_not_an_error(tmp_path):
+    """qd1, qd2 exist once the law of ask 1 is solved (solve reads ask 2 after it): validation looks the unknown
+    name up again after solving the earlier asks, and still reports a name nobody registers."""
+    from solver.solve import validate_problem
+    from solver.spec import load_problem
+    spec = tmp_path / "later.yaml"
+    spec.write_text(LATER_NAME)
+    problem = load_problem(spec)
+    assert validate_problem(problem) == [] and "qd1" not in problem.names
+    spec.write_text(LATER_NAME.replace("q2 - qd2", "q2 - qe2").replace("q1 + qd2", "q1 + qe1"))
+    errors = validate_problem(load_problem(spec))
+    assert [str(e).split(": error: ")[0] for e in errors] == [f"{spec}:12:46", f"{spec}:13:36"]
+    assert "unknown name 'qe2'" in str(errors[0]) and "unknown name 'qe1'" in str(errors[1])

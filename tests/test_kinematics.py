@@ -10,6 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import check_and_solve
 
 from solver.kinematics import geometry as geo
 from solver.math.simplify import tidy
@@ -516,3 +517,29 @@ asks:
     J = res["J"].value.subs({q1: a, q2: b}).evalf()
     assert abs(J[0, 0] - (f(a + h, b) - f(a - h, b)) / (2 * h)) < 1e-6
     assert abs(J[0, 1] - (f(a, b + h) - f(a, b - h)) / (2 * h)) < 1e-6
+
+
+# ------------------------------------------------------------------------------------- check = solve's errors
+SPATIAL_3R = """robot:
+  joints: [R, R, R]
+  dh:
+    table: [{d: d1, alpha: pi/2, theta: q1}, {a: a2, theta: q2}, {a: a3, theta: q3}]
+    links: [{}, {}, {}]
+"""
+
+
+@pytest.mark.parametrize("robot, ask, words", [
+    ("robot: {joints: [R, R, R]}\n", "  - {kind: kinematics, task: [cos(q1) + cos(q1 + q2) + q4, sin(q1)]}\n",
+     "unknown name 'q4'"),
+    (SPATIAL_3R, "  - {kind: kinematics, task: pose}\n", "task: pose is for planar robots"),
+    ("robot: {joints: [R, R, R]}\n", "  - {kind: kinematics, task: [q1, q2], sketch: {at: [{q4: 1}]}}\n",
+     "'q4' is not a coordinate"),
+], ids=["q4-in-task", "pose-of-a-spatial-arm", "q4-in-sketch"])
+def test_check_reports_the_error_solve_raises(write, robot, ask, words):
+    """`check` reads each ask's options as `solve` does (the kind's validate hook): the same message at the ask's
+    line, exit 2 — before, `check` said ok for these (no expected: values, so nothing was solved)."""
+    head = "id: x\ntitle: x\nsymbols: {d1: base height, a2: upper arm, a3: forearm}\n" + robot + "asks:\n"
+    check, solve = check_and_solve(write(head + ask))
+    assert check.returncode == solve.returncode == 2, check.stdout + check.stderr
+    assert check.stderr == solve.stderr and words in check.stderr, check.stderr
+    assert f"spec.yaml:{head.count(chr(10)) + 1}:" in check.stderr and "Traceback" not in check.stderr

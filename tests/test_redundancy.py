@@ -7,7 +7,7 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS
+from conftest import PROBLEMS, check_and_solve
 
 from solver.publish.render import render
 from solver.solve import all_results, solve_problem
@@ -381,3 +381,21 @@ def test_the_check_writes_j_qdot_as_rdot_when_the_task_is_exact():
     assert len(checks) == 3 and all(d["exact_task"] for d in checks)
     for d in checks:
         assert d["r"]["Jq"] == d["r"]["rdot"] and sp.count_ops(d["r"]["Jq"]) < 12
+
+
+# ------------------------------------------------------------------------------------- check = solve's errors
+@pytest.mark.parametrize("ask, words", [
+    ("    at: {q1: 0, q2: 1, q4: 0}\n    velocity: [1, 0]\n", "'q4' in at: is not a coordinate"),
+    ("    at: {q1: 0, q2: 1, q3: 0}\n    velocity: [1, 0]\n    weight: [1, 2]\n", "weight must be 3x3"),
+    ("    at: {q1: 0, q2: 1, q3: 0, q4: 0}\n    velocity: [1, 0]\n    methods: [pseudoinverse, dls]\n    mu: 0.1\n",
+     "'q4' in at: is not a coordinate"),
+    ("    at: {q1: 0, q2: 1, q3: 0}\n    velocity: [1, 0]\n    methods: [sns]\n", "sns and scaled need bounds:"),
+], ids=["at-q4", "weight-shape", "methods-at-q4", "sns-without-bounds"])
+def test_check_reports_the_error_solve_raises(write, ask, words):
+    """`check` reads the options as `solve` does, on both paths (one task, the methods): the same message, exit 2
+    (before: ok, nothing was solved without expected: values)."""
+    path = write(ROBOT_3R.replace("      - l1*sin(q1) + l2*sin(q1 + q2) + l3*sin(q1 + q2 + q3)\n",
+                                  "      - l1*sin(q1) + l2*sin(q1 + q2) + l3*sin(q1 + q2 + q3)\n" + ask))
+    check, solve = check_and_solve(path)
+    assert check.returncode == solve.returncode == 2, check.stdout + check.stderr
+    assert check.stderr == solve.stderr and words in check.stderr and "spec.yaml:" in check.stderr, check.stderr

@@ -291,10 +291,23 @@ def _config_label(state: dict, latex: dict) -> str:
     return "$" + ",\\ ".join(parts) + "$" if parts else ""
 
 
+def _no_geometric(spec: _Spec) -> Exception:
+    return spec.fail(("singularities",), "singularities: geometric needs the geometric Jacobian (a DH robot)")
+
+
+def validate_kinematics(problem, options: KinematicsAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_kinematics` reads them, without the analysis."""
+    spec = _Spec(problem, options, ctx)
+    if options.singularities == "geometric" and list(spec.wrt) == list(spec.q) and not spec.geometric:
+        raise _no_geometric(spec)
+    if options.sketch is not False:
+        _sketch_options(problem, spec)
+
+
 # ------------------------------------------------------------------------------------------------ solver
 @ask_kind("kinematics", KinematicsAsk,
           "direct and differential kinematics: Jacobians, J̇q̇, singularities, rank and bases at a configuration, "
-          "inverse kinematics, manipulability")
+          "inverse kinematics, manipulability", validate=validate_kinematics)
 def solve_kinematics(problem, options: KinematicsAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (each with the ask's suffix): A1..An, T, R (DH), p, J, Jg, JL, JA, J_inv, det_J or minor_<cols>,
     singularities, rank, manipulability, Jdot, Jdot_qdot, rdot, v, omega, JtF; at a configuration: p_at, J_at,
@@ -433,7 +446,7 @@ def _singularities(sol: Solution, add, spec: _Spec, J, Jg, dJ, mins, rank_generi
     use_geo = which == "geometric" or (which is True and dJ is None and not mins and Jg is not None
                                        and Jg.shape[0] == Jg.shape[1])
     if which == "geometric" and Jg is None:
-        raise spec.fail(("singularities",), "singularities: geometric needs the geometric Jacobian (a DH robot)")
+        raise _no_geometric(spec)
     M = J
     d, mn = dJ, mins
     gk = gj = None
@@ -640,7 +653,8 @@ def _exact_or_float(x: float) -> sp.Expr:
     return sp.Integer(0) if abs(x) < 1e-14 else sp.Float(x, 15)
 
 
-def _sketch(sol: Solution, problem, spec: _Spec, ik_confs: list) -> None:  # type: ignore[no-untyped-def]
+def _sketch_options(problem, spec: _Spec) -> tuple[list[sp.Matrix] | None, list[tuple[str, dict]]]:  # type: ignore[no-untyped-def]
+    """The sketch's given points and extra configurations (label, {coordinate: value})."""
     opts = spec.options.sketch
     points = None
     extra: list[tuple[str, dict]] = []
@@ -659,6 +673,11 @@ def _sketch(sol: Solution, problem, spec: _Spec, ik_confs: list) -> None:  # typ
                     raise spec.fail(("sketch", "at", i, name), f"'{name}' is not a coordinate")
                 conf[s] = spec.ctx.expr("sketch", "at", i, name)
             extra.append((_config_label(conf, problem.latex_names), conf))
+    return points, extra
+
+
+def _sketch(sol: Solution, problem, spec: _Spec, ik_confs: list) -> None:  # type: ignore[no-untyped-def]
+    points, extra = _sketch_options(problem, spec)
     task = spec.r if spec.task_kind == "expressions" else None
     if points is None and skeleton(spec.robot, task) is None:
         return

@@ -111,9 +111,13 @@ def named_objective(reader: AskReader, name: str, J: sp.Matrix, q: list, ranges:
 
 
 class _MSpec(AskReader):
-    def __init__(self, problem, o, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The parsed, validated inputs of the method path; ``check_only`` (validation): the same checks without B
+    (`weight: inertia`) and without the value of a named H."""
+
+    def __init__(self, problem, o, ctx, check_only: bool = False) -> None:  # type: ignore[no-untyped-def]
         self.problem, self.o, self.ctx = problem, o, ctx
         self.options = o
+        self.check_only = check_only
         robot = problem.robot
         self.acc = o.level == "acceleration"
         self.q: list[sp.Symbol] = list(robot.q) if robot is not None else []
@@ -155,7 +159,7 @@ class _MSpec(AskReader):
         self.H_name = None
         if isinstance(o.gradient, str) and o.gradient.strip() in NAMED_H:
             self.H_name = o.gradient.strip()
-            self.H = self._named_H(self.H_name)
+            self.H = self._named_H(self.H_name) if not check_only or self.H_name != "manipulability" else None
             self.step = ctx.expr("step") if "step" in o.model_fields_set else sp.Integer(1)
         elif o.gradient is not None:
             H = ctx.expr("gradient")
@@ -309,6 +313,11 @@ class _MSpec(AskReader):
         if missing:
             raise self.fail(("at",), "at: must give every coordinate; missing " + ", ".join(missing))
         return state
+
+
+def read_methods(problem, o, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The method path's options read and checked as :func:`solve_methods` reads them (validation)."""
+    _MSpec(problem, o, ctx, check_only=True)
 
 
 # ------------------------------------------------------------------------------------------------ helpers

@@ -28,6 +28,7 @@ from solver.kinematics.methods import (
     Motion,
     TaskItem,
     VariableDamping,
+    read_methods,
     solve_methods,
     wants_methods,
 )
@@ -416,10 +417,12 @@ def _numeric_display(M: Any) -> Any:
 
 
 class _Spec(AskReader):
-    """The parsed, validated inputs of one ask."""
+    """The parsed, validated inputs of one ask. ``check_only`` (validation): the same checks without the work
+    they do not need (J not tidied; `weight: inertia` checked without deriving B, W is then the identity)."""
 
-    def __init__(self, problem, options: RedundancyAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, problem, options: RedundancyAsk, ctx, check_only: bool = False) -> None:  # type: ignore[no-untyped-def]
         self.problem, self.options, self.ctx = problem, options, ctx
+        self.check_only = check_only
         robot = problem.robot
         self.q: list[sp.Symbol] = list(robot.q) if robot is not None else []
         self.task: sp.Matrix | None = None
@@ -451,7 +454,8 @@ class _Spec(AskReader):
                                                f"got {J.shape[1]}")
             self.J = J
         self.m, self.n = self.J.shape
-        self.J = self.J.applyfunc(lambda x: sp.factor_terms(_tidy_rational(x)))
+        if not check_only:
+            self.J = self.J.applyfunc(lambda x: sp.factor_terms(_tidy_rational(x)))
         self.rdot = self._vector("velocity", self.m, "velocity") if options.velocity is not None else None
         self.W = self._weight() if options.weight is not None else None
         self.H = None
@@ -477,10 +481,12 @@ class _Spec(AskReader):
             from solver.dynamics.model import derive, has_model
             if self.problem.robot is None or not has_model(self.problem.robot):
                 raise self.fail(("weight",), "weight: inertia needs a robot with bodies or a model")
+            self.weight_is_inertia = True
+            if self.check_only:
+                return sp.eye(n)
             B = derive(self.problem.robot).B
             if B.shape != (n, n):
                 raise self.fail(("weight",), f"the inertia matrix is {B.shape[0]}x{B.shape[1]}, the task has {n} joints")
-            self.weight_is_inertia = True
             return B
         self.weight_is_inertia = False
         val = self.ctx.expr("weight")
@@ -673,8 +679,18 @@ def _scalar(ar: Arith, e: sp.Expr) -> sp.Expr:
     return _clean(e)
 
 
+def validate_redundancy(problem, options: RedundancyAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_redundancy` reads them (the inputs of the method path
+    or of the single task), without computing (B is not derived for `weight: inertia`)."""
+    if wants_methods(options):
+        read_methods(problem, options, ctx)
+    else:
+        _Spec(problem, options, ctx, check_only=True)
+
+
 @ask_kind("redundancy", RedundancyAsk,
-          "velocity-level inverse kinematics of redundant robots: (weighted) pseudoinverse, null-space term")
+          "velocity-level inverse kinematics of redundant robots: (weighted) pseudoinverse, null-space term",
+          validate=validate_redundancy)
 def solve_redundancy(problem, options: RedundancyAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (each with the ask's suffix): J, J_at, grad_H, grad_H_at, J_pinv_sym, det_JJt_sym, qdot_ps_sym,
     JJt, det_JJt, J_pinv, rank, singular, qdot_ps, qdot0, qdot_null, qdot, task_error, norm2_ps, cost_ps, qdot_mn,
