@@ -12,13 +12,14 @@ import sys
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import check_and_solve
 from scipy.integrate import solve_ivp
 
 from solver.dynamics.model import derive
 from solver.interaction.constraints import check_equilibrium_inputs, check_reduction, time_derivative
 from solver.math.equivalence import scalar_equiv
 from solver.publish.render import render
-from solver.solve import all_results, solve_problem
+from solver.solve import all_results, solve_problem, validate_problem
 from solver.spec import load_problem, load_problem_text
 from solver.spec.errors import UserError
 
@@ -446,6 +447,34 @@ def test_bad_input_is_one_error_at_its_line(write, base, new, expected, line):
     msg = str(exc.value)
     assert all(part in msg for part in expected), msg
     assert f"spec.yaml:{where}:" in msg, msg
+
+
+@pytest.mark.parametrize("base, new, expected, line", [b for b in BAD if "simulate:" not in b[1] and "A: [1" not in b[1]],
+                         ids=[b[2][0] for b in BAD if "simulate:" not in b[1] and "A: [1" not in b[1]])
+def test_validation_raises_what_solve_raises(write, base, new, expected, line):
+    """The kind's validate hook (what `check` runs) gives the error of solving, without the model (the
+    simulation's inputs, whose numbers depend on it, are left to solving)."""
+    path = write(base.replace("    h: q1 + q2\n", new))
+    with pytest.raises(UserError) as exc:
+        solve_problem(load_problem(path))
+    errors = validate_problem(load_problem(path))
+    assert [str(e) for e in errors] == [str(exc.value)]
+
+
+def test_check_reports_undeclared_names_in_the_desired_inputs(write):
+    """dv_d and lambda_d are read when the reduced model is derived: `check` read neither (ok); now it reports
+    each undeclared name as `solve` does, and accepts names of the ask's own pseudo-velocities and inputs."""
+    text = BASE2.replace("    h: q1 + q2\n", "    h: q1 + q2\n    dv_d: vdes\n    lambda_d: lamdes\n")
+    check, solve = check_and_solve(write(text))
+    assert check.returncode == solve.returncode == 2 and check.stderr == solve.stderr, check.stderr
+    assert "error: unknown name 'vdes'" in check.stderr
+    check, solve = check_and_solve(write(text.replace("vdes", "1")))
+    assert check.returncode == solve.returncode == 2 and check.stderr == solve.stderr, check.stderr
+    assert "error: unknown name 'lamdes'" in check.stderr
+    fine = text.replace("    dv_d: vdes\n", "    v: [w]\n    dv_d: -w\n").replace("lamdes", "u1")
+    problem = load_problem(write(fine))
+    assert validate_problem(problem) == []
+    assert "w" not in problem.names and "u1" not in problem.names  # the problem is left as loaded
 
 
 @pytest.mark.parametrize("new", ["    h: q1 + q2\n    D: [[2, 2]]\n", "    freeze: {q5: 0}\n"])

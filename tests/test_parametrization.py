@@ -8,13 +8,13 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT
+from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT, check_and_solve
 
 from solver.dynamics.model import derive
 from solver.dynamics.parametrization import canonical, check
 from solver.math.simplify import is_zero
 from solver.publish.render import render
-from solver.solve import all_results, solve_problem
+from solver.solve import all_results, solve_problem, validate_problem
 from solver.spec import load_problem, load_problem_text
 from solver.spec.errors import UserError
 from solver.verify import check_problem
@@ -219,6 +219,39 @@ def test_dependent_coefficients_error():
     # the error points at the third coefficient of the flow list
     line = RP.count("\n") + 2
     assert e.value.place.line == line and e.value.place.col > 40
+
+
+@pytest.mark.parametrize("coeffs, words", [
+    ("[I1 + m1*d1^2 + I2 + m2*l1^2, m2, 2*m2, m1*d1 + m2*l1]", "coefficient 3 is a combination of the previous"),
+    ("[I1 + m1*d1^2 + I2 + m2*l1^2, m2*q2, m1*d1 + m2*l1]", "coefficient 2 depends on the state"),
+    ("[I1 + m1*d1^2 + I2 + m2*l1^2, m2, m1*d1 + m2*l1, m2 - m2]", "coefficient 4 is zero"),
+    ("[I1 + m1*d1^2 + I2 + m2*l1^2, sin(m2), m1*d1 + m2*l1]", "coefficient 2 is not a polynomial"),
+    ("[[I1, m2], [m1, m2]]", "coefficients must be a list"),
+])
+def test_validation_raises_what_solve_raises(coeffs, words):
+    """The checks of given coefficients that need no model are the kind's validate hook (what `check` runs):
+    the error of solving, at the same place."""
+    with pytest.raises(UserError) as e:
+        solve_text(rp_with(coeffs))
+    errors = validate_problem(load_problem_text(rp_with(coeffs)))
+    assert [str(x) for x in errors] == [str(e.value)] and words in str(e.value)
+
+
+def test_validation_accepts_coefficients_that_only_the_model_can_judge():
+    """Dependent over the constants but not once the known l1 is a parameter (2R, solved as valid but not
+    minimal), non-minimal, or insufficient (the model decides): no error without the model."""
+    coeffs = "[I1 + m1*d1^2 + I2 + m2*(l1^2 + d2^2), I2 + m2*d2^2, m2*l1*d2, m1*d1 + m2*l1, m2*d2]"
+    ask = f"  - kind: linear_parametrization\n    coefficients: {coeffs}\n"
+    assert validate_problem(load_problem_text(spec_2r(ask))) == []
+    for coeffs in ("[I1 + m1*d1^2, I2 + m2*l1^2, m2, m1*d1 + m2*l1]", "[I1 + m1*d1^2 + I2 + m2*l1^2, m2]"):
+        assert validate_problem(load_problem_text(rp_with(coeffs))) == []
+
+
+def test_check_reports_dependent_coefficients(write):
+    """`check` of a spec without expected: values said ok; now exit 2 with solve's message."""
+    check, solve = check_and_solve(write(rp_with("[I1 + m1*d1^2 + I2 + m2*l1^2, m2, m1*d1 + m2*l1, 2*m2]")))
+    assert check.returncode == solve.returncode == 2 and check.stderr == solve.stderr, check.stderr
+    assert "coefficient 4 is a combination of the previous ones (2*a2 - a4 = 0)" in check.stderr
 
 
 def test_non_minimal_coefficients_note():

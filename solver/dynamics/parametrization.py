@@ -465,37 +465,91 @@ def _insufficient(exp: Expansion, monos: list, bad: list[int], rows0: list[dict]
         "to another group)")
 
 
-def compute_given(vec: sp.Matrix, robot, dyn_all: list[sp.Symbol], coeffs: list[sp.Expr],  # type: ignore[no-untyped-def]
-                  known: list[sp.Symbol]) -> Parametrization:
-    """Y for the given coefficients (see the module doc)."""
-    state, _ = _state(robot)
-    n, p = len(vec), len(coeffs)
+def _constant_coefficients(coeffs: list[sp.Expr], state: set) -> None:
     for i, a in enumerate(coeffs):
         if a.free_symbols & state:
             bad = ", ".join(sorted(str(s) for s in a.free_symbols & state))
             raise ParamError(f"coefficient {i + 1} depends on the state ({bad}): a_i must be constants",
                              i, "move the functions of q, dq, ddq into Y (robosolve computes it)")
+
+
+def _coefficient_rows(coeffs: list[sp.Expr], dyn: set) -> list[dict]:
+    """Each coefficient as {monomial of the dynamic parameters: its constant factor}."""
+    rows = []
+    for i, a in enumerate(coeffs):
+        try:
+            rows.append(expand_coefficient(a, dyn))
+        except _NotPolynomial as exc:
+            raise ParamError(f"coefficient {i + 1} is not a polynomial in the dynamic parameters "
+                             f"({exc.factor} {exc.reason})", i) from None
+    return rows
+
+
+def _nonzero_coefficients(rows: list[dict]) -> None:
+    for i, r in enumerate(rows):
+        if not r:
+            raise ParamError(f"coefficient {i + 1} is zero", i)
+
+
+def _dependent(A: sp.Matrix, indep: list[int], names: list[sp.Symbol]) -> ParamError:
+    """The error for coefficients (the rows of A) that are not linearly independent: the first dependent one and
+    its relation with the previous ones."""
+    first = next(i for i in range(A.rows) if i not in indep)
+    rel = relations(A.extract(list(range(first + 1)), list(range(A.cols))).T, names[:first + 1])
+    shown = f" ({rel[0].xreplace({nm: sp.Symbol(f'a{i + 1}') for i, nm in enumerate(names)})} = 0)" \
+        if rel else ""
+    return ParamError(f"the coefficients are not linearly independent: coefficient {first + 1} is a "
+                      f"combination of the previous ones{shown}, so Y is not determined", first,
+                      "remove it, or merge it with the others")
+
+
+def _coefficient_matrix(rows: list[dict], monos: list) -> sp.Matrix:
+    return sp.Matrix(len(rows), len(monos), lambda i, j: rows[i].get(monos[j], sp.Integer(0)))
+
+
+def check_given(robot, dyn_all: list[sp.Symbol], coeffs: list[sp.Expr], known: list[sp.Symbol]) -> None:  # type: ignore[no-untyped-def]
+    """The checks of :func:`compute_given` that need no model (validation): constant, polynomial, non-zero and
+    linearly independent coefficients (ParamError as there). Coefficients dependent over the constants but
+    independent once their known symbols are taken as parameters are accepted (the model decides)."""
+    state, _ = _state(robot)
+    _constant_coefficients(coeffs, state)
+    rows = _coefficient_rows(coeffs, set(dyn_all))
+    _nonzero_coefficients(rows)
+    gen = Generic()
+    A = _coefficient_matrix(rows, list(dict.fromkeys(m for r in rows for m in r)))
+    indep = independent_rows(A, gen)
+    if len(indep) == len(coeffs):
+        return
+    extra = sorted({s for a in coeffs for s in a.free_symbols if s in set(known)}, key=str)
+    if extra:
+        try:
+            rows1 = _coefficient_rows(coeffs, set(dyn_all) | set(extra))
+            if len(independent_rows(_coefficient_matrix(rows1, list(dict.fromkeys(m for r in rows1 for m in r))),
+                                    gen)) == len(coeffs):
+                return
+        except ParamError:
+            pass
+    raise _dependent(A, indep, [sp.Symbol(f"_a{i + 1}") for i in range(len(coeffs))])
+
+
+def compute_given(vec: sp.Matrix, robot, dyn_all: list[sp.Symbol], coeffs: list[sp.Expr],  # type: ignore[no-untyped-def]
+                  known: list[sp.Symbol]) -> Parametrization:
+    """Y for the given coefficients (see the module doc)."""
+    state, _ = _state(robot)
+    n, p = len(vec), len(coeffs)
+    _constant_coefficients(coeffs, state)
     gen = Generic()
 
     def setup(dyn: set) -> tuple[Expansion, list[dict], list, sp.Matrix, sp.Matrix]:
         exp = _expand_or_fail(vec, state, dyn)
-        rows = []
-        for i, a in enumerate(coeffs):
-            try:
-                rows.append(expand_coefficient(a, dyn))
-            except _NotPolynomial as exc:
-                raise ParamError(f"coefficient {i + 1} is not a polynomial in the dynamic parameters "
-                                 f"({exc.factor} {exc.reason})", i) from None
+        rows = _coefficient_rows(coeffs, dyn)
         monos = list(dict.fromkeys(list(exp.monos) + [m for r in rows for m in r]))
-        A = sp.Matrix(p, len(monos), lambda i, j: rows[i].get(monos[j], sp.Integer(0)))
-        return exp, rows, monos, A, exp.matrix(exp.atoms, monos)
+        return exp, rows, monos, _coefficient_matrix(rows, monos), exp.matrix(exp.atoms, monos)
 
     exp, rows0, monos, A, C = setup(set(dyn_all))
     atoms = exp.atoms
     p_min = generic_rank(exp.matrix(atoms, exp.monos), gen) if atoms else 0
-    for i, r in enumerate(rows0):
-        if not r:
-            raise ParamError(f"coefficient {i + 1} is zero", i)
+    _nonzero_coefficients(rows0)
     names = [sp.Symbol(f"_a{i + 1}") for i in range(p)]
     indep = independent_rows(A, gen)
     treated: list[sp.Symbol] = []
@@ -512,13 +566,7 @@ def compute_given(vec: sp.Matrix, robot, dyn_all: list[sp.Symbol], coeffs: list[
             except ParamError:
                 ok = False
         if not ok:
-            first = next(i for i in range(p) if i not in indep)
-            rel = relations(A.extract(list(range(first + 1)), list(range(A.cols))).T, names[:first + 1])
-            shown = f" ({rel[0].xreplace({nm: sp.Symbol(f'a{i + 1}') for i, nm in enumerate(names)})} = 0)" \
-                if rel else ""
-            raise ParamError(f"the coefficients are not linearly independent: coefficient {first + 1} is a "
-                             f"combination of the previous ones{shown}, so Y is not determined", first,
-                             "remove it, or merge it with the others")
+            raise _dependent(A, indep, names)
         treated, coeff_rel = extra, relations(A.T, names)
         J1 = independent_rows(A1.T, gen)
         structural = (exp1, monos1, A1, J1, exact_inverse(A1.extract(list(range(p)), J1)))
@@ -590,8 +638,42 @@ def _symbol_name(problem, options: LinearParametrizationAsk) -> str:  # type: ig
     return "pi" if clash else "a"
 
 
+def _coefficient_place(problem, ctx, index: int | None) -> Any:  # type: ignore[no-untyped-def]
+    return problem.located.place(ctx.path + ("coefficients",) + ((index,) if index is not None else ()))
+
+
+def _given_coefficients(problem, options: LinearParametrizationAsk, ctx) -> list[sp.Expr] | None:  # type: ignore[no-untyped-def]
+    """The ask's coefficients: (a list of expressions), or None."""
+    if options.coefficients is None:
+        return None
+    val = ctx.expr("coefficients")
+    if not isinstance(val, list):
+        val = [val]
+    if len(shape_of(val)) != 1:
+        raise UserError("coefficients must be a list of expressions [a1, a2, ...]", _coefficient_place(problem, ctx, None),
+                        "write e.g. [I1 + m1*d1^2, m2, m1*d1 + m2*l1]")
+    return [sp.sympify(v) for v in val]
+
+
+def validate_linear_parametrization(problem, options: LinearParametrizationAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_linear_parametrization` reads them, without the model:
+    a robot with dynamics, and given coefficients that are constant, polynomial in the dynamic parameters,
+    non-zero and linearly independent (whether they express the model needs the model: left to solving)."""
+    robot = require_model(problem)
+    coeffs = _given_coefficients(problem, options, ctx)
+    if coeffs is None:
+        return
+    known = list(problem.known)
+    dyn = [s for s in problem.symbols.values() if s not in set(known)]
+    try:
+        check_given(robot, dyn, coeffs, known)
+    except ParamError as exc:
+        raise UserError(exc.message, _coefficient_place(problem, ctx, exc.index), exc.hint) from None
+
+
 @ask_kind("linear_parametrization", LinearParametrizationAsk,
-          "linear parametrization Y(q, dq, ddq) a of the dynamic model in a minimal set of dynamic coefficients")
+          "linear parametrization Y(q, dq, ddq) a of the dynamic model in a minimal set of dynamic coefficients",
+          validate=validate_linear_parametrization)
 def solve_linear_parametrization(problem, options: LinearParametrizationAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (with the ask's suffix): Y, a, p, Ya_check, p_min, minimal."""
     robot = require_model(problem)
@@ -604,21 +686,12 @@ def solve_linear_parametrization(problem, options: LinearParametrizationAsk, ctx
     sym = _symbol_name(problem, options)
 
     def place(index: int | None) -> Any:
-        path = ctx.path + ("coefficients",) + ((index,) if index is not None else ())
-        return problem.located.place(path)
+        return _coefficient_place(problem, ctx, index)
 
     if all(x == 0 for x in vec):
         raise UserError(f"the {options.part} term is identically zero: nothing to parametrize",
                         problem.located.place(ctx.path))
-    coeffs = None
-    if options.coefficients is not None:
-        val = ctx.expr("coefficients")
-        if not isinstance(val, list):
-            val = [val]
-        if len(shape_of(val)) != 1:
-            raise UserError("coefficients must be a list of expressions [a1, a2, ...]", place(None),
-                            "write e.g. [I1 + m1*d1^2, m2, m1*d1 + m2*l1]")
-        coeffs = [sp.sympify(v) for v in val]
+    coeffs = _given_coefficients(problem, options, ctx)
     try:
         if coeffs is None:
             par = compute_auto(vec, robot, dyn)

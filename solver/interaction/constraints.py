@@ -978,8 +978,41 @@ class SymModel:
     frozen: dict[sp.Symbol, sp.Expr]
 
 
+def _register_inputs(problem, robot) -> list[sp.Symbol]:  # type: ignore[no-untyped-def]
+    """The robot's inputs, their names registered: they appear in λ and in u_dv (answers, expected values and the
+    ask's own dv_d, lambda_d may use them)."""
+    u = list(robot.inputs)
+    for s in u:
+        problem.names.setdefault(s.name, s)
+    return u
+
+
+def _desired(problem, spec: _Spec, D: sp.Matrix) -> tuple[sp.Matrix, sp.Matrix]:  # type: ignore[no-untyped-def]
+    """v̇_d and λ_d of u_dv: the ask's dv_d, lambda_d (default symbols dvd.., and 0)."""
+    r, k = spec.n - spec.k, spec.k
+    default = [_fresh_symbol(problem, "dvd", "\\dot v_d")] if r == 1 else \
+        [_fresh_symbol(problem, f"dvd{i + 1}", f"\\dot v_{{d,{i + 1}}}") for i in range(r)]
+    return _vector_option(spec, "dv_d", r, default), _vector_option(spec, "lambda_d", k, [0] * k)
+
+
+def validate_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_constrained_dynamics` reads them, without the model:
+    the constraints, D, the pseudo-velocity names, dv_d and lambda_d (whenever the reduced model may be given
+    symbolically: n ≤ MAX_SYMBOLIC_N) and the ``at:`` state on the constraints (not ``simulate:``, whose numbers
+    depend on the model)."""
+    spec = _Spec(problem, options, ctx)
+    _register_inputs(problem, spec.robot)
+    if options.reduced and spec.n <= MAX_SYMBOLIC_N and _ops(spec.A, spec.D) <= MAX_SYMBOLIC_OPS:
+        D = spec.D if spec.D is not None else choose_complement(spec.A, spec.q)[0]
+        _pseudo(problem, spec, D)
+        _desired(problem, spec, D)
+    if spec.state is not None:
+        _on_constraints(problem, spec)
+
+
 @ask_kind("constrained_dynamics", ConstrainedDynamicsAsk,
-          "dynamics under holonomic or Pfaffian constraints: A(q), λ(q, q̇, u), projected and reduced models")
+          "dynamics under holonomic or Pfaffian constraints: A(q), λ(q, q̇, u), projected and reduced models",
+          validate=validate_constrained_dynamics)
 def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (each with the ask's suffix): n_constraints, h, A, rank_A, A_singular, Adot, W, lambda, A_pinv_B,
     P, constrained_model; reduced: D, AD, det_AD, E, F, v, dv, Fdot, qddot, BF, reduced_inertia, FtBFdot, Ftn,
@@ -990,9 +1023,7 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
     robot, q, dq, ddq, n, k = spec.robot, spec.q, spec.dq, spec.ddq, spec.n, spec.k
     dm = derive(robot)
     G = dm.G if dm.G is not None else sp.eye(n)
-    u = list(robot.inputs)
-    for s in u:  # the inputs appear in λ and in u_dv: answers and expected values may use their names
-        problem.names.setdefault(s.name, s)
+    u = _register_inputs(problem, robot)
     nvec = dm.c + dm.g + (dm.Fv * sp.Matrix(dq) if dm.Fv is not None else sp.zeros(n, 1))
     nvec = nvec.applyfunc(tidy)
     sfx = options.suffix
@@ -1099,11 +1130,7 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
              q=sp.Matrix(q))
     sol.step("reduced_model", r=red, k=k, n=n, G=dm.G, frozen=spec.frozen)
     # inputs: v̇ = v̇_d with λ = λ_d, and the static equilibria
-    r = n - k
-    default = [_fresh_symbol(problem, "dvd", "\\dot v_d")] if r == 1 else \
-        [_fresh_symbol(problem, f"dvd{i + 1}", f"\\dot v_{{d,{i + 1}}}") for i in range(r)]
-    dv_d = _vector_option(spec, "dv_d", r, default)
-    lam_d = _vector_option(spec, "lambda_d", k, [0] * k)
+    dv_d, lam_d = _desired(problem, spec, D)
     fz = sm.frozen
     det = redx.det.xreplace(fz) if fz else redx.det
     Bz, NF = (sm.B.xreplace(fz), redx.NF.xreplace(fz)) if fz else (sm.B, redx.NF)
@@ -1187,8 +1214,9 @@ def _evaluate(M: sp.Matrix, subs: dict) -> sp.Matrix:
                                         else (rtidy(x) if x.free_symbols else x)))
 
 
-def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, red) -> None:  # type: ignore[no-untyped-def]
-    """λ, A, F, the equilibrium inputs and u_dv at the ``at:`` state (parameter values substituted)."""
+def _on_constraints(problem, spec: _Spec) -> tuple[dict, sp.Matrix]:  # type: ignore[no-untyped-def]
+    """The substitution of the ``at:`` state (parameter values too) and q̇ there; a spec error when the state is
+    off the constraints (h ≠ 0 or A q̇ ≠ 0 where they are numbers)."""
     state = spec.state or {}
     subs = {**problem.values, **{x: val.xreplace(problem.values) for x, val in state.items()}}
     q, dq = spec.q, spec.dq
@@ -1206,6 +1234,14 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
     if bad:
         raise spec.fail(("at",), f"the velocity violates the constraints: (A q̇)_{bad[0] + 1} = "
                                  f"{_show(Adq[bad[0]])} there", "give velocities with A(q) dq = 0 (or omit them)")
+    return subs, dq_at
+
+
+def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, red) -> None:  # type: ignore[no-untyped-def]
+    """λ, A, F, the equilibrium inputs and u_dv at the ``at:`` state (parameter values substituted)."""
+    subs, dq_at = _on_constraints(problem, spec)
+    state = spec.state or {}
+    q, dq = spec.q, spec.dq
     A_at = _evaluate(spec.A, subs)
     add("A_at", A_at, "matrix", label="A\\big|_{*}")
     add("q_at", _evaluate(sp.Matrix(q), subs), "vector", label="q_{*}")
