@@ -4,6 +4,7 @@ factorization satisfies S q̇ = c (skew / not skew as claimed), the inverse dyna
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import error_found_without_solving
 from scipy.integrate import solve_ivp
 
 from solver.dynamics.model import derive
@@ -550,3 +551,11 @@ def test_fault_substitutes_every_value():
     want = _fd3_numeric(np.array([0.3, -0.4, 1.1]), np.array([0.5, -1, 2.0]), np.array([2, 0, 1.0]),
                         np.array([0, float(tau), 0]))
     assert abs(want[1] - 4) < 1e-6 and np.allclose(ddq, want, rtol=1e-6, atol=1e-8)
+
+
+def test_check_finds_bad_ranges_without_solving():
+    """The ranges every `find` shares are read by the kind's validate hook (`check`): solving's error."""
+    assert "'q7' in ranges: is not a coordinate" in error_found_without_solving(
+        RP.replace("    ranges: {q2: [0.2, 1.5]}\n", "    ranges: {q7: [0.2, 1.5]}\n"))
+    assert "empty range for q2" in error_found_without_solving(
+        RP.replace("    ranges: {q2: [0.2, 1.5]}\n", "    ranges: {q2: [1.5, 0.2]}\n"))

@@ -3,10 +3,14 @@ import random
 
 import pytest
 import sympy as sp
+from conftest import R2_ROBOT, error_found_without_solving
 
+import solver.dynamics.model as model
 from solver.dynamics.model import derive
 from solver.math.rigid import dh_chain
 from solver.math.simplify import is_zero, tidy
+from solver.solve import validate_problem
+from solver.spec import load_problem_text
 from solver.spec.robot import Body, Robot
 
 
@@ -128,3 +132,19 @@ def test_one_derivation_per_robot_each_caller_its_copy(monkeypatch):
     assert c.B[0, 0] == b00 == a.B[0, 0] and not c.notes and len(calls) == 1
     derive(planar_nR(2))                        # another robot object (equal data): derived again
     assert len(calls) == 2
+
+
+@pytest.mark.parametrize("ask, words", [
+    ("  - {kind: dynamic_model, at: {q1: 0, ddq3: 1}}\n", "'ddq3' in at: is not a coordinate"),
+    ("  - {kind: dynamic_model, at: {q1: q3}}\n", "unknown name 'q3'"),
+    ("  - {kind: dynamic_model, ranges: {q2: [1, 0]}}\n", "empty plot range for q2"),
+    ("  - {kind: dynamic_model, plots: true, ranges: {x: [0, 1]}}\n", "'x' in ranges: is not a coordinate"),
+])
+def test_check_finds_bad_options_without_deriving(monkeypatch, ask, words):
+    """`at:` and `ranges:` are read by the kind's validate hook (`check`) as by solving: the same error, and the
+    model is not derived for it."""
+    text = "id: x\ntitle: x\nsymbols: {m1: m1, m2: m2, d1: d1, d2: d2, l1: l1, I1: I1, I2: I2, g0: g0}\n" + \
+        R2_ROBOT + "asks:\n" + ask
+    assert words in error_found_without_solving(text)
+    monkeypatch.setattr(model, "derive", lambda robot: pytest.fail("derived"))
+    assert len(validate_problem(load_problem_text(text))) == 1

@@ -7,6 +7,7 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import error_found_without_solving
 from scipy.optimize import minimize
 
 from solver.publish.render import render
@@ -201,3 +202,15 @@ def test_symbolic_generic_state_matches_numeric():
         + f"    at: {{q1: {vals['q1']}, q2: {vals['q2']}}}\n    joint_velocity: [{vals['dq1']}, {vals['dq2']}]\n"
     num = all_results(solve_problem(load_problem_text(num_text)))
     assert np.allclose(arr(tau.subs(pt)).ravel(), arr(num["tau_tau"].value).ravel(), atol=1e-9)
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ("    weight: [1, 4, 9]\n", "", "needs weight"),
+    ("    weight: [1, 4, 9]\n", "    weight: [1, 4]\n", "weight must be 3x3 or 3 diagonal entries"),
+    ("    acceleration: [1, -2]\n", "    acceleration: [1, -2, 3]\n", "acceleration must have 2 components"),
+    ("    at: {q1: 0.3, q2: 0.8, q3: -0.5}\n", "    at: {q1: 0.3, q2: 0.8}\n", "at: must give every coordinate"),
+])
+def test_check_finds_bad_options_without_solving(old, new, words):
+    """The task, state, acceleration and weight are read by the kind's validate hook (`check`) as by solving,
+    without the model."""
+    assert words in error_found_without_solving(ROBOT.replace(old, new))

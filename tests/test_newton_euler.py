@@ -3,7 +3,7 @@ robot given by DH and on spatial robots no exercise uses (both DH conventions, p
 transform); NE as a routine gives g, c, the columns of B and T; the report renders."""
 import pytest
 import sympy as sp
-from conftest import PROBLEMS
+from conftest import PROBLEMS, error_found_without_solving
 
 from solver.dynamics.model import derive
 from solver.dynamics.newton_euler import newton_euler
@@ -137,3 +137,18 @@ def test_wrong_frames_detected():
     robot.bodies[2].mass = robot.bodies[2].mass * 2
     res = newton_euler(robot, robot.dq, robot.ddq)
     assert not all(is_zero(sp.expand(x)) for x in res.u - dm.lhs)
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ("    routines: [gravity, coriolis, static, inertia, kinetic_energy]\n",
+     "    calls: [{name: y, dq: [dq1, dq2], ddq: 0}]\n", "dq must be a list of 3 expressions or 0"),
+    ("    routines: [gravity, coriolis, static, inertia, kinetic_energy]\n",
+     "    calls: [{name: y, dq: 0, ddq: [1, 0, q4]}]\n", "unknown name 'q4'"),
+    ("    routines: [gravity, coriolis, static, inertia, kinetic_energy]\n", "    at: {q1: 0, dq7: 1}\n",
+     "'dq7' in at: is not a coordinate"),
+])
+def test_check_finds_bad_calls_and_states_without_solving(old, new, words):
+    """The calls' arguments and the state are read by the kind's validate hook (`check`): solving's error,
+    without the recursions."""
+    text = SPATIAL.replace("{conv}", "standard").replace(old, new)
+    assert words in error_found_without_solving(text)

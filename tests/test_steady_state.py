@@ -10,7 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS
+from conftest import PROBLEMS, error_found_without_solving
 from scipy.integrate import solve_ivp
 
 from solver.dynamics.model import derive
@@ -643,3 +643,14 @@ def test_equilibria_condition_with_other_rows():
     (cond,) = res["equilibrium_conditions"].value
     assert same(cond, S("m2") * S("g0") - S("F")) or same(cond, S("F") - S("m2") * S("g0"))
     assert "free of $q$ require $- F + g_{0} m_{2} = 0$" in render(p, sols, "md")
+
+
+@pytest.mark.parametrize("ask,msg", [
+    ("    input: {w: 1}\n", "input: w is not an input"),
+    ("    input: {u1: 1}\n    solve_for: [u1]\n", "also given in input"),
+    ("    steady: velocity\n    velocity: {x: 1}\n", "velocity: x is not a coordinate"),
+    ("    deformations: [q1 - q5]\n", "unknown name 'q5'"),
+])
+def test_check_finds_spec_errors_without_solving(ask, msg):
+    """The inputs, velocity and deformations are read by the kind's validate hook (`check`) as by solving."""
+    assert msg in error_found_without_solving(SYM_PENDULUM + "  - kind: equilibria\n" + ask)

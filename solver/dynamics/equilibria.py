@@ -510,8 +510,22 @@ def _read_velocity(problem, options: EquilibriaAsk, ctx, robot) -> dict:  # type
     return out
 
 
+def _deformations(options: EquilibriaAsk, ctx) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
+    return [sp.sympify(x) for x in ctx.expr("deformations")] if options.deformations else []
+
+
+def validate_equilibria(problem, options: EquilibriaAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_equilibria` reads them (inputs, velocity,
+    deformations), without deriving the model."""
+    robot = require_model(problem)
+    _read_inputs(problem, options, ctx, robot)
+    _read_velocity(problem, options, ctx, robot)
+    _deformations(options, ctx)
+
+
 @ask_kind("equilibria", EquilibriaAsk,
-          "equilibria g(q) = G ū (u = 0 by default) and steady motions with constant velocity under a constant input")
+          "equilibria g(q) = G ū (u = 0 by default) and steady motions with constant velocity under a constant input",
+          validate=validate_equilibria)
 def solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (with the suffix): at rest equilibria (set of configurations), n_equilibria (and equilibrium_input
     with solve_for); with steady: velocity steady_state (set of q̄), steady_velocity (set of v̄), n_steady (and
@@ -525,7 +539,7 @@ def solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type:
     rhs = (G * sp.Matrix([ubar[w] for w in robot.inputs])).applyfunc(tidy)
     given_u = [(w, ubar[w]) for w in robot.inputs if w not in unknown]   # shown unless every input is 0
     given_u = given_u if unknown or any(v != 0 for _, v in given_u) else []
-    defs = [sp.sympify(x) for x in ctx.expr("deformations")] if options.deformations else []
+    defs = _deformations(options, ctx)
     sfx = options.suffix
     if options.steady == "rest" and not unknown:
         configs, conditions, every, requires = conditional_equilibria((dm.g - rhs).applyfunc(tidy), q)

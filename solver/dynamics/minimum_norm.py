@@ -14,6 +14,7 @@ torque n that only holds the motion, or every s ≤ 1 violates them).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Literal, Union
 
 import numpy as np
@@ -104,19 +105,24 @@ def _costs(la: rs.LA, qdd: Any, tau: Any, B: Any, W: Any | None) -> dict[str, An
     return {k: (sp.nsimplify(v) if la.exact else sp.Float(float(v), 15)) for k, v in out.items()}
 
 
-@ask_kind("minimum_norm", MinimumNormAsk,
-          "torques and accelerations realizing a task acceleration with minimum ½‖τ‖², ½‖τ‖²_W, ½‖q̈‖², ½q̈ᵀBq̈")
-def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """Results (suffixed): J_at, Jdot_qdot, B_at, n_at, x, and for each objective o (acc, kin, tau, tauW):
-    qddot_o, tau_o, H_<o'>_o (every cost at every solution), err_o, within_o, scale_o."""
-    from solver.dynamics.model import derive, has_model
+@dataclass
+class _Inputs:
+    """The task and the state of the ask: J(q) (and f(q) when given), q, q̇ and, with ``at:``, the state, q̇ there
+    and r̈_d."""
+
+    J: sp.Matrix
+    f: sp.Matrix | None
+    q: list
+    dq: list
+    state: dict | None = None
+    qd: sp.Matrix | None = None
+    rdd: sp.Matrix | None = None
+
+
+def _read(problem, options: MinimumNormAsk, ctx) -> _Inputs:  # type: ignore[no-untyped-def]
+    """The task, and with ``at:`` the state, the joint velocity and the task acceleration, checked."""
+    from solver.dynamics.model import has_model
     robot = problem.robot
-    sfx = options.suffix
-    sol = Solution("minimum_norm", title=options.title or "Minimum-norm torques and accelerations for a task")
-
-    def add(name: str, value: Any, kind: str | None = None, label: str = "") -> None:
-        sol.add(name + sfx, value, kind, label=label)
-
     if robot is None or not has_model(robot):
         raise _fail(problem, ctx, (), "minimum_norm needs a robot with a dynamic model (bodies or model:)")
     if (options.task is None) == (options.jacobian is None):
@@ -136,7 +142,7 @@ def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # ty
         raise _fail(problem, ctx, ("jacobian",), f"the task Jacobian must have {nq} columns")
     m = Jq.shape[0]
     if options.at is None:
-        return _symbolic(problem, options, ctx, sol, add, Jq, f, q, dq)
+        return _Inputs(Jq, f, q, dq)
     state = {}
     by_name = {s.name: s for s in q}
     for name in options.at:
@@ -147,6 +153,64 @@ def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # ty
         raise _fail(problem, ctx, ("at",), "at: must give every coordinate")
     qd = _vec(problem, ctx, "joint_velocity", nq) if options.joint_velocity is not None else sp.zeros(nq, 1)
     rdd = _vec(problem, ctx, "acceleration", m)
+    return _Inputs(Jq, f, q, dq, state, qd, rdd)
+
+
+def _weight(problem, options: MinimumNormAsk, ctx, nq: int) -> sp.Matrix:  # type: ignore[no-untyped-def]
+    """The given weight W (a scalar, nq diagonal entries or an nq×nq matrix)."""
+    w = ctx.expr("weight")
+    shp = shape_of(w)
+    W = (sp.diag(*w) if shp == (nq,) else sp.Matrix(w) if shp == (nq, nq) else
+         w * sp.eye(nq) if shp == () else None)
+    if W is None:
+        raise _fail(problem, ctx, ("weight",), f"weight must be {nq}x{nq} or {nq} diagonal entries")
+    return W
+
+
+def validate_minimum_norm(problem, options: MinimumNormAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_minimum_norm` reads them, without the model (the size
+    of a symbolic task; the state, velocity, acceleration, weight and bounds at a state)."""
+    r = _read(problem, options, ctx)
+    m, nq = r.J.shape
+    if r.state is None:
+        if m > 2 or nq > 3:
+            raise _too_big(problem, ctx, m, nq)
+        if options.joint_velocity is not None:
+            _vec(problem, ctx, "joint_velocity", nq)
+        _vec(problem, ctx, "acceleration", m)
+        return
+    if "weighted_torque" in options.objectives:
+        if options.weight is None:
+            raise _fail(problem, ctx, ("objectives",), "weighted_torque needs weight:")
+        if not (isinstance(options.weight, str) and options.weight.strip() == "inverse_inertia_squared"):
+            _weight(problem, options, ctx, nq)
+    if options.bounds is not None:
+        _vec(problem, ctx, "bounds", nq)
+
+
+def _too_big(problem, ctx, m: int, nq: int) -> UserError:  # type: ignore[no-untyped-def]
+    return _fail(problem, ctx, ("at",), f"a symbolic minimum-norm solution is given for tasks of up to 2 rows and "
+                 f"3 joints (here {m}x{nq})", "add at: for the solution at a state")
+
+
+@ask_kind("minimum_norm", MinimumNormAsk,
+          "torques and accelerations realizing a task acceleration with minimum ½‖τ‖², ½‖τ‖²_W, ½‖q̈‖², ½q̈ᵀBq̈",
+          validate=validate_minimum_norm)
+def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results (suffixed): J_at, Jdot_qdot, B_at, n_at, x, and for each objective o (acc, kin, tau, tauW):
+    qddot_o, tau_o, H_<o'>_o (every cost at every solution), err_o, within_o, scale_o."""
+    from solver.dynamics.model import derive
+    robot = problem.robot
+    sfx = options.suffix
+    sol = Solution("minimum_norm", title=options.title or "Minimum-norm torques and accelerations for a task")
+
+    def add(name: str, value: Any, kind: str | None = None, label: str = "") -> None:
+        sol.add(name + sfx, value, kind, label=label)
+
+    r = _read(problem, options, ctx)
+    if r.state is None:
+        return _symbolic(problem, options, ctx, sol, add, r.J, r.f, r.q, r.dq)
+    q, dq, nq, m, Jq, f, state, qd, rdd = r.q, r.dq, len(r.q), r.J.shape[0], r.J, r.f, r.state, r.qd, r.rdd
     dm = derive(robot)
     ddq = list(robot.ddq)
     nvec = dm.lhs.subs({d: 0 for d in ddq})  # n(q, q̇) = c + g (+ friction)
@@ -162,13 +226,7 @@ def solve_minimum_norm(problem, options: MinimumNormAsk, ctx) -> Solution:  # ty
             Bi = vals["B"].inv()
             W = Bi * Bi
         else:
-            w = ctx.expr("weight")
-            shp = shape_of(w)
-            W = (sp.diag(*w) if shp == (nq,) else sp.Matrix(w) if shp == (nq, nq) else
-                 w * sp.eye(nq) if shp == () else None)
-            if W is None:
-                raise _fail(problem, ctx, ("weight",), f"weight must be {nq}x{nq} or {nq} diagonal entries")
-            W = W.subs(subs)
+            W = _weight(problem, options, ctx, nq).subs(subs)
         vals["W"] = W
     free = set().union(*[M.free_symbols for M in vals.values()])
     if free:
@@ -252,8 +310,7 @@ def _symbolic(problem, options: MinimumNormAsk, ctx, sol: Solution, add, Jq: sp.
     from solver.math.budget import BudgetExceeded, cpu_budget
     m, nq = Jq.shape
     if m > 2 or nq > 3:
-        raise _fail(problem, ctx, ("at",), f"a symbolic minimum-norm solution is given for tasks of up to 2 rows and "
-                    f"3 joints (here {m}x{nq})", "add at: for the solution at a state")
+        raise _too_big(problem, ctx, m, nq)
     qd = _vec(problem, ctx, "joint_velocity", nq) if options.joint_velocity is not None else sp.Matrix(dq)
     rdd = _vec(problem, ctx, "acceleration", m)
     dm = derive(problem.robot)

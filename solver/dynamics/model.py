@@ -300,7 +300,42 @@ class DynamicModelAsk(Strict):
         {}, description="plot range per coordinate, e.g. {q2: [0, 0.5]}; default [-pi, pi] (R), [-1, 1] (P)")
 
 
-@ask_kind("dynamic_model", DynamicModelAsk, "Euler-Lagrange dynamic model: T, U, B, Christoffel, c, S, g")
+def _state(problem, options: DynamicModelAsk, ctx, robot: Robot) -> dict:  # type: ignore[no-untyped-def]
+    """The ``at:`` state by coordinate, velocity or acceleration symbol."""
+    state = {}
+    for name in options.at or {}:
+        if name not in problem.names or not any(name == s.name for s in robot.q + robot.dq + robot.ddq):
+            raise UserError(f"'{name}' in at: is not a coordinate, velocity or acceleration",
+                            problem.located.place(ctx.path + ("at", name)), "use q1, dq1, ddq1, ...")
+        state[problem.names[name]] = ctx.expr("at", name)
+    return state
+
+
+def _plot_ranges(problem, options: DynamicModelAsk, ctx, robot: Robot) -> dict:  # type: ignore[no-untyped-def]
+    """The plot range of each coordinate named in ``ranges:``."""
+    by_name = {s.name: s for s in robot.q}
+    ranges = {}
+    for name, (lo, hi) in options.ranges.items():
+        if name not in by_name:
+            raise UserError(f"'{name}' in ranges: is not a coordinate", problem.located.place(ctx.path + ("ranges",)),
+                            "use " + ", ".join(by_name))
+        if not lo < hi:
+            raise UserError(f"empty plot range for {name}: [{lo}, {hi}]",
+                            problem.located.place(ctx.path + ("ranges", name)), "write [low, high] with low < high")
+        ranges[by_name[name]] = (float(lo), float(hi))
+    return ranges
+
+
+def validate_dynamic_model(problem, options: DynamicModelAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_dynamic_model` reads them, without deriving the model."""
+    robot = require_model(problem)
+    _state(problem, options, ctx, robot)
+    if options.plots:
+        _plot_ranges(problem, options, ctx, robot)
+
+
+@ask_kind("dynamic_model", DynamicModelAsk, "Euler-Lagrange dynamic model: T, U, B, Christoffel, c, S, g",
+          validate=validate_dynamic_model)
 def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: T, U, B, christoffel, c, S, g, model (+ T<i>, U<i>, pc<i>, vc<i> in the base frame, w<i> in the frame
     of the body's inertia and, for a body with a rotation (DH, rotation:), w<i>_0 in the base frame; skew)."""
@@ -334,12 +369,7 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
         abbr = abbreviate({"B": dm.B, "C": dm.C, "g": dm.g}, set(robot.q + robot.dq + robot.ddq))
     sol.step("model", dm=dm, show=options.show, robot=robot, view=ModelView(dm, robot), abbr=abbr)
     if options.at:
-        state = {}
-        for name in options.at:
-            if name not in problem.names or not any(name == s.name for s in robot.q + robot.dq + robot.ddq):
-                raise UserError(f"'{name}' in at: is not a coordinate, velocity or acceleration",
-                                problem.located.place(ctx.path + ("at", name)), "use q1, dq1, ddq1, ...")
-            state[problem.names[name]] = ctx.expr("at", name)
+        state = _state(problem, options, ctx, robot)
         subs = {**problem.values, **{x: val.subs(problem.values) for x, val in state.items()}}  # values in at: too
         num = {k: (v.subs(subs) if hasattr(v, "subs") else v) for k, v in
                {"B": dm.B, "c": dm.c, "g": dm.g, "model": dm.lhs}.items()}
@@ -355,15 +385,7 @@ def add_figures(sol: Solution, dm: DynamicModel, problem, options: DynamicModelA
     """g_i(q) and the configuration-dependent entries b_ij(q), each along the coordinates they depend on."""
     robot: Robot = problem.robot
     by_name = {s.name: s for s in robot.q}
-    ranges = {}
-    for name, (lo, hi) in options.ranges.items():
-        if name not in by_name:
-            raise UserError(f"'{name}' in ranges: is not a coordinate", problem.located.place(ctx.path + ("ranges",)),
-                            "use " + ", ".join(by_name))
-        if not lo < hi:
-            raise UserError(f"empty plot range for {name}: [{lo}, {hi}]",
-                            problem.located.place(ctx.path + ("ranges", name)), "write [low, high] with low < high")
-        ranges[by_name[name]] = (float(lo), float(hi))
+    ranges = _plot_ranges(problem, options, ctx, robot)
     reference = {}
     for name in options.at or {}:
         v = problem.names.get(name)

@@ -374,14 +374,59 @@ def _vector_arg(value: Any, n: int, place, what: str) -> list[sp.Expr]:  # type:
     raise UserError(f"{what} must be a list of {n} expressions or 0", place, "e.g. [dq1, dq2]")
 
 
-@ask_kind("newton_euler", NewtonEulerAsk, "recursive Newton–Euler: forward/backward recursions, NE as a routine")
-def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """Results: ne_u (+ per link ne_w<i>, ne_dw<i>, ne_a<i>, ne_ac<i>, ne_f<i>, ne_tau<i>), ne_g, ne_c, ne_static,
-    ne_B, ne_T, the calls' names, ne_equals_lagrange, ne_u_at."""
+def _dh_robot(problem) -> Robot:  # type: ignore[no-untyped-def]
     robot = require_model(problem)
     if not robot.frames or not robot.bodies:
         raise UserError("newton_euler needs the link frames: give the robot by dh:",
                         problem.located.place(("robot",)), "write the robot as a DH table with dh: {table, links}")
+    return robot
+
+
+def _call_args(problem, ctx, c, k: int, n: int) -> tuple:  # type: ignore[no-untyped-def]
+    """The arguments of call k of the routine: q (None: the robot's), q̇, q̈ and the vector of dot_with (or None)."""
+    if not c.name.replace("_", "").isalnum() or not c.name[0].isalpha():
+        raise UserError(f"call name '{c.name}' is not a plain name", problem.located.place(ctx.path + ("calls", k, "name")),
+                        "use letters, digits and _")
+
+    def place(f: str):  # type: ignore[no-untyped-def]
+        return problem.located.place(ctx.path + ("calls", k, f))
+
+    qa = _vector_arg(ctx.expr("calls", k, "q"), n, place("q"), "q") if c.q is not None else None
+    dqa = _vector_arg(ctx.expr("calls", k, "dq"), n, place("dq"), "dq")
+    ddqa = _vector_arg(ctx.expr("calls", k, "ddq"), n, place("ddq"), "ddq")
+    v = _vector_arg(ctx.expr("calls", k, "dot_with"), n, place("dot_with"), "dot_with") if c.dot_with is not None \
+        else None
+    return qa, dqa, ddqa, v
+
+
+def _state(problem, options: NewtonEulerAsk, ctx, robot: Robot) -> dict:  # type: ignore[no-untyped-def]
+    """The ``at:`` state by coordinate, velocity or acceleration symbol."""
+    state = {}
+    for name in options.at or {}:
+        sym = problem.names.get(name)
+        if sym is None or sym not in robot.q + robot.dq + robot.ddq:
+            raise UserError(f"'{name}' in at: is not a coordinate, velocity or acceleration",
+                            problem.located.place(ctx.path + ("at", name)), "use q1, dq1, ddq1, ...")
+        state[sym] = ctx.expr("at", name)
+    return state
+
+
+def validate_newton_euler(problem, options: NewtonEulerAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_newton_euler` reads them (the DH robot, the calls, the
+    state of the model's value), without the recursions."""
+    robot = _dh_robot(problem)
+    for k, c in enumerate(options.calls):
+        _call_args(problem, ctx, c, k, robot.n)
+    if options.model:
+        _state(problem, options, ctx, robot)
+
+
+@ask_kind("newton_euler", NewtonEulerAsk, "recursive Newton–Euler: forward/backward recursions, NE as a routine",
+          validate=validate_newton_euler)
+def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results: ne_u (+ per link ne_w<i>, ne_dw<i>, ne_a<i>, ne_ac<i>, ne_f<i>, ne_tau<i>), ne_g, ne_c, ne_static,
+    ne_B, ne_T, the calls' names, ne_equals_lagrange, ne_u_at."""
+    robot = _dh_robot(problem)
     n = robot.n
     sol = Solution("newton_euler", title=options.title or "Newton–Euler algorithm")
     joints = joints_of(robot)
@@ -426,20 +471,11 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
         routine_out.append((r, label, val))
     calls_out = []
     for k, c in enumerate(options.calls):
-        if not c.name.replace("_", "").isalnum() or not c.name[0].isalpha():
-            raise UserError(f"call name '{c.name}' is not a plain name", problem.located.place(ctx.path + ("calls", k, "name")),
-                            "use letters, digits and _")
-        def place(f: str, k: int = k):  # type: ignore[no-untyped-def]
-            return problem.located.place(ctx.path + ("calls", k, f))
-
-        qa = _vector_arg(ctx.expr("calls", k, "q"), n, place("q"), "q") if c.q is not None else None
-        dqa = _vector_arg(ctx.expr("calls", k, "dq"), n, place("dq"), "dq")
-        ddqa = _vector_arg(ctx.expr("calls", k, "ddq"), n, place("ddq"), "ddq")
+        qa, dqa, ddqa, v = _call_args(problem, ctx, c, k, n)
         y = newton_euler(robot, dqa, ddqa, c.gravity, q=qa, links=False).u
         sol.add(c.name, y, "vector", label=c.name)
         dot = None
-        if c.dot_with is not None:
-            v = _vector_arg(ctx.expr("calls", k, "dot_with"), n, place("dot_with"), "dot_with")
+        if v is not None:
             dot = tidy((sp.Matrix(v).T * y)[0])
             sol.add(f"{c.name}_dot", dot, "scalar", label=f"v^T {c.name}")
         calls_out.append((c, qa, dqa, ddqa, y, dot))
@@ -469,13 +505,7 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
         sol.add("ne_equals_lagrange", bool(ok), "bool", label="\\text{NE} = \\text{Lagrange}")
         sol.step("check", ok=ok, dm=dm)
     if options.at and ne_u is not None:
-        state = {}
-        for name in options.at:
-            sym = problem.names.get(name)
-            if sym is None or sym not in robot.q + robot.dq + robot.ddq:
-                raise UserError(f"'{name}' in at: is not a coordinate, velocity or acceleration",
-                                problem.located.place(ctx.path + ("at", name)), "use q1, dq1, ddq1, ...")
-            state[sym] = ctx.expr("at", name)
+        state = _state(problem, options, ctx, robot)
         subs = {**problem.values, **{x: v.subs(problem.values) for x, v in state.items()}}
         val = ne_u.subs(subs).applyfunc(lambda e: sp.nsimplify(e) if e.is_number and not e.atoms(sp.Float) else e)
         sol.add("ne_u_at", val, "vector", label="u\\big|_{*}")

@@ -351,16 +351,9 @@ def _square(problem, ctx, n: int, name: str, *sub) -> sp.Matrix:  # type: ignore
     return M
 
 
-@ask_kind("dynamic_properties", DynamicPropertiesAsk,
-          "model properties: eigenvalue bounds of B, α, factorizations of c, momentum, inverse dynamics, "
-          "other coordinates, conditions for a real robot, energy rates")
-def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """Results by `find`: see docs/spec.md (lambda_min/max, alpha, S_skew/S_alt/..., p, u_d, B_new, conditions...)."""
-    robot: Robot = require_model(problem)
-    dm = derive(robot)
-    n, q, dq = robot.n, robot.q, robot.dq
-    revolute = {x for x, j in zip(q, robot.joints) if j == "R"}
-    by_name = {x.name: x for x in q}
+def _ranges(problem, options: DynamicPropertiesAsk, ctx, robot: Robot) -> dict:  # type: ignore[no-untyped-def]
+    """The range of each coordinate named in ``ranges:``."""
+    by_name = {x.name: x for x in robot.q}
     ranges = {}
     for name, (lo, hi) in options.ranges.items():
         if name not in by_name:
@@ -369,6 +362,25 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
         if not lo < hi:
             raise UserError(f"empty range for {name}", _place(problem, ctx, "ranges", name), "write [low, high]")
         ranges[by_name[name]] = (float(lo), float(hi))
+    return ranges
+
+
+def validate_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The options every `find` shares, read and checked as :func:`solve_dynamic_properties` reads them (a robot
+    with dynamics, the ranges), without deriving the model; each `find`'s own options are read when solving."""
+    _ranges(problem, options, ctx, require_model(problem))
+
+
+@ask_kind("dynamic_properties", DynamicPropertiesAsk,
+          "model properties: eigenvalue bounds of B, α, factorizations of c, momentum, inverse dynamics, "
+          "other coordinates, conditions for a real robot, energy rates", validate=validate_dynamic_properties)
+def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results by `find`: see docs/spec.md (lambda_min/max, alpha, S_skew/S_alt/..., p, u_d, B_new, conditions...)."""
+    robot: Robot = require_model(problem)
+    dm = derive(robot)
+    n, q, dq = robot.n, robot.q, robot.dq
+    revolute = {x for x, j in zip(q, robot.joints) if j == "R"}
+    ranges = _ranges(problem, options, ctx, robot)
     sol = Solution("dynamic_properties", title=options.title or "Properties of the dynamic model")
     sol.step("model", B=dm.B, c=dm.c, g=dm.g, q=q)
     for what in options.find:
