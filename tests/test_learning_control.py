@@ -2,6 +2,7 @@
 divergence when not, the iteration bound, and the report."""
 import numpy as np
 import pytest
+from conftest import error_found_without_solving
 
 from solver.control.learning_control import free_response, lifted, run_ilc
 from solver.publish.render import render
@@ -78,3 +79,15 @@ def test_ask_bound_holds_and_report():
 def test_ask_divergent_gain():
     res = all_results(solve_problem(load_problem_text(SPEC.replace("{g}", "5"))))
     assert res["converges"].value is False and "iterations_bound" not in res
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ("    gain: {g}\n", "    gain: a\n", "gain: a number is needed (give values: for a)"),
+    ("    reference: sin(t/5)\n", "    reference: [1, 2]\n", "reference: 20 values expected"),
+    ("    epsilon: 0.001\n", "    epsilon: a\n", "epsilon: a number is needed"),
+], ids=["gain", "reference", "epsilon"])
+def test_a_symbol_left_in_a_number_is_a_spec_error(old, new, words):
+    """The gain, the reference and ε are numbers: a symbol without a value was an internal error (float() of a
+    symbol, a traceback); it is a spec error at its line, found by `check` (the validate hook) as by solving."""
+    text = SPEC.replace("symbols: {t:", "symbols: {a: a gain, t:").replace(old, new).replace("{g}", "0.5")
+    assert words in error_found_without_solving(text)

@@ -93,12 +93,8 @@ def _mat(problem, ctx, field: str) -> np.ndarray:  # type: ignore[no-untyped-def
     return np.array(M.evalf(20).tolist(), dtype=float)
 
 
-@ask_kind("learning_control", LearningControlAsk, "iterative learning control (lifted form): convergence, iterations")
-def solve_learning_control(problem, options: LearningControlAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """Results: markov (first Markov parameter CB), rho (spectral radius of I − GL), norm (‖I − GL‖₂),
-    converges, monotone, e0, iterations_bound (k with ‖I−GL‖ᵏ‖e_0‖ ≤ ε), iterations_actual, errors."""
-    sol = Solution("learning_control", title=options.title or "Iterative learning control")
-    sfx = options.suffix
+def _read(problem, options: LearningControlAsk, ctx) -> tuple:  # type: ignore[no-untyped-def]
+    """A, B, C (C as a row), x0, the reference y_d(1..N) and the gain γ, as numbers."""
     A, B, C = _mat(problem, ctx, "A"), _mat(problem, ctx, "B"), _mat(problem, ctx, "C")
     n = A.shape[0]
     if A.shape != (n, n) or B.shape != (n, 1) or C.reshape(1, -1).shape[1] != n:
@@ -108,14 +104,43 @@ def solve_learning_control(problem, options: LearningControlAsk, ctx) -> Solutio
     N = options.horizon
     raw = ctx.expr("reference")
     if isinstance(raw, list):
-        yd = np.array([float(sp.sympify(v).xreplace(problem.values)) for v in raw])
+        yd = np.array([_number(problem, ctx, "reference", v) for v in raw])
         if yd.size != N:
             raise UserError(f"reference: {N} values expected", problem.located.place(ctx.path + ("reference",)))
     else:
         t = problem.names.get("t", sp.Symbol("t", real=True))
         f = sp.sympify(raw).xreplace(problem.values)
-        yd = np.array([float(f.subs(t, k)) for k in range(1, N + 1)])
-    gamma = float(sp.sympify(ctx.expr("gain")).xreplace(problem.values))
+        yd = np.array([_number(problem, ctx, "reference", f.subs(t, k)) for k in range(1, N + 1)])
+    gamma = _number(problem, ctx, "gain", ctx.expr("gain"))
+    return A, B, C, x0, yd, gamma
+
+
+def _number(problem, ctx, field: str, value: Any) -> float:  # type: ignore[no-untyped-def]
+    """A numeric option (parameter values substituted) as a float; a spec error if symbols are left."""
+    v = sp.sympify(value).xreplace(problem.values) if not isinstance(value, list) else None
+    if v is None or v.free_symbols or not v.is_number or v.is_real is False:
+        left = ", ".join(sorted(map(str, v.free_symbols))) if v is not None else ""
+        raise UserError(f"{field}: a number is needed" + (f" (give values: for {left})" if left else ""),
+                        problem.located.place(ctx.path + (field,)))
+    return float(v)
+
+
+def validate_learning_control(problem, options: LearningControlAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_learning_control` reads them, without the iterations."""
+    _read(problem, options, ctx)
+    if options.epsilon is not None:
+        _number(problem, ctx, "epsilon", ctx.expr("epsilon"))
+
+
+@ask_kind("learning_control", LearningControlAsk, "iterative learning control (lifted form): convergence, iterations",
+          validate=validate_learning_control)
+def solve_learning_control(problem, options: LearningControlAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results: markov (first Markov parameter CB), rho (spectral radius of I − GL), norm (‖I − GL‖₂),
+    converges, monotone, e0, iterations_bound (k with ‖I−GL‖ᵏ‖e_0‖ ≤ ε), iterations_actual, errors."""
+    sol = Solution("learning_control", title=options.title or "Iterative learning control")
+    sfx = options.suffix
+    A, B, C, x0, yd, gamma = _read(problem, options, ctx)
+    N = options.horizon
     G = lifted(A, B, C, N)
     d = free_response(A, C, x0, N)
     L = gamma * np.eye(N)
@@ -135,7 +160,7 @@ def solve_learning_control(problem, options: LearningControlAsk, ctx) -> Solutio
                             "actual": None, "eps": None}
     errs = run_ilc(G, d, yd, L, options.iterations)
     if options.epsilon is not None:
-        eps = float(sp.sympify(ctx.expr("epsilon")).xreplace(problem.values))
+        eps = _number(problem, ctx, "epsilon", ctx.expr("epsilon"))
         data["eps"] = eps
         if nrm < 1 and e0 > eps:
             kmin = math.ceil(math.log(eps / e0) / math.log(nrm) - 1e-12)
