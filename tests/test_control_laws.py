@@ -8,7 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT
+from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT, error_found_without_solving
 
 from solver.control.laws import check_control_law
 from solver.dynamics.model import derive
@@ -544,3 +544,22 @@ def test_exact_det_and_rational_matrix():
     assert rational_matrix(trig) is None and sp.simplify(exact_det(trig)) == 1
     assert rational_matrix(sp.Matrix([[sp.sqrt(m), 1], [1, sp.sqrt(m)]])) is None
     assert rational_matrix(M) is not None
+
+
+@pytest.mark.parametrize("ask, words", [
+    ("  - kind: control_law\n    law: linearization\n    equilibrium: {q1: 0, q2: 0}\n    kp: 3\n",
+     "kp: is not an option of law: linearization"),
+    ("  - kind: control_law\n    law: computed_torque\n    qd: [1, 2]\n", "qd: (a constant desired configuration) needs"),
+    ("  - kind: control_law\n    law: pd_gravity\n    qd: [1, 2, 3]\n", "qd must be a list of 2 expressions"),
+    ("  - kind: control_law\n    law: computed_torque\n    kp: [1, 2, 3]\n", "kp must be one expression or a list of 2"),
+    ("  - kind: control_law\n    law: adaptive\n    kp: 3\n", "law: adaptive has no K_P"),
+    ("  - kind: control_law\n    law: pd_gravity\n    lambda: 3\n", "lambda: and gamma: are gains of law: adaptive"),
+    ("  - kind: control_law\n    law: cartesian_computed_torque\n    task: [q1, q2, q1 + q2]\n",
+     "task must list 1 to 2"),
+    ("  - kind: control_law\n    law: cartesian_computed_torque\n    task: [q1 + q2]\n    rd: [1]\n",
+     "rd: (a constant desired task value) needs regulation: true"),
+])
+def test_check_finds_bad_law_options_without_solving(ask, words):
+    """The law's options, q_d and the gains (joint space and Cartesian) are read by the kind's validate hook
+    (`check`) as by solving, without the model."""
+    assert words in error_found_without_solving(RP + ask)

@@ -9,6 +9,7 @@ import random
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import error_found_without_solving
 from scipy.integrate import solve_ivp
 
 from solver.control.laws import check_control_law
@@ -427,3 +428,15 @@ def test_pinv_law_falls_back_to_tidied_products_off_the_algebra():
     pt = {x: sp.Rational(3, 7) + i for i, x in enumerate(sorted(J.free_symbols, key=str))}
     JJ = np.array((J * out["J_pinv"]).xreplace(pt).evalf(30).tolist(), dtype=float)
     assert np.allclose(JJ, np.eye(2), atol=1e-12)
+
+
+@pytest.mark.parametrize("extra, match", [
+    ("    frame: [[1, 1], [0, 1]]\n", "rotation matrix"),
+    ("    frame: q1\n", "constant"),
+    ("    step: 2\n", "step: is the step"),
+    ("    \"null\": [1, 2]\n", "4 components"),
+    ("    kd: [1, 2, 3]\n", "kd must be one expression or a list of 2"),
+])
+def test_check_finds_option_errors_without_solving(extra, match):
+    """The task inputs of the Cartesian law are read by the validate hook (`check`): solving's error."""
+    assert match in error_found_without_solving(R4 + LAW4 + extra)

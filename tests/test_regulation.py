@@ -10,7 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT
+from conftest import PROBLEMS, R2_ROBOT, RP_ROBOT, error_found_without_solving
 from scipy.integrate import solve_ivp
 
 from solver.control.gravity_bound import gradient_bound
@@ -508,3 +508,16 @@ def test_reports_render_and_compile(tmp_path):
 def test_library_problem_verifies(name):
     rep = check_problem(load_problem(PROBLEMS / f"{name}.yaml"))
     assert rep.ok, [c for c in rep.checks if not c.verdict.ok]
+
+
+@pytest.mark.parametrize("opts, words", [
+    ({"ki": 3}, "ki: is an option of law: pid"),
+    ({"ranges": "{q5: [0, 1]}"}, "'q5' in ranges: is not a coordinate"),
+    ({"ranges": "{q2: [1, 0]}"}, "empty range for q2"),
+    ({"assume": "{m7: 1}"}, "'m7' in assume: is not a parameter"),
+    ({"limits": "{u_max: 1}"}, "limits: are checked at a state"),
+])
+def test_check_finds_bad_options_without_solving(opts, words):
+    """The options every law shares are read by the kind's validate hook (`check`) as by solving, without the
+    model."""
+    assert words in error_found_without_solving(PR + regulation("pd_gravity", **opts))

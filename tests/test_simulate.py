@@ -5,7 +5,7 @@ reports render, spec errors point at their lines."""
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import R2_ROBOT, RP_ROBOT
+from conftest import R2_ROBOT, RP_ROBOT, error_found_without_solving
 from test_control_laws import CARTPOLE, ELASTIC1, R3
 
 from solver.publish.render import render
@@ -323,3 +323,10 @@ def test_reference_with_parameters():
     _, _, res = run(R2 + "  - kind: regulation\n    law: pd_gravity\n    kp: 50\n    kd: 15\n"
                     "  - kind: simulate\n    qd: [l1, 0.5]\n    T: 5\n")
     assert fnum(res["e_final_norm"].value) < 1e-6 and abs(fnum(res["e_max_norm"].value) - np.hypot(0.5, 0.5)) < 1e-6
+
+
+def test_check_finds_a_simulated_ask_that_is_no_law():
+    """The simulated ask is found by the validate hook (`check`) as by solving (the rest needs the law)."""
+    base = RPV + "  - kind: control_law\n    law: computed_torque\n    kp: 25\n    kd: 10\n"
+    assert "ask: 2 is not a control_law" in error_found_without_solving(
+        base + "  - kind: simulate\n    ask: 2\n    qd: [1, 0]\n")

@@ -6,7 +6,7 @@ import random
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS
+from conftest import PROBLEMS, error_found_without_solving
 
 from solver.control.visual_servoing import (cleared, content_free, point_matrix, polar_matrix, simulate_ibvs)
 from solver.publish.render import render
@@ -395,3 +395,16 @@ def test_primitive_divides_by_the_rational_content_only():
     assert primitive(sp.Matrix([0, 0, 4 * L, 0])) == sp.Matrix([0, 0, L, 0])
     assert primitive(sp.Matrix([sp.Rational(1, 2), sp.Rational(-1, 3) * U])) == sp.Matrix([3, -2 * U])
     assert primitive(sp.Matrix([U, 2 * V, L])) == sp.Matrix([U, 2 * V, L])
+
+
+@pytest.mark.parametrize("points, extra, words", [
+    ("[[1, 2], [3, 4]]", "", "points: must be a list of [u, v, Z] triples"),
+    ("[[0.1, 0.2, 2], [0.3, 0.1, 2]]", "    desired: [1, 2, 3]\n", "desired: 4 components expected"),
+    ("[[0.1, 0.2, 2], [0.3, 0.1, 2]]", "    feature: average\n    desired: [1, 2, 3]\n", "desired: 2 components"),
+    ("[[0.1, 0.2, 2]]", "    robot_jacobian: [[1, 0], [0, 1]]\n", "robot_jacobian: 6 rows expected"),
+    ("[[0.1, 0.2, 2]]", "    at: {zz: 1}\n", "at: 'zz' is not a declared symbol"),
+])
+def test_check_finds_bad_options_without_solving(points, extra, words):
+    """The points, desired features, robot Jacobian and state are read by the kind's validate hook (`check`):
+    solving's error, without the interaction matrices."""
+    assert words in error_found_without_solving(spec(points, extra))

@@ -214,6 +214,32 @@ class _TaskInputs(AskReader):
             return a0
 
 
+def _task_gains_and_reference(problem, options: ControlLawAsk, ctx, inp: _TaskInputs) -> tuple:  # type: ignore[no-untyped-def]
+    """K_P, K_D (diagonals) and r_d, ṙ_d, r̈_d: the ask's or default symbols (registered in the problem)."""
+    m = inp.m
+    kp = _gains(problem, options, ctx, "kp", m, True)
+    kd = _gains(problem, options, ctx, "kd", m, True)
+    if options.rd is not None:
+        if not options.regulation:
+            raise inp.fail(("rd",), "rd: (a constant desired task value) needs regulation: true", "add regulation: true")
+        rd = inp._vector("rd", m, "rd (the desired task value)")
+    else:
+        rd = sp.Matrix([_symbol(problem, f"rd{i + 1}", f"r_{{d,{i + 1}}}") for i in range(m)])
+    if options.regulation:
+        drd = ddrd = sp.zeros(m, 1)
+    else:
+        drd = sp.Matrix([_symbol(problem, f"drd{i + 1}", f"\\dot r_{{d,{i + 1}}}") for i in range(m)])
+        ddrd = sp.Matrix([_symbol(problem, f"ddrd{i + 1}", f"\\ddot r_{{d,{i + 1}}}") for i in range(m)])
+    return kp, kd, rd, drd, ddrd
+
+
+def validate_cartesian(problem, options: ControlLawAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The options of law: cartesian_computed_torque read and checked as :func:`solve_cartesian` reads them (the
+    task, its frame, the null-space terms, the gains, r_d and its symbols), without the model."""
+    inp = _TaskInputs(problem, options, ctx, require_model(problem))
+    _task_gains_and_reference(problem, options, ctx, inp)
+
+
 def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: r, J, det_J (m = n), J_inv (m = n), J_pinv, P_null, a0, a_null, null_check (m < n), Jdot_dq,
     R_frame, e_t, a_t, KP_base, KD_base, isotropic (with frame:), a_r, a, u, u_a, closed_loop, closed_loop_check;
@@ -233,20 +259,8 @@ def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: 
         detJ = factor_within(tidy(J.det()))  # the canonical trigonometric form, factored (sp.simplify: ~10x slower)
         if _zero(detJ):
             raise inp.fail(("task",), "the task Jacobian is singular everywhere: the task cannot be controlled")
-    kp = _gains(problem, options, ctx, "kp", m, True)
-    kd = _gains(problem, options, ctx, "kd", m, True)
+    kp, kd, rd, drd, ddrd = _task_gains_and_reference(problem, options, ctx, inp)
     KP, KD = sp.diag(*kp), sp.diag(*kd)
-    if options.rd is not None:
-        if not options.regulation:
-            raise inp.fail(("rd",), "rd: (a constant desired task value) needs regulation: true", "add regulation: true")
-        rd = inp._vector("rd", m, "rd (the desired task value)")
-    else:
-        rd = sp.Matrix([_symbol(problem, f"rd{i + 1}", f"r_{{d,{i + 1}}}") for i in range(m)])
-    if options.regulation:
-        drd = ddrd = sp.zeros(m, 1)
-    else:
-        drd = sp.Matrix([_symbol(problem, f"drd{i + 1}", f"\\dot r_{{d,{i + 1}}}") for i in range(m)])
-        ddrd = sp.Matrix([_symbol(problem, f"ddrd{i + 1}", f"\\ddot r_{{d,{i + 1}}}") for i in range(m)])
     a_t, a_r = task_acceleration(f, J, v, KP, KD, rd, drd, ddrd, R)
     Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
     nvec = dm.c + dm.g + Fv * v

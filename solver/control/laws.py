@@ -244,22 +244,8 @@ def reference_law(problem, law: str, dm, K: dict) -> tuple[sp.Matrix, sp.Matrix]
     return KP * e - KD * dq + dm.g, KP * e - KD * dq
 
 
-@ask_kind("control_law", ControlLawAsk,
-          "joint-space control law (computed torque, PD + gravity compensation) and its closed-loop dynamics")
-def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """The law's solution, every result name followed by the ask's ``suffix``."""
-    sol = _solve_law(problem, options, ctx)
-    sfx = options.suffix
-    if sfx:
-        sol.results = {k + sfx: Result(k + sfx, r.value, r.kind, r.label) for k, r in sol.results.items()}
-    _register_checks(sfx)
-    if len(ctx.path) == 2 and isinstance(ctx.path[1], int):   # simulate reuses it
-        problem.__dict__.setdefault("_control_solutions", {})[ctx.path[1]] = sol
-    return sol
-
-
-def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """Results: u, closed_loop, closed_loop_check; pd_gravity, pd_constant also equilibrium_check."""
+def _check_options(problem, options: ControlLawAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """Every option given is one of the law's."""
     law = options.law
     allowed = {"cartesian_computed_torque": {"kp", "kd", "task", "rd", "regulation", "frame", "null", "damping",
                                              "gradient", "step", "joint_ranges", "at"},
@@ -278,6 +264,73 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
                 ["computed_torque", "adaptive"]
             raise UserError(f"{yk}: is not an option of law: {law} (it is one of law: {', '.join(users)})",
                             problem.located.place(ctx.path + (yk,)), "remove it")
+
+
+def _joint_law_gains(problem, options: ControlLawAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The gains a joint-space law does not take."""
+    law = options.law
+    if law != "adaptive" and (options.lam is not None or options.gamma is not None):
+        raise UserError("lambda: and gamma: are gains of law: adaptive", problem.located.place(ctx.path + ("law",)),
+                        "write law: adaptive, or remove them")
+
+
+def _desired_q(problem, options: ControlLawAsk, ctx, robot, regulation: bool) -> sp.Matrix | None:  # type: ignore[no-untyped-def]
+    """The constant q_d of ``qd:`` (None: not given), which needs regulation; law: adaptive takes no kp:."""
+    qd = None
+    if options.qd is not None:
+        if not regulation:
+            raise UserError("qd: (a constant desired configuration) needs regulation: true",
+                            problem.located.place(ctx.path + ("qd",)), "add regulation: true, or remove qd:")
+        val = ctx.expr("qd")
+        vals = val if isinstance(val, list) else [val]
+        if len(vals) != robot.n or any(isinstance(v, list) for v in vals):
+            raise UserError(f"qd must be a list of {robot.n} expressions", problem.located.place(ctx.path + ("qd",)))
+        qd = sp.Matrix([sp.sympify(v) for v in vals])
+    if options.law == "adaptive" and options.kp is not None:
+        raise UserError("law: adaptive has no K_P (K_D s = K_D (de + Lambda e) is the PD action, K_P = K_D Lambda)",
+                        problem.located.place(ctx.path + ("kp",)), "give lambda: and kd: instead")
+    return qd
+
+
+def validate_control_law(problem, options: ControlLawAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The options of the joint-space laws read and checked as :func:`solve_control_law` reads them (the law's
+    options, q_d, the gains) and of the Cartesian law (:func:`~solver.control.cartesian.validate_cartesian`),
+    without the model; the other laws (elastic, underactuated, linearization) only for their options' names, their
+    inputs are read when solving."""
+    _check_options(problem, options, ctx)
+    if options.law == "cartesian_computed_torque":
+        from solver.control.cartesian import validate_cartesian
+        validate_cartesian(problem, options, ctx)
+    if options.law not in JOINT_LAWS:
+        return
+    robot = require_model(problem)
+    _joint_law_gains(problem, options, ctx)
+    regulation = options.law in ("pd_gravity", "pd_constant") or options.regulation
+    _desired_q(problem, options, ctx, robot, regulation)
+    if options.law != "adaptive":
+        _gains(problem, options, ctx, "kp", robot.n, True)
+        _gains(problem, options, ctx, "kd", robot.n, True)
+
+
+@ask_kind("control_law", ControlLawAsk,
+          "joint-space control law (computed torque, PD + gravity compensation) and its closed-loop dynamics",
+          validate=validate_control_law)
+def solve_control_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """The law's solution, every result name followed by the ask's ``suffix``."""
+    sol = _solve_law(problem, options, ctx)
+    sfx = options.suffix
+    if sfx:
+        sol.results = {k + sfx: Result(k + sfx, r.value, r.kind, r.label) for k, r in sol.results.items()}
+    _register_checks(sfx)
+    if len(ctx.path) == 2 and isinstance(ctx.path[1], int):   # simulate reuses it
+        problem.__dict__.setdefault("_control_solutions", {})[ctx.path[1]] = sol
+    return sol
+
+
+def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results: u, closed_loop, closed_loop_check; pd_gravity, pd_constant also equilibrium_check."""
+    _check_options(problem, options, ctx)
+    law = options.law
     if law not in JOINT_LAWS:
         from solver.control import cartesian, elastic, linearization, underactuated
         solver = {"cartesian_computed_torque": cartesian.solve_cartesian, "elastic": elastic.solve_elastic,
@@ -286,23 +339,12 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
     robot = require_model(problem)
     dm = derive(robot)
     n = robot.n
-    law = options.law
     Ginv = _input_inverse(problem, dm, ctx, law)
-    if law != "adaptive" and (options.lam is not None or options.gamma is not None):
-        raise UserError("lambda: and gamma: are gains of law: adaptive", problem.located.place(ctx.path + ("law",)),
-                        "write law: adaptive, or remove them")
+    _joint_law_gains(problem, options, ctx)
     q, dq, ddq = sp.Matrix(robot.q), sp.Matrix(robot.dq), sp.Matrix(robot.ddq)
     regulation = law in ("pd_gravity", "pd_constant") or options.regulation
-    if options.qd is not None:
-        if not regulation:
-            raise UserError("qd: (a constant desired configuration) needs regulation: true",
-                            problem.located.place(ctx.path + ("qd",)), "add regulation: true, or remove qd:")
-        val = ctx.expr("qd")
-        vals = val if isinstance(val, list) else [val]
-        if len(vals) != n or any(isinstance(v, list) for v in vals):
-            raise UserError(f"qd must be a list of {n} expressions", problem.located.place(ctx.path + ("qd",)))
-        qd = sp.Matrix([sp.sympify(v) for v in vals])
-    else:
+    qd = _desired_q(problem, options, ctx, robot, regulation)
+    if qd is None:
         qd = sp.Matrix([_symbol(problem, _qname(s.name, "d"), _sub_tex(problem.latex_names.get(s, s.name), "d"))
                         for s in robot.q])
     if regulation:
@@ -313,9 +355,6 @@ def _solve_law(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignor
         ddqd = sp.Matrix([_symbol(problem, "dd" + _qname(s.name, "d"),
                                   "\\ddot " + _sub_tex(problem.latex_names.get(s, s.name), "d")) for s in robot.q])
     if law == "adaptive":
-        if options.kp is not None:
-            raise UserError("law: adaptive has no K_P (K_D s = K_D (de + Lambda e) is the PD action, K_P = K_D Lambda)",
-                            problem.located.place(ctx.path + ("kp",)), "give lambda: and kd: instead")
         return _solve_adaptive(problem, options, ctx, robot, dm, Ginv, qd, dqd, ddqd, regulation)
     if law == "lyapunov_tracking" and dm.S is None:
         raise UserError("law: lyapunov_tracking needs the factorization S(q, dq) (Christoffel symbols), not available "

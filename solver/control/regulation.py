@@ -346,9 +346,16 @@ def largest_gains(expr: sp.Matrix, gains: list[sp.Symbol], bound: sp.Expr, value
 
 
 # ------------------------------------------------------------------------------------------------ the ask
+def validate_regulation(problem, options: RegulationAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The options every law shares (assume, the law's options, ranges), read and checked as
+    :func:`solve_regulation` reads them, without deriving the model; each law's own inputs are read when solving."""
+    _Regulation(problem, options, ctx, check_only=True).check()
+
+
 @ask_kind("regulation", RegulationAsk,
           "regulation to a set point: PD (+ gravity, constant, iterative compensation), PID, saturated PD, "
-          "elastic joints, Cartesian PD; equilibria, Lyapunov/LaSalle, α, gain conditions")
+          "elastic joints, Cartesian PD; equilibria, Lyapunov/LaSalle, α, gain conditions",
+          validate=validate_regulation)
 def solve_regulation(problem, options: RegulationAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (with the suffix): u, closed_loop, equilibrium_eq, equilibria, V, P, V_dot, V_check, dg_dq, alpha,
     alpha_max, alpha_q, alpha_frobenius, alpha_bound, kp_threshold, condition, param_max..., law-specific ones
@@ -357,12 +364,13 @@ def solve_regulation(problem, options: RegulationAsk, ctx) -> Solution:  # type:
 
 
 class _Regulation:
-    """One regulation ask being solved (keeps the spec context for error places)."""
+    """One regulation ask being solved (keeps the spec context for error places). ``check_only``: no model, for
+    :meth:`check`."""
 
-    def __init__(self, problem, options: RegulationAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, problem, options: RegulationAsk, ctx, check_only: bool = False) -> None:  # type: ignore[no-untyped-def]
         self.problem, self.options, self.ctx = problem, options, ctx
         self.robot = require_model(problem)
-        self.dm = derive(self.robot)
+        self.dm = derive(self.robot) if not check_only else None
         self.assumed = self._assume()
         self.n = self.robot.n
         self.law = options.law
@@ -383,6 +391,8 @@ class _Regulation:
                                 self.place("assume", name), "name a symbol declared under symbols:")
             subs[self.problem.symbols[name]] = sp.sympify(self.ctx.expr("assume", name))
         dm = self.dm
+        if dm is None:
+            return subs
 
         def sub(x):  # type: ignore[no-untyped-def]
             return None if x is None else (x.xreplace(subs).applyfunc(tidy) if isinstance(x, sp.MatrixBase)
@@ -411,12 +421,17 @@ class _Regulation:
         return True
 
     # -- the solve
-    def solve(self) -> Solution:
-        o, r, dm, n = self.options, self.robot, self.dm, self.n
+    def check(self) -> None:
+        """The checks :meth:`solve` makes first (the law's options, the ranges)."""
+        r = self.robot
         self.q, self.dq, self.ddq = list(r.q), list(r.dq), list(r.ddq)
         self._check_options()
-        self.revolute = {c for c, j in zip(self.q, r.joints) if j == "R"} if r.joints else set()
         self.ranges = self._ranges()
+
+    def solve(self) -> Solution:
+        o, r, dm, n = self.options, self.robot, self.dm, self.n
+        self.check()
+        self.revolute = {c for c, j in zip(self.q, r.joints) if j == "R"} if r.joints else set()
         self.Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
         self._forces()
         self.G = dm.G if dm.G is not None else sp.eye(n)

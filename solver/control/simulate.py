@@ -134,7 +134,15 @@ def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped
     return {**out, "tracked": list(robot.q), "desired": desired, "qd": qd_given}
 
 
-@ask_kind("simulate", SimulateAsk, "closed-loop simulation of a control law (errors, inputs, estimates)")
+def validate_simulate(problem, options: SimulateAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The robot and the simulated ask, checked as :func:`solve_simulate` finds them; the rest of the options
+    (references, values, initial state) depend on the law's solution and are read when solving."""
+    require_model(problem)
+    _target(problem, options, ctx)
+
+
+@ask_kind("simulate", SimulateAsk, "closed-loop simulation of a control law (errors, inputs, estimates)",
+          validate=validate_simulate)
 def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (with the suffix): e_final, e_final_norm, e_max_norm, settling_time, u_max, t_end, completed,
     nfev; adaptive also ahat_final; pid also xi_final."""

@@ -385,8 +385,33 @@ def _show(M: sp.Matrix) -> sp.Matrix:
     return M.applyfunc(lambda x: x if not x.is_number or x.is_Rational else sp.Float(x, 6))
 
 
+def _desired(problem, ctx, rows: int) -> sp.Matrix:  # type: ignore[no-untyped-def]
+    """s_d, with as many components as s."""
+    sd = _matrix(problem, ctx, "desired")
+    if sd.shape != (rows, 1):
+        raise UserError(f"desired: {rows} components expected (as s), got {sd.shape[0]}",
+                        problem.located.place(ctx.path + ("desired",)))
+    return sd
+
+
+def validate_visual_servoing(problem, options: VisualServoingAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_visual_servoing` reads them (focal length, points,
+    damping, gain, state, robot Jacobian, desired features), without the interaction matrices."""
+    _field(problem, ctx, options, "focal")
+    pts = _points(problem, ctx, options)
+    if options.coordinates == "polar" and options.damping is not None:
+        sp.sympify(ctx.expr("damping"))
+    _field(problem, ctx, options, "gain")
+    _values(problem, ctx, options)
+    if options.robot_jacobian is not None:
+        _matrix(problem, ctx, "robot_jacobian", rows=6)
+    if options.desired is not None:
+        _desired(problem, ctx, 2 if options.feature == "average" else 2 * len(pts))
+
+
 @ask_kind("visual_servoing", VisualServoingAsk,
-          "interaction matrix of point features (Cartesian, polar, average), null space, IBVS law")
+          "interaction matrix of point features (Cartesian, polar, average), null space, IBVS law",
+          validate=validate_visual_servoing)
 def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (with the suffix): J_p1.. (per point), J_s, J_v, J_omega, s, rank, rank_v, rank_omega, dim_null,
     dim_null_v, dim_null_omega, null_motions, null_motions_cleared, null_translation, null_rotation,
@@ -486,10 +511,7 @@ def solve_visual_servoing(problem, options: VisualServoingAsk, ctx) -> Solution:
         add("J_task", Jtask, "matrix", label="J_s J_m")
         data["Jm"] = Jm
     if options.desired is not None:
-        sd = _matrix(problem, ctx, "desired")
-        if sd.shape != s.shape:
-            raise UserError(f"desired: {s.shape[0]} components expected (as s), got {sd.shape[0]}",
-                            problem.located.place(ctx.path + ("desired",)))
+        sd = _desired(problem, ctx, s.shape[0])
         e = sd - s
         add("e", e, "vector", label="e = s_d - s")
         Jlaw = J if Jm is None else J * Jm  # ė = −k Jlaw Jlaw^# e: −k e only when Jlaw has full row rank
