@@ -8,7 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS
+from conftest import PROBLEMS, error_found_without_solving
 
 from solver.interaction.collision import first_order_filter, simulate_collision
 from solver.dynamics.model import derive
@@ -421,3 +421,15 @@ def test_latex_report_with_the_simulation_figure_compiles(tmp_path):
     out = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "r.tex"], cwd=tmp_path,
                          capture_output=True, text=True, timeout=180)
     assert out.returncode == 0, out.stdout[-2000:]
+
+
+@pytest.mark.parametrize("entry, message", [
+    ("      - {link: 3, point: [l1*cos(q1), l1*sin(q1)]}\n", "contact on link 3, but the robot has 2 links"),
+    ("      - {link: 1, point: [l1*cos(q1) + l2*cos(q1 + q2), 0]}\n", "depends on q2"),
+    ("      - {link: 2, point: [l1*cos(q1), l1*sin(q1)], force: [1, 2, 3]}\n", "must have 2 components"),
+    ("      - {link: 2, point: [l1*cos(q1), l1*sin(q1)], location: l9}\n", "location: 'l9'"),
+    ("      - {link: 2, point: [l1*cos(q1), l1*sin(q1)], residual: [1, 0]}\n", "residual: needs the at: config"),
+])
+def test_check_finds_bad_contacts_without_solving(entry, message):
+    """Each contact is read by the kind's validate hook (`check`) as by solving: the same error."""
+    assert message in error_found_without_solving(BASE_2R + entry)

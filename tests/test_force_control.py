@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS
+from conftest import PROBLEMS, error_found_without_solving
 from scipy.integrate import solve_ivp
 
 from solver.dynamics.model import derive
@@ -761,3 +761,16 @@ def test_classify_semisimple_roots_on_the_imaginary_axis():
         assert lti.classify(loop, {}, s) == want, (A1, A0)
         g = _growth(_state_matrix(loop, {}))
         assert bool(g[2] > 50 * g[0]) is (want == "unstable") and bool(g[2] < 1e-3) is (want == "asymptotic"), (A1, A0)
+
+
+@pytest.mark.parametrize("body, words", [
+    ("    law: force\n    contact: {position: x, rest: d, stiffness: -k_e}\n", "positive"),
+    ("    law: force\n    contact: {position: x, rest: d, stiffness: [k_e, k_e]}\n", "shape"),
+    ("    law: force\n    contact: {position: x, rest: [d, d], stiffness: k_e}\n", "1 component"),
+    ("    law: force\n    contact: {position: d, stiffness: k_e}\n", "does not depend on the coordinates"),
+    ("    law: force\n    contact: {position: x, stiffness: k_e, measured: [F1, F2]}\n", "measured: must be 1"),
+    ("    law: force\n    frame: [[1, 0], [0, 1]]\n", "not an option of law: force"),
+])
+def test_check_finds_bad_contacts_without_solving(body, words):
+    """The law's options and the contact are read by the kind's validate hook (`check`) as by solving."""
+    assert words in error_found_without_solving(MASS + body)

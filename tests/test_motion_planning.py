@@ -6,7 +6,7 @@ import random
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS
+from conftest import PROBLEMS, error_found_without_solving
 
 from solver.planning.motion_planning import astar, dijkstra, field_zeros, grid_graph
 from solver.publish.render import render
@@ -145,3 +145,14 @@ def test_field_zeros_1d():
 def test_problem_verifies():
     rep = check_problem(load_problem(PROBLEMS / "2005-04-05-ex2.yaml"))
     assert rep.ok, [c for c in rep.checks if not c.ok]
+
+
+@pytest.mark.parametrize("text, words", [
+    (GRAPH.replace("target: D", "target: Z"), "start: and target: must be nodes of the graph"),
+    (GRAPH.replace("[B, C]]", "[B, Q]]"), "an edge is [a, b] or [a, b, weight] between declared nodes"),
+    (POT.replace("goal: [2, 1]", "goal: [2, 1, 0]"), "goal: 2 components expected"),
+    (POT.replace("gain: kr}", "gain: kq}"), "unknown name 'kq'"),
+])
+def test_check_finds_bad_input_without_solving(text, words):
+    """The graph and the potential's inputs are read by the kind's validate hook (`check`) as by solving."""
+    assert words in error_found_without_solving(text)

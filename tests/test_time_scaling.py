@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS
+from conftest import PROBLEMS, error_found_without_solving
 
 from solver.planning.time_scaling import y_limit
 from solver.publish.render import render
@@ -254,6 +254,15 @@ def test_bad_input_is_one_user_error_at_its_line(body, where, words):
     assert words in exc.value.message
     line = next(i for i, ln in enumerate(text.splitlines(), 1) if where in ln and i > 12)
     assert exc.value.place.line == line
+
+
+
+@pytest.mark.parametrize("body, where, words", [b for b in BAD if "find: scaling" in b[0]],
+                         ids=[b[2] for b in BAD if "find: scaling" in b[0]])
+def test_check_finds_bad_scaling_input_without_solving(body, where, words):
+    """`find: scaling` along a motion: the motion and the bounds read by the validate hook (`check`), the same
+    error as solving."""
+    assert words in error_found_without_solving(robot() + body)
 
 
 @pytest.mark.parametrize("name", ["2019-07-11-ex3", "2019-09-11-ex2", "2020-07-15-remote-ex4",

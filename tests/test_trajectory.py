@@ -6,7 +6,7 @@ import random
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import PROBLEMS
+from conftest import PROBLEMS, error_found_without_solving
 
 from solver.planning.laws import Cond, piecewise_polynomial, rest_defaults
 from solver.planning.paths import axis_angle, rot_axis_angle
@@ -279,6 +279,14 @@ def test_bad_input_is_one_user_error_at_its_line(body, where, words):
     msg, line = error_line(text)
     assert words in msg
     assert line == line_of(text, where)
+
+
+
+@pytest.mark.parametrize("body, where, words", BAD, ids=[b[2] for b in BAD])
+def test_check_finds_the_bad_input_without_solving(body, where, words):
+    """The kind's validate hook (`check`) reads the path, the law and the instants as solving does: the same
+    error (a line's length is not simplified there: only points that coincide as written are refused)."""
+    assert words in error_found_without_solving(spec(body))
 
 
 # ------------------------------------------------------------------------------------------------ library

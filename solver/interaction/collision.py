@@ -941,8 +941,29 @@ def _estimate_with_location(point: sp.Matrix, q: list[sp.Symbol], subs: dict, ta
     return sp.Matrix([sp.Float(x, 15) for x in F]), sp.Float(rho, 15)
 
 
+def validate_collision(problem, options: CollisionAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_collision` reads them (gains, state, each contact), without
+    the model (whether the residuals can be given is decided when solving)."""
+    c = _Ctx(problem, options, ctx)
+    if len(options.contacts) > MAX_CONTACTS:
+        raise c.fail(("contacts",), f"at most {MAX_CONTACTS} contacts per ask")
+    c.gains()
+    for i in range(c.n):
+        c.symbol(f"r{i + 1}", f"r_{{{i + 1}}}")
+        c.symbol(f"tau_ext{i + 1}", f"\\tau_{{ext,{i + 1}}}")
+    if "energy" in (options.residuals if options.residuals is not None else ["energy"]):
+        c.gain_energy()
+    state = c.state()
+    for k, spec in enumerate(options.contacts):
+        _contact(c, k, spec)
+        if spec.torque is not None and not state:
+            raise c.fail(("contacts", k, "torque"), "torque: needs the at: configuration of the equilibrium")
+        if spec.residual is not None and not state:
+            raise c.fail(("contacts", k, "residual"), "residual: needs the at: configuration")
+
+
 @ask_kind("collision", CollisionAsk, "collision detection and isolation: momentum and energy residuals, contact "
-                                     "Jacobians, identification of the contact force")
+                                     "Jacobians, identification of the contact force", validate=validate_collision)
 def solve_collision(problem, options: CollisionAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: momentum, STdq, residual_integrand, pdot, rdot, rdot_check; energy, energy_integrand, rdot_energy,
     energy_check; per contact k: Jc_k, Jc_local_k, rank_Jc_k, det_Jc_k, null_JcT_k, tau_c_k, rdot_tc_k, v_c_k,

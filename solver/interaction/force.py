@@ -460,19 +460,22 @@ class Setup:
         return dict(zip(self.Fm, Fc))
 
 
-def setup(c: Ctx) -> Setup:
+def _robot(c: Ctx):  # type: ignore[no-untyped-def]
+    """The problem's robot, which needs dynamics."""
     problem = c.problem
     robot = problem.robot
     if robot is None or not has_model(robot):
         raise UserError("force_control needs the robot's dynamics, but the robot has no bodies and no model",
                         problem.located.place(("robot",)),
                         "give robot: {joints: [P], coordinates: [x], links: [{mass: m, com: [x, 0]}]} for a mass")
-    dm = derive(robot)
-    n = robot.n
-    q, dq, ddq = sp.Matrix(robot.q), sp.Matrix(robot.dq), sp.Matrix(robot.ddq)
-    nvec = dm.c + dm.g + (dm.Fv * dq if dm.Fv is not None else sp.zeros(n, 1))
-    G = dm.G if dm.G is not None else sp.eye(n)
-    contact = parse_contact(c, list(q)) if c.options.contact is not None else None
+    return robot
+
+
+def _contact(c: Ctx, robot) -> tuple[Contact | None, sp.Matrix | None]:  # type: ignore[no-untyped-def]
+    """The contact of ``contact:`` and the measured force in the laws: its symbols (elastic contact: registered
+    in the problem) or the exogenous force."""
+    problem = c.problem
+    contact = parse_contact(c, list(robot.q)) if c.options.contact is not None else None
     Fm = None
     if contact is not None and contact.elastic:
         names = c.options.contact.measured or ("F_c" if contact.m == 1 else [f"F_c{i + 1}" for i in range(contact.m)])
@@ -486,6 +489,18 @@ def setup(c: Ctx) -> Setup:
         Fm = sp.Matrix([fresh(problem, x, None, real=True) for x in names])
     elif contact is not None:
         Fm = contact.Fc()
+    return contact, Fm
+
+
+def setup(c: Ctx) -> Setup:
+    problem = c.problem
+    robot = _robot(c)
+    dm = derive(robot)
+    n = robot.n
+    q, dq, ddq = sp.Matrix(robot.q), sp.Matrix(robot.dq), sp.Matrix(robot.ddq)
+    nvec = dm.c + dm.g + (dm.Fv * dq if dm.Fv is not None else sp.zeros(n, 1))
+    G = dm.G if dm.G is not None else sp.eye(n)
+    contact, Fm = _contact(c, robot)
     problem.latex_names.setdefault(S_SHOW, "s")
     s = problem.names.get("s")
     if not isinstance(s, sp.Symbol):  # the Laplace variable, complex (answers may use it)
@@ -828,9 +843,20 @@ def _target(c: Ctx, s: sp.Symbol, degree: int | None) -> sp.Expr:
 
 
 # ------------------------------------------------------------------------------------------------ the ask
+def validate_force_control(problem, options: ForceControlAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The options read and checked as :func:`solve_force_control` reads them first (the law's options, the robot,
+    the contact and the measured force), without the model; each law's gains, the hybrid law's task frame and
+    the design are read when solving."""
+    c = Ctx(problem, options, ctx)
+    _validate_fields(c)
+    if options.law != "hybrid":
+        _contact(c, _robot(c))
+
+
 @ask_kind("force_control", ForceControlAsk,
           "interaction control: contact model, force/compliance/impedance/admittance/hybrid laws, transfer "
-          "functions, Routh conditions, steady-state force and position, gain design, simulation")
+          "functions, Routh conditions, steady-state force and position, gain design, simulation",
+          validate=validate_force_control)
 def solve_force_control(problem, options: ForceControlAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (each with the ask's suffix): model, F_c, u, closed_loop, closed_loop_check, equilibrium, F_c_eq,
     force_error, u_eq, reference, P, P_num, P_den, tf_q, L, W, W_e, char_poly, routh, stability, stable, poles,

@@ -110,14 +110,13 @@ def field_zeros(f, lo: np.ndarray, hi: np.ndarray, n: int = 2000) -> list[np.nda
     return out
 
 
-def _solve_potential(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -> None:  # type: ignore[no-untyped-def]
+def _potential_inputs(problem, options: MotionPlanningAsk, ctx) -> tuple:  # type: ignore[no-untyped-def]
+    """The robot, q_d, the gains k_a, k_d and each obstacle's (clearance η, range η₀, gain k)."""
     robot = problem.robot
     if robot is None:
         raise UserError("method: potential needs a robot (its coordinates; a point mass: joints [P] and "
                         "model: {B: [[m]]})", problem.located.place(ctx.path + ("method",)))
-    q = list(robot.q)
-    dq = list(robot.dq)
-    n = len(q)
+    n = len(robot.q)
     if options.goal is None:
         raise UserError("method: potential needs goal: (q_d)", problem.located.place(ctx.path + ("method",)))
     raw = ctx.expr("goal")
@@ -132,14 +131,20 @@ def _solve_potential(problem, options: MotionPlanningAsk, ctx, sol: Solution, ad
         return problem.names.get(name, sp.Symbol(name, positive=True))
 
     ka, kd = par("gain"), par("damping")
+    obstacles = [tuple(sp.sympify(ctx.expr("obstacles", i, key)) for key in ("clearance", "range", "gain"))
+                 for i in range(len(options.obstacles))]
+    return robot, qd, ka, kd, obstacles
+
+
+def _solve_potential(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -> None:  # type: ignore[no-untyped-def]
+    robot, qd, ka, kd, obstacles = _potential_inputs(problem, options, ctx)
+    q, dq = list(robot.q), list(robot.dq)
+    n = len(q)
     e = qd - sp.Matrix(q)
     Ua = ka * (e.T * e)[0, 0] / 2
     add("U_att", Ua, "scalar", label="U_a")
     reps, grads = [], []
-    for i, ob in enumerate(options.obstacles, 1):
-        eta = sp.sympify(ctx.expr("obstacles", i - 1, "clearance"))
-        eta0 = sp.sympify(ctx.expr("obstacles", i - 1, "range"))
-        k = sp.sympify(ctx.expr("obstacles", i - 1, "gain"))
+    for i, (eta, eta0, k) in enumerate(obstacles, 1):
         U = repulsive(eta, eta0, k)
         G = sp.Matrix([tidy(factor_within(sp.diff(U, x))) for x in q])
         add(f"U_rep{i}", U, "scalar", label=f"U_{{r,{i}}}")
@@ -293,7 +298,8 @@ def grid_graph(rows: list[str], connectivity: int) -> tuple[dict, dict, str, str
     return nb, pos, start, goal
 
 
-def _solve_astar(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -> None:  # type: ignore[no-untyped-def]
+def _astar_inputs(problem, options: MotionPlanningAsk, ctx) -> tuple:  # type: ignore[no-untyped-def]
+    """The graph (neighbours with weights), the node positions, start, goal and the heuristic by node."""
     place = problem.located.place(ctx.path + ("method",))
     if options.grid is not None:
         nb, pos, start, goal = grid_graph(options.grid, options.connectivity)
@@ -335,6 +341,12 @@ def _solve_astar(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -
         gx, gy = pos[goal]
         h = {k: (math.hypot(pos[k][0] - gx, pos[k][1] - gy) if hs == "euclidean"
                  else abs(pos[k][0] - gx) + abs(pos[k][1] - gy)) for k in nb}
+    return nb, pos, start, goal, h
+
+
+def _solve_astar(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -> None:  # type: ignore[no-untyped-def]
+    nb, pos, start, goal, h = _astar_inputs(problem, options, ctx)
+    hs = options.heuristic
     path, cost, steps = astar(nb, start, goal, h)
     if path is None:
         add("path_found", False, "bool", label="\\text{path found}")
@@ -356,7 +368,17 @@ def _solve_astar(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -
         sol.figures.append(Figure("search", "A*: the path found and the expanded nodes in order.", panels))
 
 
-@ask_kind("motion_planning", MotionPlanningAsk, "artificial potential fields (law, equilibria) and A* search")
+def validate_motion_planning(problem, options: MotionPlanningAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_motion_planning` reads them (potential: robot, goal,
+    gains, obstacles; A*: the graph or grid, start, target, heuristic), without the fields and the search."""
+    if options.method == "potential":
+        _potential_inputs(problem, options, ctx)
+    else:
+        _astar_inputs(problem, options, ctx)
+
+
+@ask_kind("motion_planning", MotionPlanningAsk, "artificial potential fields (law, equilibria) and A* search",
+          validate=validate_motion_planning)
 def solve_motion_planning(problem, options: MotionPlanningAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: potential: U_att, U_rep<i>, grad_rep<i>, u, V, V_dot, equilibria_at (with range: and numbers);
     astar: path_found, cost, path_length, expansions."""

@@ -94,8 +94,15 @@ class Path:
         return (self.rot.axis * self.rot.theta * ds / self.L).applyfunc(simplified)
 
 
-def line(s: sp.Symbol, pA: sp.Matrix, pB: sp.Matrix) -> Path:
+def line(s: sp.Symbol, pA: sp.Matrix, pB: sp.Matrix, simplify: bool = True) -> Path:
+    """The segment from pA to pB, p(s) = pA + s/L (pB − pA), 0 ≤ s ≤ L. ``simplify=False`` (validation): L and
+    p(s) as written, and only points that coincide as written are refused."""
     d = pB - pA
+    if not simplify:
+        if all(x == 0 for x in d):
+            raise ValueError("the two points coincide (a path of length 0)")
+        L = sp.sqrt(sum(x ** 2 for x in d))
+        return Path(s, "line", pA + s / L * d, L, {"from": pA, "to": pB})
     L = sp.sqrt(simplified(sum(x ** 2 for x in d)))
     if simplified(L) == 0:
         raise ValueError("the two points coincide (a path of length 0)")

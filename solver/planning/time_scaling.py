@@ -34,7 +34,7 @@ from solver.math.search import golden_min
 from solver.planning.laws import Law, LawError, extremum, sample
 from solver.planning.motion import Motion, MotionSpec, coordinated_trapezoids, read_motion
 from solver.planning.trajectory import (law_view, assume_positive, coordinate_labels, law_figure, parse_times,
-                                        substitute, time_labels,
+                                        positive_expressions, substitute, time_labels,
                                         time_symbol, vec_or_scalar)
 from solver.registry import ask_kind
 from solver.results import Curve, Figure, Panel, Solution
@@ -361,8 +361,33 @@ def torque_figure(pieces: list[Piece], U: Optional[list[sp.Expr]], values: dict,
 
 
 # ------------------------------------------------------------------------------------------------ the ask
+def validate_time_scaling(problem, options: TimeScalingAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The options of `find: torque` and `find: scaling` along a motion (the motion, the instants, the torque
+    bounds), read and checked as :func:`solve_time_scaling` reads them, without the model; peaks and the minimum
+    time searches read theirs when solving."""
+    job = _Job(problem, options, ctx, Solution("time_scaling"), positive_expressions(problem, options, ctx))
+    if options.find == "scaling":
+        job.need("torque_max", "the torque bounds")
+        if options.peaks is not None:
+            if options.motion is not None:
+                raise job.fail(("peaks",), "give either motion: or peaks:, not both")
+            return
+    if options.find not in ("torque", "scaling"):
+        return
+    robot = require_model(problem)
+    if options.find == "scaling":
+        job.motion()
+        _bounds(problem, ctx, "torque_max", robot.n)
+        return
+    motion = job.motion()
+    job.times(motion.T)
+    if options.torque_max is not None:
+        _bounds(problem, ctx, "torque_max", robot.n)
+
+
 @ask_kind("time_scaling", TimeScalingAsk,
-          "torque along a motion, uniform time scaling and minimum time under velocity/acceleration/torque bounds")
+          "torque along a motion, uniform time scaling and minimum time under velocity/acceleration/torque bounds",
+          validate=validate_time_scaling)
 def solve_time_scaling(problem, options: TimeScalingAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results (with the suffix; `_num` companions with the parameter values):
     torque: tau_path (n-vector of expressions of the motion), tau_at, tau_peak, t_peak, g_max, feasible;
@@ -370,12 +395,7 @@ def solve_time_scaling(problem, options: TimeScalingAsk, ctx) -> Solution:  # ty
     minimum_time: T_min, k (T_min / T), A, V, Ts (the law at T_min), t_peak;
     time_optimal: tau_path, A (or A_acc, A_dec), V, T_min, T_min_coast, T_min_bang, coast_margin, tau_peak,
     feasible, tau_at."""
-    positives = []
-    for k in range(len(options.positive)):
-        v = ctx.expr("positive", k)
-        if isinstance(v, list):
-            raise UserError("positive: lists scalar expressions", problem.located.place(ctx.path + ("positive", k)))
-        positives.append(v)
+    positives = positive_expressions(problem, options, ctx)
     sol = Solution("time_scaling", title=options.title or {
         "torque": "Torque along the motion", "scaling": "Uniform time scaling",
         "minimum_time": "Minimum motion time", "time_optimal": "Time-optimal motion"}[options.find])

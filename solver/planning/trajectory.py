@@ -231,7 +231,9 @@ def _matrix(problem, path: tuple, shape: tuple | None = None) -> sp.Matrix:  # t
     raise UserError("a vector or a matrix is needed here", problem.located.place(path))
 
 
-def build_path(problem, ctx, spec: PathSpec, s: sp.Symbol) -> Path:  # type: ignore[no-untyped-def]
+def build_path(problem, ctx, spec: PathSpec, s: sp.Symbol, check_only: bool = False) -> Path:  # type: ignore[no-untyped-def]
+    """The path of ``path:``; ``check_only`` (validation): the same checks, a line's length and p(s) not
+    simplified, the relative rotation of the end poses not computed."""
     base = ctx.path + ("path",)
 
     def fail(sub: tuple, msg: str, hint: str | None = None) -> UserError:
@@ -255,7 +257,7 @@ def build_path(problem, ctx, spec: PathSpec, s: sp.Symbol) -> Path:  # type: ign
             if pA.shape != pB.shape:
                 raise fail(("end",), "start and end have different dimensions")
         try:
-            p = line(s, pA, pB)
+            p = line(s, pA, pB, simplify=not check_only)
         except ValueError as exc:
             raise fail(("end",), str(exc)) from None
     else:
@@ -307,7 +309,8 @@ def build_path(problem, ctx, spec: PathSpec, s: sp.Symbol) -> Path:  # type: ign
                 raise fail(sub, "not a rotation matrix (RᵀR = I, det R = 1 are needed)")
         if p.p.shape[0] != 3:
             raise fail(("type",), "an orientation needs a path in space (3 components)")
-        with_orientation(p, RA, RB)
+        if not check_only:
+            with_orientation(p, RA, RB)
     return p
 
 
@@ -374,9 +377,8 @@ def path_figure(path: Path, values: dict) -> Figure:
     return Figure("path", "The path (projections on the coordinate planes for a path in space).", sample_path)
 
 
-def joint_motion(sol: Solution, problem, ctx, options: TrajectoryAsk, path: Path, motion: Motion,  # type: ignore[no-untyped-def]
-                 times: list[sp.Expr], values: dict, sfx: str, labels: list[sp.Expr]) -> dict:
-    """q(t) through numerical inverse kinematics of the task function along the path."""
+def _joint_task(problem, ctx, options: TrajectoryAsk, path: Path, values: dict) -> tuple[sp.Matrix, np.ndarray]:  # type: ignore[no-untyped-def]
+    """The task r = f(q) followed along the path (numeric parameters) and the start of the inverse kinematics."""
     robot = problem.robot
     place = problem.located.place(ctx.path + ("task",))
     if robot is None:
@@ -400,6 +402,14 @@ def joint_motion(sol: Solution, problem, ctx, options: TrajectoryAsk, path: Path
         if len(v) != robot.n or any(x.subs(values).free_symbols for x in v):
             raise UserError(f"q_start must be {robot.n} numbers", problem.located.place(ctx.path + ("q_start",)))
         q0 = np.array([float(x.subs(values)) for x in v])
+    return f, q0
+
+
+def joint_motion(sol: Solution, problem, ctx, options: TrajectoryAsk, path: Path, motion: Motion,  # type: ignore[no-untyped-def]
+                 times: list[sp.Expr], values: dict, sfx: str, labels: list[sp.Expr]) -> dict:
+    """q(t) through numerical inverse kinematics of the task function along the path."""
+    robot = problem.robot
+    f, q0 = _joint_task(problem, ctx, options, path, values)
     law = motion.laws[0]
     xs, s_vals = sample(law, values, 200)
     _, ds_vals = sample(law.diff(1), values, 200)
@@ -481,26 +491,23 @@ def dh_position(problem, place) -> sp.Matrix:  # type: ignore[no-untyped-def]
 
 
 # ------------------------------------------------------------------------------------------------ the ask
-@ask_kind("trajectory", TrajectoryAsk,
-          "timing laws (polynomials, splines, trapezoidal, bang-bang, cycloidal) and Cartesian paths")
-def solve_trajectory(problem, options: TrajectoryAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
-    """Results (with the suffix): A, V, Ts, T, coeffs; q_t, dq_t, ddq_t (one-piece laws); max_dq, t_max_dq,
-    max_ddq, t_max_ddq; q_at, dq_at, ddq_at (+ _num); with a path the law is s: s_t, ..., and L, p_s, R_AB,
-    theta_AB, axis_AB, p_at, v_at, acc_at, omega_A_at, omega_at; with task: q_at, dq_at, ddq_at (numerical)."""
-    sfx = options.suffix
-    t = time_symbol(problem)
-    values = problem.values
+def positive_expressions(problem, options, ctx) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
+    """The expressions of ``positive:`` (known to be positive, to simplify |.|)."""
     positives = []
     for k in range(len(options.positive)):
         v = ctx.expr("positive", k)
         if isinstance(v, list):
             raise UserError("positive: lists scalar expressions", problem.located.place(ctx.path + ("positive", k)))
         positives.append(v)
-    sol = Solution("trajectory", title=options.title or ("Cartesian trajectory" if options.path else "Timing law"))
+    return positives
+
+
+def _path_and_motion(problem, options: TrajectoryAsk, ctx, t: sp.Symbol, check_only: bool = False) -> tuple:  # type: ignore[no-untyped-def]
+    """(path or None, the timing law, its variable "s" on a path or "q"); ``check_only`` as in :func:`build_path`."""
     path = None
     if options.path is not None:
         s = problem.symbols.get("s") or sp.Symbol("s", real=True)
-        path = build_path(problem, ctx, options.path, s)
+        path = build_path(problem, ctx, options.path, s, check_only)
         for side in ("initial", "final"):
             b = getattr(options, side)
             if b is not None and b.q is not None:
@@ -518,6 +525,34 @@ def solve_trajectory(problem, options: TrajectoryAsk, ctx) -> Solution:  # type:
         if robot is not None and motion.n == robot.n:
             motion.names = [x.name for x in robot.q] if robot.n > 1 else [robot.q[0].name]
         var = "q"
+    return path, motion, var
+
+
+def validate_trajectory(problem, options: TrajectoryAsk, ctx) -> None:  # type: ignore[no-untyped-def]
+    """The ask's options read and checked as :func:`solve_trajectory` reads them (the path, the timing law, the
+    instants, the joint task), without the derivatives, values and figures."""
+    t = time_symbol(problem)
+    positive_expressions(problem, options, ctx)
+    path, motion, _ = _path_and_motion(problem, options, ctx, t, check_only=True)
+    if options.at is not None:
+        parse_times(problem, ctx.path + ("at",), options.at, motion.T)
+    if path is not None and options.task is not None:
+        _joint_task(problem, ctx, options, path, problem.values)
+
+
+@ask_kind("trajectory", TrajectoryAsk,
+          "timing laws (polynomials, splines, trapezoidal, bang-bang, cycloidal) and Cartesian paths",
+          validate=validate_trajectory)
+def solve_trajectory(problem, options: TrajectoryAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
+    """Results (with the suffix): A, V, Ts, T, coeffs; q_t, dq_t, ddq_t (one-piece laws); max_dq, t_max_dq,
+    max_ddq, t_max_ddq; q_at, dq_at, ddq_at (+ _num); with a path the law is s: s_t, ..., and L, p_s, R_AB,
+    theta_AB, axis_AB, p_at, v_at, acc_at, omega_A_at, omega_at; with task: q_at, dq_at, ddq_at (numerical)."""
+    sfx = options.suffix
+    t = time_symbol(problem)
+    values = problem.values
+    positives = positive_expressions(problem, options, ctx)
+    sol = Solution("trajectory", title=options.title or ("Cartesian trajectory" if options.path else "Timing law"))
+    path, motion, var = _path_and_motion(problem, options, ctx, t)
     sol.step("law", motion=motion, var=var, t=t, laws=[law_view(law) for law in motion.laws],
              T=motion.T, notes=motion.notes, path=path is not None)
     data = law_results(sol, motion, values, positives, sfx, var)
