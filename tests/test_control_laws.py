@@ -342,38 +342,10 @@ def test_linearization_cartpole_controllable():
     assert res["controllable"].value is True and res["rank_ctrb"].value == 4
 
 
-ELASTIC_2R_LIN = """
-id: el2
-title: two elastic joints, linearization
-symbols:
-  m1: m1
-  m2: m2
-  l1: l1
-  d1: d1
-  d2: d2
-  I1: I1
-  I2: I2
-  Im1: Im1
-  Im2: Im2
-  K1: K1
-  K2: K2
-  g0: g0
-robot:
-  coordinates: [q1, q2, theta1, theta2]
-  joints: [R, R, R, R]
-  gravity: [0, -g0, 0]
-  input_map: [[0, 0], [0, 0], [1, 0], [0, 1]]
-  links:
-    - {mass: m1, com: [d1*cos(q1), d1*sin(q1)], angle: q1, inertia: I1}
-    - {mass: m2, com: [l1*cos(q1) + d2*cos(q1 + q2), l1*sin(q1) + d2*sin(q1 + q2)], angle: q1 + q2, inertia: I2}
-  extra:
-    kinetic: ["1/2*Im1*dtheta1^2", "1/2*Im2*dtheta2^2"]
-    potential: ["1/2*K1*(q1 - theta1)^2", "1/2*K2*(q2 - theta2)^2"]
-asks:
-  - kind: control_law
-    law: linearization
-    equilibrium: {q1: -pi/2, q2: 0, theta1: -pi/2, theta2: 0}
-"""
+ELASTIC_2R_LIN = (ELASTIC2.replace("K2: K2}", "K2: K2, g0: g0}")
+                  .replace("  input_map:", "  gravity: [0, -g0, 0]\n  input_map:")
+                  + "  - kind: control_law\n    law: linearization\n"
+                    "    equilibrium: {q1: -pi/2, q2: 0, theta1: -pi/2, theta2: 0}\n")
 
 
 def test_linearization_of_two_elastic_joints():
