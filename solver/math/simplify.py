@@ -489,17 +489,21 @@ def fourier_form(expr: sp.Expr) -> tuple[dict, list[sp.Symbol]] | None:
     return None
 
 
+def _transcendental_atoms(M: Any) -> list[sp.Expr]:
+    """The sin/cos in M of a number other than a rational multiple of π (sin(3/10), cos(1))."""
+    return [f for f in M.atoms(sp.sin, sp.cos) if f.args[0].is_number and not (f.args[0] / sp.pi).is_Rational]
+
+
 def transcendental(M: Any) -> bool:
     """Whether M has a sin/cos of a number other than a rational multiple of π (no short closed form: the exact
     products of sin(3/10), cos(7/10), ... run to pages)."""
-    return any(f.args[0].is_number and not (f.args[0] / sp.pi).is_Rational for f in M.atoms(sp.sin, sp.cos))
+    return bool(_transcendental_atoms(M))
 
 
 def evaluate_transcendental(expr: sp.Expr, digits: int = 15) -> sp.Expr:
     """``expr`` with each sin/cos of a number that is not a rational multiple of π evaluated to ``digits`` digits
     (other numbers, and the symbols, kept exact)."""
-    rep = {f: sp.Float(sp.N(f, digits), digits) for f in expr.atoms(sp.sin, sp.cos)
-           if f.args[0].is_number and not (f.args[0] / sp.pi).is_Rational}
+    rep = {f: sp.Float(sp.N(f, digits), digits) for f in _transcendental_atoms(expr)}
     return expr.xreplace(rep) if rep else expr
 
 
