@@ -10,7 +10,6 @@ Controllable iff rank [B_l, A B_l, ..., A^{2n−1} B_l] = 2n (Kalman).
 from __future__ import annotations
 
 import itertools
-from typing import Any
 
 import sympy as sp
 
@@ -88,46 +87,19 @@ def kalman_rank(A: sp.Matrix, Bl: sp.Matrix, trials: int = 3) -> int:
     are rational functions that grow with every power of A): the exact rank at random rational points of the
     parameters (a rank is never larger at one point than generically, so a full rank at one point proves it; the
     largest of ``trials`` points is the generic rank with probability ≈ 1)."""
-    from fractions import Fraction
-
     from solver.math.equivalence import NotRational, random_points
-    N = A.rows
     best = 0
     entries = [x for x in list(A) + list(Bl) if not x.is_number]
     for point in itertools.islice(random_points(entries), 3 * trials):
         try:
-            a = [[point.value(x) for x in A.row(i)] for i in range(N)]
-            b = [[point.value(x) for x in Bl.row(i)] for i in range(N)]
+            a, b = (M.applyfunc(lambda x: sp.Rational(point.value(x))) for M in (A, Bl))
         except (ZeroDivisionError, NotRational):
             continue
-        cols: list[list[Fraction]] = []
-        block = [[b[i][j] for i in range(N)] for j in range(Bl.cols)]
-        for _ in range(N):
-            cols += block
-            block = [[sum((a[i][k] * v[k] for k in range(N)), Fraction(0)) for i in range(N)] for v in block]
-        best = max(best, _rank(cols))
+        best = max(best, sp.Matrix.hstack(*(a ** k * b for k in range(A.rows))).rank())
         trials -= 1
-        if best == N or trials == 0:
+        if best == A.rows or trials == 0:
             break
     return best
-
-
-def _rank(vectors: list[list[Any]]) -> int:
-    """Exact rank of a list of vectors of Fractions (Gaussian elimination)."""
-    rows = [list(v) for v in vectors]
-    rank = 0
-    for col in range(len(rows[0]) if rows else 0):
-        piv = next((r for r in range(rank, len(rows)) if rows[r][col] != 0), None)
-        if piv is None:
-            continue
-        rows[rank], rows[piv] = rows[piv], rows[rank]
-        p = rows[rank]
-        for r in range(len(rows)):
-            if r != rank and rows[r][col] != 0:
-                f = rows[r][col] / p[col]
-                rows[r] = [x - f * y for x, y in zip(rows[r], p)]
-        rank += 1
-    return rank
 
 
 def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
