@@ -311,19 +311,25 @@ def _state(problem, options: DynamicModelAsk, ctx, robot: Robot) -> dict:  # typ
     return state
 
 
-def _plot_ranges(problem, options: DynamicModelAsk, ctx, robot: Robot) -> dict:  # type: ignore[no-untyped-def]
-    """The plot range of each coordinate named in ``ranges:``."""
+def coordinate_ranges(problem, ranges: dict, ctx, robot: Robot, noun: str = "range") -> dict:  # type: ignore[no-untyped-def]
+    """The numeric range {coordinate: (low, high)} of each coordinate named in an ask's ``ranges:``; a user error
+    for a name that is no coordinate or an empty range (``noun``: what the message calls it)."""
     by_name = {s.name: s for s in robot.q}
-    ranges = {}
-    for name, (lo, hi) in options.ranges.items():
+    out = {}
+    for name, (lo, hi) in ranges.items():
         if name not in by_name:
             raise UserError(f"'{name}' in ranges: is not a coordinate", problem.located.place(ctx.path + ("ranges",)),
                             "use " + ", ".join(by_name))
         if not lo < hi:
-            raise UserError(f"empty plot range for {name}: [{lo}, {hi}]",
+            raise UserError(f"empty {noun} for {name}: [{lo}, {hi}]",
                             problem.located.place(ctx.path + ("ranges", name)), "write [low, high] with low < high")
-        ranges[by_name[name]] = (float(lo), float(hi))
-    return ranges
+        out[by_name[name]] = (float(lo), float(hi))
+    return out
+
+
+def _plot_ranges(problem, options: DynamicModelAsk, ctx, robot: Robot) -> dict:  # type: ignore[no-untyped-def]
+    """The plot range of each coordinate named in ``ranges:``."""
+    return coordinate_ranges(problem, options.ranges, ctx, robot, "plot range")
 
 
 def validate_dynamic_model(problem, options: DynamicModelAsk, ctx) -> None:  # type: ignore[no-untyped-def]

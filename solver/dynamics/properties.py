@@ -34,6 +34,7 @@ from solver.control.gravity_bound import (
 )
 from solver.dynamics.model import (
     christoffel,
+    coordinate_ranges,
     coriolis,
     derive,
     require_model,
@@ -353,16 +354,7 @@ def _square(problem, ctx, n: int, name: str, *sub) -> sp.Matrix:  # type: ignore
 
 def _ranges(problem, options: DynamicPropertiesAsk, ctx, robot: Robot) -> dict:  # type: ignore[no-untyped-def]
     """The range of each coordinate named in ``ranges:``."""
-    by_name = {x.name: x for x in robot.q}
-    ranges = {}
-    for name, (lo, hi) in options.ranges.items():
-        if name not in by_name:
-            raise UserError(f"'{name}' in ranges: is not a coordinate", _place(problem, ctx, "ranges"),
-                            "use " + ", ".join(by_name))
-        if not lo < hi:
-            raise UserError(f"empty range for {name}", _place(problem, ctx, "ranges", name), "write [low, high]")
-        ranges[by_name[name]] = (float(lo), float(hi))
-    return ranges
+    return coordinate_ranges(problem, options.ranges, ctx, robot)
 
 
 def validate_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> None:  # type: ignore[no-untyped-def]
