@@ -480,6 +480,12 @@ def test_linearization_solves_the_missing_coordinates():
     d = q - th
     assert abs(10000 * d ** 3 + 1000 * d - 3 * 9.81) < 1e-8 and q == 0.1
     assert abs(float(res["u_eq"].value[0]) + 29.43) < 1e-9
+    # the numeric linearization: K_e in floats (not 51277340087129/50000000000), det(sI − A) a polynomial in s
+    # with the coefficients of numpy's characteristic polynomial (it was a ratio of two float polynomials)
+    A = np.array(res["A_lin"].value, dtype=float)
+    cp = sp.Poly(res["char_poly"].value, sp.Symbol("s"))
+    assert np.allclose([float(c) for c in cp.all_coeffs()], np.poly(A), atol=1e-9)
+    assert res["char_poly"].value.coeff(sp.Symbol("s"), 4) is sp.S.One and all(x.is_Float for x in res["K_e"].value)
     with pytest.raises(UserError, match="values for"):
         solved(CARTPOLE.replace("values: {mc: 1, mp: 0.3, L: 0.6, g0: 9.81}", "")
                + "  - kind: control_law\n    law: linearization\n    equilibrium: {q1: 0}\n")

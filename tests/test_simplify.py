@@ -5,7 +5,7 @@ import random
 
 import sympy as sp
 
-from solver.math.simplify import _factor_rational, _sum_denominator, factor_within
+from solver.math.simplify import _factor_rational, _sum_denominator, factor_within, tidy
 
 a, b, c, m1, m2 = sp.symbols("a b c m1 m2", positive=True)
 x, y = sp.symbols("x y")
@@ -269,3 +269,11 @@ def test_normalize_condition_in_the_ring_is_the_expression_path(monkeypatch):
     E._normalize_condition.cache_clear()
     assert ring == printed
     assert sum(1 for r in ring if r not in (1, -1)) > 40   # (most cases keep a factor of unknown sign)
+
+
+def test_tidy_keeps_a_float_without_a_short_fraction():
+    """A float with a short fraction becomes it (0.5 → 1/2, 0.125 → 1/8); any other stays the float: sympy's
+    nsimplify had turned 0.4926... into 2^(31/111)·3^(73/111)·5^(8/37)·7^(28/111)·(a 20-digit fraction)."""
+    assert tidy(sp.Float(0.5)) == sp.Rational(1, 2) and tidy(sp.Float(0.125)) == sp.Rational(1, 8)
+    x = sp.Float("0.49266808716139", 15)
+    assert tidy(x) == x and tidy(x).is_Float

@@ -147,7 +147,11 @@ def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # ty
     if n <= 2 or not (A.free_symbols | Bl.free_symbols):
         C = controllability(A, Bl)
         rank = C.rank(simplify=True)
-        cp = factor_within(sp.simplify(exact_det(lam * sp.eye(2 * n) - A)))
+        if A.has(sp.Float):   # division-free (Berkowitz) and expanded: float coefficients neither cancel nor factor
+            cp = sp.Add(*(lam ** k * (sp.Integer(round(c)) if c.is_Float and abs(c - round(c)) < 1e-12 * max(1, abs(c))
+                                      else c) for (k,), c in A.charpoly(lam).terms()))
+        else:
+            cp = factor_within(sp.simplify(exact_det(lam * sp.eye(2 * n) - A)))
     else:  # the powers of A are rational functions that grow without bound: rank at random points, and
         C = None  # det(sI − A) = det(B_e s² + F_v s + K_e) / det B_e, an n×n polynomial determinant
         rank = kalman_rank(A, Bl)

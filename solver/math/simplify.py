@@ -507,12 +507,18 @@ def evaluate_transcendental(expr: sp.Expr, digits: int = 15) -> sp.Expr:
     return expr.xreplace(rep) if rep else expr
 
 
+MAX_DENOMINATOR = 10**4   # a float that is p/q with a larger q prints as the float
+
+
 @lru_cache(maxsize=20000)
 def tidy(expr: sp.Expr) -> sp.Expr:
     """Simplify ``expr`` to the compact form a teacher prints (canonical for trigonometric polynomials)."""
     expr = sp.sympify(expr)
     if expr.is_number:
-        return sp.nsimplify(expr) if expr.is_Float else sp.simplify(expr)
+        if expr.is_Float:   # 0.5 → 1/2, but 0.4926... stays a float (not 2^(31/111)·3^(73/111)·…/…)
+            r = sp.nsimplify(expr)
+            return r if r.is_Rational and r.q <= MAX_DENOMINATOR else expr
+        return sp.simplify(expr)
     if not expr.free_symbols:
         return expr
     if expr.has(sp.Float) and not angle_symbols(expr) and expr.is_polynomial(*expr.free_symbols):
