@@ -559,3 +559,24 @@ def test_check_finds_bad_ranges_without_solving():
         RP.replace("    ranges: {q2: [0.2, 1.5]}\n", "    ranges: {q7: [0.2, 1.5]}\n"))
     assert "empty range for q2" in error_found_without_solving(
         RP.replace("    ranges: {q2: [0.2, 1.5]}\n", "    ranges: {q2: [1.5, 0.2]}\n"))
+
+
+def test_forward_dynamics_of_a_spatial_3r_at_a_state_and_in_q():
+    """B(q) q̈ = u − c − g on the spatial 3R: at the state of R3 (angles off the π grid, evaluated: the exact products
+    of sin(1/10) ran for minutes in Gaussian elimination) and, without a state, as a function of q and q̇ (B⁻¹ by
+    adjugate and determinant)."""
+    text = R3.replace("[eigenvalues, alpha, factorizations, momentum, power]", "[forward_dynamics]")
+    p, r = results(text)
+    dm = derive(p.robot)
+    x = dict(zip(p.robot.q + p.robot.dq, [0.1, 0.2, -0.3, 1, -0.5, 0.25]))
+    B = np.array(dm.B.xreplace(p.values).xreplace(x).evalf(), float)
+    n = np.array((dm.c + dm.g).xreplace(p.values).xreplace(x).evalf(), float).ravel()
+    want = np.linalg.solve(B, np.array([1, -2, 3]) - n)
+    got = r["ddq"].value
+    assert not got.free_symbols and np.allclose(np.array(got.evalf(), float).ravel(), want, rtol=1e-9)
+    md = render(p, solve_problem(p), "md")
+    assert "at the given state ($q_{1} = 0.1$" in md and "\\frac{1}{10}" not in md
+    p, r = results(text.replace("    state: {q1: 0.1, q2: 0.2, q3: -0.3, dq1: 1, dq2: -0.5, dq3: 0.25}\n", ""))
+    ddq = r["ddq"].value
+    assert ddq.free_symbols == set(p.robot.q[1:] + p.robot.dq)
+    assert np.allclose(np.array(ddq.xreplace(x).evalf(), float).ravel(), want, rtol=1e-9)

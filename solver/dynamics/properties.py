@@ -40,10 +40,13 @@ from solver.dynamics.model import (
     require_model,
 )
 from solver.math.numeric import lambdify_np
-from solver.math.simplify import angle_symbols, factor_within, is_zero, tidy, tidy_expanded, tidy_matrix
+from solver.math.simplify import (
+    angle_symbols, evaluate_transcendental, factor_within, is_zero, tidy, tidy_expanded, tidy_matrix,
+)
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
 from solver.spec.errors import UserError
+from solver.spec.expr import as_written
 from solver.spec.loader import latex_of
 from solver.spec.models import ExprT, Strict
 from solver.spec.robot import Robot
@@ -696,7 +699,12 @@ def _inverse(problem, ctx, B: sp.Matrix, q: list[sp.Symbol]) -> tuple[sp.Matrix,
         if set().union(*[e.free_symbols for e in B]) - set(q):
             raise UserError(f"B⁻¹ of a {B.rows}x{B.rows} inertia matrix with symbolic parameters is too large",
                             _place(problem, ctx, "find"), "give numeric values: for the parameters")
-    return B.inv().applyfunc(tidy), used
+    det = tidy(B.det(method="berkowitz"))
+    if is_zero(det):
+        raise UserError("B(q) is singular: it has no inverse", _place(problem, ctx, "find"),
+                        "check the masses and inertias of the model")
+    # B⁻¹ = adj(B)/det B entry by entry: Gaussian elimination on sin/cos entries grows without bound from n = 3
+    return B.adjugate(method="berkowitz").applyfunc(lambda x: tidy(tidy(x) / det)), used
 
 
 def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
@@ -710,14 +718,18 @@ def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-
     G = robot.input_map if robot.input_map is not None else sp.eye(robot.n)
     v = sp.Matrix(robot.dq)
     state = _read_state(problem, options, ctx, robot)
-    Binv, used = _inverse(problem, ctx, dm.B, robot.q)
+    # the state first: B(q*) and u − n(q*, q̇*) are smaller than B(q) and u − n, and numbers off the π grid
+    # (q1 = 0.3) evaluated, since their exact products run to pages
+    B = evaluate_transcendental(dm.B.xreplace(state))
+    Binv, used = _inverse(problem, ctx, B, robot.q)
     u = [sp.sympify(x).xreplace(used) for x in u]   # the values of B⁻¹ in every term (c, g, F_v, u) too
     rhs = (G * sp.Matrix(u) - dm.c - dm.g - (dm.Fv * v if dm.Fv is not None else sp.zeros(robot.n, 1))).xreplace(used)
     state = {x: sp.sympify(e).xreplace(used) for x, e in state.items()}
-    ddq = tidy_matrix((Binv * rhs).xreplace(state))
+    rhs = evaluate_transcendental(rhs.xreplace(state)).applyfunc(tidy)
+    ddq = tidy_matrix(Binv * rhs)
     sol.add("ddq", ddq, "vector", label="\\ddot q")
-    sol.step("forward_dynamics", u=sp.Matrix(u), Binv=Binv.applyfunc(tidy), rhs=rhs.applyfunc(tidy), state=state,
-             ddq=ddq)
+    shown = {x: as_written(options.state[x.name], e) for x, e in state.items()}   # (the entries as written)
+    sol.step("forward_dynamics", u=sp.Matrix(u), Binv=Binv, rhs=rhs, state=shown, ddq=ddq)
 
 
 def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]

@@ -24,7 +24,6 @@ import dataclasses
 import itertools
 import math
 import random
-import re
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Literal, Optional, Union
@@ -45,7 +44,7 @@ from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
 from solver.spec.errors import UserError
-from solver.spec.expr import shape_of
+from solver.spec.expr import as_written, shape_of
 from solver.spec.models import Strict
 
 Scalar = Union[str, int, float]
@@ -1367,20 +1366,6 @@ def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> No
     written = any(isinstance(x, str) for x in shown["q0"] + shown["dq0"])  # (decimals: their entries as written)
     sol.step("simulation", T=T, q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), u=sp.Matrix(u_t), unit=unit, t=t,
              **({"q0_shown": shown["q0"], "dq0_shown": shown["dq0"]} if written else {}))
-
-
-_DECIMAL = re.compile(r"[+-]?(\d+\.\d*|\.\d+|\d+(\.\d*)?[eE][+-]?\d+)")
-
-
-def as_written(raw: Any, value: sp.Expr) -> Any:
-    """A number of the spec as the user wrote it, for the report: a decimal literal (0.3333, -1.5e-3) as its text
-    (the template prints it) instead of the exact rational it was read as (3333/10000); any other entry (an
-    integer, a fraction, an expression) as its value."""
-    if isinstance(raw, float):
-        return repr(raw)
-    if isinstance(raw, str) and _DECIMAL.fullmatch(raw.strip()):
-        return raw.strip()
-    return value
 
 
 def constrained_rhs(f: dict, n: int, k: int):  # type: ignore[no-untyped-def]

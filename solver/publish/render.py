@@ -15,6 +15,7 @@ from sympy.printing.str import StrPrinter
 from solver.math.nounits import without_units
 from solver.publish.termorder import ordered_terms
 from solver.results import Result, Solution
+from solver.spec.expr import DECIMAL
 from solver.spec.texmath import safe_math
 from solver.spec.problem import Problem
 
@@ -749,6 +750,18 @@ def template_env(subdir: str, custom: Path | None = None, autoescape: bool = Fal
     return env
 
 
+def written(x: Any, tex: Callable[[Any], str]) -> str:
+    """A spec number for the report: a decimal literal kept as the user wrote it (``solver.spec.expr.as_written``),
+    1.5e-3 as 1.5 \\cdot 10^{-3}; anything else through
+    ``tex``."""
+    if not isinstance(x, str):
+        return tex(x)
+    if not DECIMAL.fullmatch(x):   # the allow-list: no other text from a spec reaches LaTeX
+        raise ValueError(f"not a decimal literal: {x[:40]!r}")
+    mantissa, _, exponent = x.lower().partition("e")
+    return mantissa + (f" \\cdot 10^{{{int(exponent)}}}" if exponent else "")
+
+
 def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
          rank: dict[sp.Symbol, int] | None = None) -> jinja2.Environment:
     """The report environment of one problem: :func:`template_env` plus its symbols' LaTeX printing."""
@@ -760,6 +773,7 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
         [p for t in terms if t != 0 for p in term_parts(t, env.filters["tex"])], rhs, lhs=lhs, wrap=tuple(wrap),
         punct=punct)
     env.filters["width"] = visible_length
+    env.filters["written"] = lambda x: written(x, env.filters["tex"])
     env.filters["equation"] = lambda value, lhs, entry, punct="": equation(value, lhs, entry, env.filters["tex"],
                                                                           punct)
     env.filters["equations"] = lambda items, sep=", \\qquad ", punct="": equations(items, env.filters["tex"], sep,

@@ -18,7 +18,7 @@ from __future__ import annotations
 import difflib
 import re
 from dataclasses import dataclass
-from typing import Callable, Mapping, Union
+from typing import Any, Callable, Mapping, Union
 
 import sympy as sp
 
@@ -30,7 +30,7 @@ MAX_EXPONENT = 100
 MAX_LIST = 400
 MAX_DEGREE = 1000      # polynomial degree an expression may reach once expanded
 MAX_DIGITS = 5000      # decimal digits of the integers it may produce
-MAX_DECIMAL_EXP = 300  # 1e300 is the largest power of ten a number may carry
+MAXDECIMAL_EXP = 300  # 1e300 is the largest power of ten a number may carry
 
 FUNCTIONS: dict[str, tuple[Callable[..., sp.Expr], int]] = {
     "sin": (sp.sin, 1), "cos": (sp.cos, 1), "tan": (sp.tan, 1), "cot": (sp.cot, 1),
@@ -198,7 +198,7 @@ class Parser:
         if t.kind == "num":
             self.i += 1
             return number(t.text, lambda msg: self.error(msg, t, "write a number of at most 30 digits, "
-                                                                 f"with an exponent within ±{MAX_DECIMAL_EXP}"))
+                                                                 f"with an exponent within ±{MAXDECIMAL_EXP}"))
         if t.kind == "name":
             self.i += 1
             if self.at_op("("):
@@ -291,14 +291,14 @@ _NUMBER = re.compile(r"(\d*)(?:\.(\d*))?(?:[eE]([+-]?\d+))?\Z")
 
 def number(text: str, fail: Callable[[str], Exception]) -> sp.Expr:
     """A decimal literal as an exact sympy number (1.5 -> 3/2, 2e-3 -> 1/500), refusing more than 30 digits or a
-    decimal exponent beyond ±MAX_DECIMAL_EXP (1e999999999 would take hours to build exactly)."""
+    decimal exponent beyond ±MAXDECIMAL_EXP (1e999999999 would take hours to build exactly)."""
     m = _NUMBER.match(text)
     if not m:
         raise fail(f"not a number: {text!r}")
     whole, frac, exp = m.group(1), m.group(2) or "", m.group(3)
     if len((whole + frac).lstrip("0")) > 30:
         raise fail("number too long (more than 30 digits)")
-    if exp is not None and (len(exp.lstrip("+-")) > 4 or abs(int(exp)) > MAX_DECIMAL_EXP):
+    if exp is not None and (len(exp.lstrip("+-")) > 4 or abs(int(exp)) > MAXDECIMAL_EXP):
         raise fail("number out of range")
     if frac == "" and exp is None:
         return sp.Integer(whole)
@@ -458,3 +458,17 @@ def to_matrix(value: Parsed, text: str = "") -> sp.Matrix:
     if len(shape) == 2 and shape[1] >= 0:
         return sp.Matrix(value)
     raise ExprError(f"not a vector or matrix (shape {shape})", text, 0, "rows must have equal length")
+
+
+DECIMAL = re.compile(r"[+-]?(\d+\.\d*|\.\d+|\d+(\.\d*)?[eE][+-]?\d+)")
+
+
+def as_written(raw: Any, value: sp.Expr) -> Any:
+    """A number of the spec as the user wrote it, for the report: a decimal literal (0.3333, -1.5e-3) as its text
+    (the template prints it) instead of the exact rational it was read as (3333/10000); any other entry (an
+    integer, a fraction, an expression) as its value."""
+    if isinstance(raw, float):
+        return repr(raw)
+    if isinstance(raw, str) and DECIMAL.fullmatch(raw.strip()):
+        return raw.strip()
+    return value
