@@ -502,6 +502,24 @@ def test_hybrid_sizes_are_checked():
     assert "square" in str(err) and "augment" in str(err)
 
 
+THREE_R = HYB.replace("joints: [R, R]", "joints: [R, R, R]").replace(
+    "  friction: {viscous: [0.1, 0.2]}\n", "").replace("    frame: [[cos(phi), -sin(phi)], [sin(phi), cos(phi)]]\n", "")
+
+
+@pytest.mark.parametrize("extra, words", [
+    ("    augment: [q4]\n", "q4"),                                    # not a coordinate of the 3R
+    ("    augment: [q3, q2]\n", "4x3"),                               # one row too many
+    ("    augment: [q1 + q2]\n", "singular everywhere"),             # det J_a ≡ 0
+    ("    augment: [q3]\n    velocity: {x: 1}\n", "not a motion-controlled"),
+    ("    augment: [q3]\n    nominal: {force: {y: 1}}\n", "not a force-controlled"),
+    ("    augment: [q3]\n    nominal: {jerk: {y: 1}}\n", "unknown nominal"),
+])
+def test_check_reads_the_hybrid_task_as_solve_does(extra, words):
+    """The redundant 3R with a 2-D task: augment:, velocity: and nominal: are read by `check` (the validate hook)
+    with solve's exact message; `augment: [q4]` passed check and failed solve."""
+    assert words in error_found_without_solving(THREE_R + extra)
+
+
 def test_spec_errors_exit_2_without_traceback(tmp_path):
     f = tmp_path / "bad.yaml"
     f.write_text(MASS + "    law: force\n    contact: {position: x, rest: d, stiffness: -k_e}\n")

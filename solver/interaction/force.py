@@ -845,11 +845,14 @@ def _target(c: Ctx, s: sp.Symbol, degree: int | None) -> sp.Expr:
 # ------------------------------------------------------------------------------------------------ the ask
 def validate_force_control(problem, options: ForceControlAsk, ctx) -> None:  # type: ignore[no-untyped-def]
     """The options read and checked as :func:`solve_force_control` reads them first (the law's options, the robot,
-    the contact and the measured force), without the model; each law's gains, the hybrid law's task frame and
-    the design are read when solving."""
+    the contact and the measured force; the hybrid law's task, frame, augmented rows and directions), without the
+    model; each law's gains and the design are read when solving."""
     c = Ctx(problem, options, ctx)
     _validate_fields(c)
-    if options.law != "hybrid":
+    if options.law == "hybrid":
+        from solver.interaction.hybrid import read_hybrid
+        read_hybrid(c)
+    else:
         _contact(c, _robot(c))
 
 

@@ -19,6 +19,7 @@ closed with a = v̇_d + K_V (v_d − v) and a_f = f_d + K_I ∫ (f_d − f) (nom
 from __future__ import annotations
 
 import random
+from dataclasses import dataclass, field
 from typing import Any
 
 import sympy as sp
@@ -46,19 +47,30 @@ def quantity_names(axis: str) -> tuple[str, str, str, str]:
     return f"v_{axis}", f"f_{axis}", f"v_{{{axis}}}", f"f_{{{axis}}}"
 
 
-def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
-    """Results: natural, artificial, n_force, n_motion; with a task: J, J_t, J_a, Jdot, R; with a dynamic
-    model: u, closed_loop, closed_loop_check, and with nominal references u_nominal, ddq_nominal (u_nominal_at);
-    with velocity: qdot."""
-    from solver.interaction.force import _step, fresh
+@dataclass
+class HybridTask:
+    """The hybrid law's options as read and checked (:func:`read_hybrid`): the task Jacobian J (None: constraints
+    only), the task directions, the frame R and the augmented square J_a with det J_a ≢ 0."""
+    q: list[sp.Symbol]
+    J: sp.Matrix | None
+    m: int
+    axes: list[str]
+    force_dirs: list[str]
+    motion_dirs: list[str]
+    R: sp.Matrix | None = None
+    Jt: sp.Matrix | None = None
+    aug: sp.Matrix | None = None
+    names: list[str] = field(default_factory=list)   # the rows of J_a: task axes, then augmented rows
+    motion_all: list[str] = field(default_factory=list)
+    Ja: sp.Matrix | None = None
+    detJa: sp.Expr | None = None
 
+
+def read_hybrid(c) -> HybridTask:  # type: ignore[no-untyped-def]
+    """The options of ``law: hybrid`` read and checked, without the dynamic model: what ``check`` runs, and the
+    first thing the solver runs (so both fail with the same message). The values of velocity:, nominal: and at:
+    may name the quantities the solver introduces (v_t_d, a_t, ...): only their keys are checked here."""
     problem, o = c.problem, c.options
-    sfx = o.suffix
-    sol = Solution("force_control", title=o.title or "Hybrid force/velocity control")
-
-    def add(name: str, value: Any, kind: str | None = None, label: str = "") -> None:
-        sol.add(name + sfx, value, kind, label=label)
-
     robot = problem.robot
     q = list(robot.q) if robot is not None else []
     J = None
@@ -82,6 +94,59 @@ def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
     if len(axes) != m or len(set(axes)) != m:
         raise c.fail(("axes",), f"axes must be {m} distinct names (one per task direction)")
     force_dirs, motion_dirs = _directions(c, axes)
+    h = HybridTask(q, J, m, axes, force_dirs, motion_dirs)
+    if J is None:
+        return h
+    n = len(q)
+    h.R = _frame(c, m)
+    h.Jt = (h.R.T * J).applyfunc(tidy)
+    h.aug, aug_names = _augment(c, q)
+    Ja = h.Jt.col_join(h.aug) if h.aug is not None else h.Jt
+    if Ja.rows != n:
+        where = ("augment",) if o.augment is not None else (("task",) if o.task is not None else ("jacobian",))
+        raise c.fail(where, f"the (augmented) task Jacobian is {Ja.rows}x{n}: the law needs it square",
+                     f"add {n - Ja.rows} motion row(s) with augment: (e.g. [q{n}])" if Ja.rows < n
+                     else "the task has more directions than the robot has joints")
+    if Ja.rows != Ja.cols:
+        raise c.fail(("augment",), "the augmented Jacobian must be square")
+    detJa = tidy(Ja.det(method="berkowitz"))
+    if detJa == 0 or scalar_equiv(detJa, 0).ok:
+        raise c.fail(("augment",) if h.aug is not None else ("task",), "the (augmented) task Jacobian is singular "
+                     "everywhere", "choose other task/augment rows")
+    h.Ja, h.detJa = Ja, detJa
+    h.names = list(axes) + aug_names
+    h.motion_all = [a for a in axes if a in motion_dirs] + aug_names
+    for k in o.velocity or {}:
+        if k not in h.motion_all:
+            raise c.fail(("velocity", k), f"'{k}' is not a motion-controlled direction",
+                         "motion directions: " + ", ".join(h.motion_all))
+    force_all = [a for a in axes if a in force_dirs]
+    for key, vals in (o.nominal or {}).items():
+        if key not in ("acceleration", "force"):
+            raise c.fail(("nominal", key), f"unknown nominal: {key}", "use acceleration: and force:")
+        pool = h.motion_all if key == "acceleration" else force_all
+        for k in vals:
+            if k not in pool:
+                raise c.fail(("nominal", key, k), f"'{k}' is not a {'motion' if key == 'acceleration' else 'force'}"
+                             f"-controlled direction", "directions: " + ", ".join(pool))
+    return h
+
+
+def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
+    """Results: natural, artificial, n_force, n_motion; with a task: J, J_t, J_a, Jdot, R; with a dynamic
+    model: u, closed_loop, closed_loop_check, and with nominal references u_nominal, ddq_nominal (u_nominal_at);
+    with velocity: qdot."""
+    from solver.interaction.force import _step, fresh
+
+    problem, o = c.problem, c.options
+    sfx = o.suffix
+    sol = Solution("force_control", title=o.title or "Hybrid force/velocity control")
+
+    def add(name: str, value: Any, kind: str | None = None, label: str = "") -> None:
+        sol.add(name + sfx, value, kind, label=label)
+
+    h = read_hybrid(c)
+    robot, q, J, m, axes, force_dirs, motion_dirs = problem.robot, h.q, h.J, h.m, h.axes, h.force_dirs, h.motion_dirs
     # constraints
     natural, artificial, rows = [], [], []
     for a in axes:
@@ -103,35 +168,19 @@ def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
     _step(sol, "hybrid_constraints", rows=rows, m=m, n_force=len(force_dirs), n_motion=len(motion_dirs))
     if J is None:
         return sol
-    R = _frame(c, m)
+    R, Jt, aug, Ja, detJa, names, motion_all = h.R, h.Jt, h.aug, h.Ja, h.detJa, h.names, h.motion_all
     n = len(q)
     dq = sp.Matrix(robot.dq)
-    Jt = (R.T * J).applyfunc(tidy)
     add("J", J, "matrix", label="J(q)")
     if R != sp.eye(m):
         add("R", R, "matrix", label="R")
         add("J_t", Jt, "matrix", label="J_t = R^T J")
-    aug, aug_names = _augment(c, q)
-    Ja = Jt.col_join(aug) if aug is not None else Jt
-    if Ja.rows != n:
-        where = ("augment",) if o.augment is not None else (("task",) if o.task is not None else ("jacobian",))
-        raise c.fail(where, f"the (augmented) task Jacobian is {Ja.rows}x{n}: the law needs it square",
-                     f"add {n - Ja.rows} motion row(s) with augment: (e.g. [q{n}])" if Ja.rows < n
-                     else "the task has more directions than the robot has joints")
-    if Ja.rows != Ja.cols:
-        raise c.fail(("augment",), "the augmented Jacobian must be square")
-    detJa = tidy(Ja.det(method="berkowitz"))
-    if detJa == 0 or scalar_equiv(detJa, 0).ok:
-        raise c.fail(("augment",) if aug is not None else ("task",), "the (augmented) task Jacobian is singular "
-                     "everywhere", "choose other task/augment rows")
     if aug is not None:
         add("J_a", Ja, "matrix", label="J_a")
     Jdot = sum((J.diff(x) * v for x, v in zip(q, dq)), sp.zeros(*J.shape)).applyfunc(tidy)
     Jadot = sum((Ja.diff(x) * v for x, v in zip(q, dq)), sp.zeros(*Ja.shape)).applyfunc(tidy)
     add("Jdot", Jdot, "matrix", label="\\dot J(q, \\dot q)")
     Jai = (Ja.adjugate() / detJa).applyfunc(lambda x: tidy(sp.cancel(x)) if sp.count_ops(x) < 300 else x)
-    names = [a for a in axes] + aug_names
-    motion_all = [a for a in axes if a in motion_dirs] + aug_names
     idx_m = [names.index(a) for a in motion_all]
     idx_f = [axes.index(a) for a in axes if a in force_dirs]
     T = sp.Matrix.hstack(*[sp.eye(n)[:, i] for i in idx_m]) if idx_m else sp.zeros(n, 0)
@@ -142,9 +191,6 @@ def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
     if o.velocity is not None:
         va = sp.zeros(n, 1)
         for k in o.velocity:
-            if k not in motion_all:
-                raise c.fail(("velocity", k), f"'{k}' is not a motion-controlled direction",
-                             "motion directions: " + ", ".join(motion_all))
             va[names.index(k)] = c.ctx.expr("velocity", k)
         qdot = (Jai * va).applyfunc(lambda x: tidy(sp.expand(x)))
         add("qdot", qdot, "vector", label="\\dot q")
@@ -176,14 +222,9 @@ def solve_hybrid(c) -> Solution:  # type: ignore[no-untyped-def]
     if o.nominal is not None:
         acc = sp.zeros(len(motion_all), 1)
         fo = sp.zeros(len(data["force"]), 1)
-        for key, vals in o.nominal.items():
-            if key not in ("acceleration", "force"):
-                raise c.fail(("nominal", key), f"unknown nominal: {key}", "use acceleration: and force:")
+        for key, vals in o.nominal.items():   # (keys checked by read_hybrid)
             pool = motion_all if key == "acceleration" else data["force"]
             for k in vals:
-                if k not in pool:
-                    raise c.fail(("nominal", key, k), f"'{k}' is not a {'motion' if key == 'acceleration' else 'force'}"
-                                 f"-controlled direction", "directions: " + ", ".join(pool))
                 (acc if key == "acceleration" else fo)[pool.index(k)] = c.ctx.expr("nominal", key, k)
         un, ddqn = law(acc, fo)
         add("u_nominal", un, "vector", label="u_d")
