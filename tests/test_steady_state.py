@@ -654,3 +654,18 @@ def test_equilibria_condition_with_other_rows():
 def test_check_finds_spec_errors_without_solving(ask, msg):
     """The inputs, velocity and deformations are read by the kind's validate hook (`check`) as by solving."""
     assert msg in error_found_without_solving(SYM_PENDULUM + "  - kind: equilibria\n" + ask)
+
+
+def test_same_value_of_parametric_roots():
+    """Two parametric roots compared as sets: parted by their values at a random real point (the exact test took
+    seconds per pair on the singular set of a 2R with its tip on a circle), equal forms still found equal by the
+    exact test (the screen passes them), and a point off the real domain (acos of a number above 1) never taken as proof."""
+    from solver.dynamics.equilibria import _differ_at_a_point, _same_value
+    l1, l2, x = sp.symbols("l1 l2 x", positive=True)
+    q2 = sp.Symbol("q2", real=True)
+    a = sp.atan2(l2 * sp.sin(q2), l1 + l2 * sp.cos(q2))
+    assert _differ_at_a_point(a, -a, True) and not _same_value(a, -a, True)
+    assert _same_value(a, a + 2 * sp.pi, True) and not _differ_at_a_point(a, a + 2 * sp.pi, True)
+    assert _same_value(sp.atan2(l1 * sp.sin(q2), l1 * sp.cos(q2)), q2, True)
+    assert _same_value(sp.cos(q2) ** 2 * l1, l1 - l1 * sp.sin(q2) ** 2, False)
+    assert not _differ_at_a_point(sp.acos(1 + x), sp.pi / 2 - sp.asin(1 + x), False)

@@ -24,6 +24,8 @@ inside a listed family is dropped. At rest, a row of g(q) − G ū free of q is 
 """
 from __future__ import annotations
 
+import cmath
+import random
 from dataclasses import dataclass, field
 from itertools import combinations
 from typing import Literal, Optional, Union
@@ -201,12 +203,40 @@ def _same_value(a: sp.Expr, b: sp.Expr, periodic: bool) -> bool:
         k = d.real / (2 * float(sp.pi)) if periodic else d.real
         if abs((k - round(k)) if periodic else k) > 1e-12:
             return False
+    elif _differ_at_a_point(a, b, periodic):   # the exact test of two parametric roots takes seconds
+        return False
     try:
         if not periodic:
             return identically_zero(a - b)
         return identically_zero(sp.cos(a) - sp.cos(b)) and identically_zero(sp.sin(a) - sp.sin(b))
     except (TypeError, ValueError, sp.PolynomialError):
         return False
+
+
+def _differ_at_a_point(a: sp.Expr, b: sp.Expr, periodic: bool) -> bool:
+    """a ≢ b proved by their real values (30 digits) at one of four random points of their symbols (with their
+    signs: a positive symbol positive); False when no point gives two finite real values (roots out of their
+    domain), or when they agree."""
+    rng = random.Random(5)
+    syms = sorted(a.free_symbols | b.free_symbols, key=lambda x: x.name)
+    for _ in range(4):
+        pt = {}
+        for x in syms:
+            v = sp.Rational(rng.randint(101, 997), 613)
+            pt[x] = -v if x.is_negative or (not x.is_nonnegative and rng.random() < .5) else v
+        try:
+            da, db = complex(sp.N(a.xreplace(pt), 30)), complex(sp.N(b.xreplace(pt), 30))
+        except (TypeError, ValueError, ZeroDivisionError):
+            continue
+        if not all(cmath.isfinite(x) and abs(x.imag) < 1e-20 for x in (da, db)):
+            continue   # (off the real domain, where branch cuts may part two equal real roots)
+        if periodic:
+            d = abs(cmath.cos(da) - cmath.cos(db)) + abs(cmath.sin(da) - cmath.sin(db))
+        else:
+            d = abs(da - db)
+        if d > 1e-12 * (1 + abs(da) + abs(db)):
+            return True
+    return False
 
 
 def _contained(a: sp.Matrix, b: sp.Matrix, q: list[sp.Symbol], periodic: set[sp.Symbol]) -> bool:
