@@ -86,12 +86,18 @@ def equilibria(g: sp.Matrix, q: list[sp.Symbol]) -> tuple[list[sp.Matrix], list[
     return ([], [], False) if requires else (configs, conditions, every)
 
 
-def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol]
+class Unclean(Exception):
+    """A solution of :func:`conditional_equilibria` with ``clean=True`` has an angle that is a root of its
+    parameters (atan2 of radicals): the caller wants only numbers and free coordinates."""
+
+
+def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
                            ) -> tuple[list[sp.Matrix], list[sp.Expr], bool, list[sp.Expr]]:
     """(configurations, conditions, every_configuration, requirements) for g(q) = 0, distinct as sets (angles
     modulo 2π). A row of g free of q (a constant input against a constant force, m g0 − F) is a requirement r = 0
     on the parameters: the configurations are those of the other rows, and exist iff every r = 0 (none when some r
-    is non-zero for every value of the parameters, e.g. m g0 without input)."""
+    is non-zero for every value of the parameters, e.g. m g0 without input). ``clean``: raise :class:`Unclean` at
+    the first angle whose cosine or sine is a radical of the parameters, before writing it (atan2 of radicals)."""
     g_list = [tidy(x) for x in g]
     requires = [x for x in g_list if x != 0 and not (x.free_symbols & set(q))]
     if any(x.is_zero is False for x in requires):
@@ -115,6 +121,8 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol]
             elif x in angles:
                 c, sn = s.get(cs[x][0], cs[x][0]), s.get(cs[x][1], cs[x][1])
                 c, sn = _in_free_angles(c, subs), _in_free_angles(sn, subs)
+                if clean and any(_parametric_root(v, q) for v in (c, sn)):
+                    raise Unclean(x)
                 vals.append(_atan2_angle(tidy(sp.atan2(sn, c))) if not (c.is_number and sn.is_number)
                             else sp.atan2(sn, c))
             else:
@@ -128,6 +136,12 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol]
         configs.append(sp.Matrix(vals))
     configs.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in m])
     return distinct_configurations(configs, q, set(angles)), list(dict.fromkeys(conditions)), False, requires
+
+
+def _parametric_root(e: sp.Expr, q: list[sp.Symbol]) -> bool:
+    """Whether e has a fractional power of an expression in symbols other than the coordinates (√(l1² − r²))."""
+    return any(p.exp.is_Rational and not p.exp.is_Integer and (p.base.free_symbols - set(q))
+               for p in e.atoms(sp.Pow))
 
 
 def _angles(rows: list[sp.Expr], q: list[sp.Symbol]) -> list[sp.Symbol]:
