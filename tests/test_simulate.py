@@ -52,6 +52,10 @@ def test_adaptive_law_tracks_and_estimates_stay_bounded():
     assert all(abs(x) < 50 for x in ah)
     fig = sols[1].figures[0]
     assert len(fig.panels) == 3 and len(fig.panels[2].hlines) == 3
+    for fmt in ("md", "tex"):    # â(T) and the true a as vectors in math, not "($ 0.56, 3.04$)"
+        out = render(p, sols, fmt)
+        assert "$\\hat a(T) = \\begin{bmatrix} 0.5" in out and "(true values $a = \\begin{bmatrix} 1.212 \\\\ 3 " \
+            "\\\\ 2.75 \\end{bmatrix}$:" in out
 
 
 @pytest.mark.parametrize("head,qd", [(R2, ["0.5*sin(2*t)", "1 - cos(t)"]), (R3, ["0.3*t^2/(1 + t^2)", "0.5", "-0.2*sin(t)"])],
@@ -225,9 +229,10 @@ def test_iterative_gravity_compensation_iterations():
     T: 3
     q0: [0, 0]
 """
-    _, _, res = run(text)
+    p, sols, res = run(text)
     errs = [fnum(x) for x in res["iteration_errors"].value]
     assert errs[-1] < 1e-3 <= errs[-2]
+    assert "\n\n**Iterations.**" in render(p, sols, "md")   # its own paragraph, not glued to the results
     # the same count as the static iteration of the regulation ask (equilibria solved exactly), and a contraction
     assert int(res["iterations_sim"].value) == int(res["iterations_actual"].value) == len(errs)
     rho = float(sp.N(res["rho"].value))
@@ -282,7 +287,9 @@ def test_regulation_pid_integrates_the_controller_state():
     xi_eq = [float(x.xreplace(p.values)) for x in res["xi_eq"].value]
     assert abs(xi[0] - xi_eq[0]) < 1e-3 and abs(xi_eq[0] - 0.341682) < 1e-5
     md = render(p, sols, "md")
-    assert "\\dot\\xi = e" in md and "\\xi(T) = ($ 0.3414, 0.01183" in md
+    assert "\\dot\\xi = e" in md and "$\\xi(T) = \\begin{bmatrix} 0.3414 \\\\ 0.01183 \\end{bmatrix}$." in md
+    assert "$\\xi(T) = \\begin{bmatrix} 0.3414 \\\\ 0.01183 \\end{bmatrix}$." in render(p, sols, "tex")
+    assert "The largest inputs are $|u_{1}| \\le 50$, $|u_{2}| \\le 25$." in md
 
 
 def test_regulation_pid_unstable_gains_diverge():

@@ -350,11 +350,16 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              T=T, method=options.method, setv=list(setv.items()), completed=completed,
              t_end=float(Ts[-1]), nfev=budget["nfev"], e_final=float(en[-1]), e_max=float(en.max()),
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
-             umax=[float(x) for x in np.abs(U).max(axis=0)],
-             ahat_final=[float(x) for x in A[-1]] if ahat else None, true_a=true_a, crossings=crossings,
+             umax=[float(x) for x in np.abs(U).max(axis=0)], ahat_final=_column(A[-1]) if ahat else None,
+             true_a=_column(true_a) if true_a else None, crossings=crossings,
              iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=float(sp.sympify(options.T)),
-             **({"integral": True, "xi_final": [float(x) for x in XI[-1]]} if xi else {}))
+             **({"integral": True, "xi_final": _column(XI[-1])} if xi else {}))
     return sol
+
+
+def _column(xs: Any) -> sp.Matrix:
+    """Numbers as a column of Floats (printed as a vector in the reports)."""
+    return sp.Matrix([sp.Float(float(x), 15) for x in xs])
 
 
 def sign_changes(e: np.ndarray, rel: float = 1e-3) -> int:
