@@ -337,3 +337,69 @@ def test_check_finds_a_simulated_ask_that_is_no_law():
     base = RPV + "  - kind: control_law\n    law: computed_torque\n    kp: 25\n    kd: 10\n"
     assert "ask: 2 is not a control_law" in error_found_without_solving(
         base + "  - kind: simulate\n    ask: 2\n    qd: [1, 0]\n")
+
+
+# ------------------------------------------------------------------------------------------------ external forces
+# a constant force F = (3, −2) at the tip of the 2R of R2 (l2 = 0.4): the plant feels τ_ext = J(q)ᵀF whatever the
+# law compensates (−J(q)ᵀF̂); the reference equilibria are solved independently below (fsolve, J and g by hand)
+TIP = "[l1*cos(q1) + l2*cos(q1 + q2), l1*sin(q1) + l2*sin(q1 + q2)]"
+EXTF = np.array([3.0, -2.0])
+
+
+def _ext(law, comp="", gains="    qd: [0.5, 0.3]\n    kp: [40, 30]\n    kd: [10, 8]\n", sim="    T: 10\n"):
+    return R2 + f"  - kind: regulation\n    law: {law}\n" + gains + \
+        f"    external:\n      - {{point: {TIP}, force: [3, -2]{comp}}}\n  - kind: simulate\n" + sim
+
+
+def _tip_jacobian(q):
+    s1, s12, c1, c12 = np.sin(q[0]), np.sin(q[0] + q[1]), np.cos(q[0]), np.cos(q[0] + q[1])
+    return np.array([[-0.5 * s1 - 0.4 * s12, -0.4 * s12], [0.5 * c1 + 0.4 * c12, 0.4 * c12]])
+
+
+def _gravity(q):   # m1 = 2, m2 = 1.5, d1 = 0.25, d2 = 0.2, l1 = 0.5, g0 = 9.81
+    return 9.81 * np.array([1.25 * np.cos(q[0]) + 0.3 * np.cos(q[0] + q[1]), 0.3 * np.cos(q[0] + q[1])])
+
+
+@pytest.mark.parametrize("comp,Fh", [("", EXTF), (", compensated: 0", np.zeros(2)),
+                                     (", compensated: [1, -1]", np.array([1.0, -1.0]))],
+                         ids=["compensated exactly", "not compensated", "compensated wrongly"])
+def test_regulation_external_force_acts_on_the_plant(comp, Fh):
+    """pd_gravity with −JᵀF̂: at rest K_P e + Jᵀ(F − F̂) = 0, so e → 0 only when F̂ = F; otherwise q(T) is the
+    equilibrium the regulation ask finds (and fsolve). The plant used to miss τ_ext: e(T) was 0.09 with F̂ = F."""
+    from scipy.optimize import fsolve
+    kp, qd = np.array([40.0, 30.0]), np.array([0.5, 0.3])
+    ref = fsolve(lambda q: kp * (qd - q) + _tip_jacobian(q).T @ (EXTF - Fh), qd, xtol=1e-12)
+    p, sols, res = run(_ext("pd_gravity", comp))
+    assert res["completed"].value is True
+    qT = qd - np.array([fnum(x) for x in res["e_final"].value])
+    eq = [np.array([fnum(x) for x in c]) for c in res["equilibria"].value]
+    assert len(eq) == 1 and np.max(np.abs(eq[0] - ref)) < 1e-6
+    assert np.max(np.abs(qT - ref)) < 1e-5
+    if not comp:
+        assert fnum(res["e_final_norm"].value) < 1e-6
+    else:
+        assert fnum(res["e_final_norm"].value) > 0.05     # (0.0727, 0.0459) and (0.0430, 0.0277)
+    md = render(p, sols, "md")
+    assert "= u(t, q, \\dot q) + \\tau_{ext}(q)$" in md
+
+
+def test_external_force_with_other_regulation_laws():
+    """The same plant for every regulation law: pd_constant without compensation stops where
+    K_P e + g(q_d) − g(q) + J(q)ᵀF = 0; cartesian_pd where J(q)ᵀ(K_P e_p + F) = 0, i.e. e_p = −K_P⁻¹F; the
+    iterative scheme updates û ← g(q) − τ_ext(q) (what the plant needs at rest) and reaches ε."""
+    from scipy.optimize import fsolve
+    kp, qd = np.array([40.0, 30.0]), np.array([0.5, 0.3])
+    ref = fsolve(lambda q: kp * (qd - q) + _gravity(qd) - _gravity(q) + _tip_jacobian(q).T @ EXTF, qd, xtol=1e-12)
+    _, _, res = run(_ext("pd_constant", ", compensated: 0", sim="    T: 15\n"))
+    qT = qd - np.array([fnum(x) for x in res["e_final"].value])
+    assert np.max(np.abs(qT - ref)) < 1e-5 and abs(ref[0] - 0.4085945) < 1e-6
+    _, _, res = run(_ext("cartesian_pd", ", compensated: 0", "    task: " + TIP + "\n    pd: [0.6, 0.5]\n"
+                         "    kp: [200, 200]\n    kd: [10, 8]\n", "    q0: [0.4, 0.5]\n    T: 15\n"))
+    e = np.array([fnum(x) for x in res["e_final"].value])
+    assert np.max(np.abs(e + EXTF / 200)) < 1e-6
+    p, sols, res = run(_ext("iterative", "", "    qd: [0.5, 0.3]\n    kp: [100, 80]\n    kd: [10, 8]\n"
+                                          "    epsilon: 0.0001\n", "    T: 5\n"))
+    errs = [fnum(x) for x in res["iteration_errors"].value]
+    assert res["iterations_sim"].value == 3 and errs[-1] < 1e-4 and errs[0] > errs[1] > errs[2]
+    md = render(p, sols, "md")
+    assert "\\hat u \\leftarrow (g - \\tau_{ext})(q)$" in md and "\n\n**Iterations.**" in md

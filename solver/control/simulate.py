@@ -2,8 +2,9 @@
 
 The law is the ``u`` of another ask of the problem (``control_law`` or ``regulation``, chosen by ``ask:``), the plant
 the spec's robot with its numeric ``values``:
-    B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u(t, q, q̇, â, ξ),    â̇ = Γ Y_rᵀ s   (adaptive law only),
-                                                               ξ̇ = e         (PID regulation only),
+    B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u(t, q, q̇, â, ξ) + τ_ext(q),    â̇ = Γ Y_rᵀ s   (adaptive law only),
+                                                                           ξ̇ = e         (PID regulation only),
+with τ_ext = Σ J(q)ᵀF the regulation's ``external:`` forces (0 otherwise),
 integrated with scipy's ``solve_ivp`` from (q₀, q̇₀, â₀, ξ₀ = 0) in chunks, within a budget of right-hand-side
 evaluations and wall seconds. The reference q_d(t) is any expression of t (constant, polynomial, sinusoidal, ...): its
 derivatives are taken exactly. Reported: the error e = q_d − q (or r_d − r) at the end and at its largest, the
@@ -102,7 +103,8 @@ def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped
     """What the law tracks and the symbols of its desired signals: the record left by control_law, or, for
     regulation, read from the law's step: the joint coordinates with the desired symbols found by name (qd1, dqd1,
     ...); elastic: the link (non-actuated) coordinates and their q_d; cartesian_pd: the task f(q) and p_d; pid also
-    the controller state ξ and its rate ξ̇ = e."""
+    the controller state ξ and its rate ξ̇ = e; with ``external:`` forces τ_ext(q) = Σ J(q)ᵀF (the true forces, which
+    act on the plant whatever the law compensates)."""
     sfx = getattr(ask.options, "suffix", "")
     rec = problem.__dict__.get("_law" + sfx) if ask.kind == "control_law" else None
     if rec is not None and rec.get("kind") == ask.kind:
@@ -110,7 +112,9 @@ def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped
     robot = problem.robot
     law = getattr(ask.options, "law", "")
     step = next((st.data for st in sol.steps if st.name == "law"), {})
-    out = {"kind": ask.kind, "subs": {}, "ahat": [], "adot": None, "true_a": None, "xi": [], "xidot": None}
+    ext = sol.results.get("tau_ext" + sfx) if ask.kind == "regulation" else None
+    out = {"kind": ask.kind, "subs": {}, "ahat": [], "adot": None, "true_a": None, "xi": [], "xidot": None,
+           "tau_ext": sp.Matrix(ext.value) if ext is not None else None}
     if law in ("elastic", "cartesian_pd"):
         tracked, want, key = ((list(step["qs"]), sp.Matrix(step["qd"]), "qd") if law == "elastic"
                               else (list(step["f"]), sp.Matrix(step["pd"]), "pd"))
@@ -211,7 +215,10 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     xidot = rec["xidot"].applyfunc(close) if rec.get("xidot") is not None else None
     plant_B = dm.B.xreplace(vals)
     Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
-    plant_n = (dm.c + dm.g + Fv * sp.Matrix(dq)).xreplace(vals)
+    tau_ext = rec.get("tau_ext")
+    tau_ext = tau_ext if tau_ext is not None else sp.zeros(n, 1)
+    plant_g = dm.g - tau_ext    # the conservative generalized force on the plant: gravity and external forces
+    plant_n = (dm.c + plant_g + Fv * sp.Matrix(dq)).xreplace(vals)
     G = (dm.G if dm.G is not None else sp.eye(n)).xreplace(vals)
     free = set()
     for x in (list(u_num) + list(plant_B) + list(plant_n) + list(G) + (list(adot) if adot is not None else [])
@@ -234,11 +241,11 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     a0 = _floats(problem, options, ctx, "ahat0", len(ahat)) if ahat else []
     y0 = np.array(q0 + dq0 + a0 + [0.0] * len(xi), dtype=float)
     budget = {"nfev": 0, "deadline": time.monotonic() + options.wall}
-    ffv = np.array([float(x) for x in (dm.g.xreplace(vals).xreplace(dict(zip(q, q0))) if ff else [])])
+    ffv = np.array([float(x) for x in (plant_g.xreplace(vals).xreplace(dict(zip(q, q0))) if ff else [])])
     if ff and getattr(ask.options, "u0", None) is not None:
         u0v = ask.ctx.expr("u0")
         ffv = np.array([float(sp.sympify(x).xreplace(vals)) for x in (u0v if isinstance(u0v, list) else [u0v])])
-    f_g = lambdify_np([q], list(dm.g.xreplace(vals))) if ff else None
+    f_g = lambdify_np([q], list(plant_g.xreplace(vals))) if ff else None
 
     def rhs(tt: float, y: np.ndarray) -> np.ndarray:
         budget["nfev"] += 1
@@ -301,7 +308,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         iter_errors.append(err)
         if err < eps:
             break
-        ffv = np.array(f_g(list(y[:n])), dtype=float).ravel()    # û_{k+1} = g(q at the end of iteration k)
+        ffv = np.array(f_g(list(y[:n])), dtype=float).ravel()    # û_{k+1} = g(q) − τ_ext(q) at the end of iteration k
     T = Ttot if not ff else T * max(len(iter_errors), 1)
     Ts = np.array(ts)
     Y = np.array(ys)
@@ -351,7 +358,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              t_end=float(Ts[-1]), nfev=budget["nfev"], e_final=float(en[-1]), e_max=float(en.max()),
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
              umax=[float(x) for x in np.abs(U).max(axis=0)], ahat_final=_column(A[-1]) if ahat else None,
-             true_a=_column(true_a) if true_a else None, crossings=crossings,
+             true_a=_column(true_a) if true_a else None, crossings=crossings, external=rec.get("tau_ext") is not None,
              iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=float(sp.sympify(options.T)),
              **({"integral": True, "xi_final": _column(XI[-1])} if xi else {}))
     return sol
