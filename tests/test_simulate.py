@@ -403,3 +403,17 @@ def test_external_force_with_other_regulation_laws():
     assert res["iterations_sim"].value == 3 and errs[-1] < 1e-4 and errs[0] > errs[1] > errs[2]
     md = render(p, sols, "md")
     assert "\\hat u \\leftarrow (g - \\tau_{ext})(q)$" in md and "\n\n**Iterations.**" in md
+
+
+def test_time_and_band_are_parsed_expressions():
+    """T and settle are read with the spec's parser (parameters with values allowed), never sympify'd as raw text:
+    a coordinate or an unknown name in them was an internal TypeError, now a spec error at the line."""
+    base = RPV + "  - kind: control_law\n    law: computed_torque\n    kp: 25\n    kd: 10\n" \
+        "  - kind: simulate\n    qd: [1, 0]\n"
+    _, sols, res = run(base + "    T: l1\n    settle: l1/50\n")
+    assert fnum(res["t_end"].value) == 0.5 and sols[1].steps[-1].data["band"] == 0.01
+    with pytest.raises(UserError, match="T must be a number") as exc:
+        run(base + "    T: q1 + 1\n")
+    assert exc.value.place.line == 20   # the T: line
+    with pytest.raises(UserError, match="settle must be a positive"):
+        run(base + "    settle: -1\n")

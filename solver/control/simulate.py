@@ -265,14 +265,18 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         return np.concatenate(out)
 
     from scipy.integrate import solve_ivp
-    T = float(sp.sympify(options.T))
+    T = _number(problem, options, ctx, "T")
+    settle = _number(problem, options, ctx, "settle") if options.settle is not None else None
+    if settle is not None and not settle > 0:
+        raise UserError("settle must be a positive band on ||e||", _place(problem, ctx, "settle"))
     if not (0 < T <= 1e4):
         raise UserError("T must be a positive time (at most 10^4 s)", _place(problem, ctx, "T"))
+    T_phase = T
     phases = options.iterations if ff else 1
     eps = None
     if ff:
         eps = float(ask.ctx.expr("epsilon")) if getattr(ask.options, "epsilon", None) is not None else (
-            float(sp.sympify(options.settle)) if options.settle is not None else 1e-3)
+            settle if settle is not None else 1e-3)
     Ttot = T * phases
     grid = np.linspace(0.0, Ttot, options.points * (min(phases, 10) if ff else 1))
     ts, ys, FF = [0.0], [y0], [ffv.copy()]
@@ -315,7 +319,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     E = np.array([np.array(f_e(tt, *yy, *fv), dtype=float).ravel() for tt, yy, fv in zip(Ts, Y, FF)])
     U = np.array([np.array(f_u(tt, *yy, *fv), dtype=float).ravel() for tt, yy, fv in zip(Ts, Y, FF)])
     en = np.linalg.norm(E, axis=1)
-    band = float(sp.sympify(options.settle)) if options.settle is not None else 0.02 * max(float(en.max()), 1e-12)
+    band = settle if settle is not None else 0.02 * max(float(en.max()), 1e-12)
     above = np.nonzero(en > band)[0]
     settling = 0.0 if len(above) == 0 else (float(Ts[above[-1] + 1]) if above[-1] + 1 < len(Ts) else None)
     sol = Solution("simulate", title=options.title or f"Simulation of the closed loop (ask {idx + 1})")
@@ -359,7 +363,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
              umax=[float(x) for x in np.abs(U).max(axis=0)], ahat_final=_column(A[-1]) if ahat else None,
              true_a=_column(true_a) if true_a else None, crossings=crossings, external=rec.get("tau_ext") is not None,
-             iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=float(sp.sympify(options.T)),
+             iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=T_phase,
              **({"integral": True, "xi_final": _column(XI[-1])} if xi else {}))
     return sol
 
@@ -383,6 +387,17 @@ def _final(rhs, a, b, y, r, options):  # type: ignore[no-untyped-def]
     from scipy.integrate import solve_ivp
     r2 = solve_ivp(rhs, (r.t[-1], b), r.y[:, -1], method=options.method, rtol=options.rtol, atol=options.rtol * 1e-2)
     return r2.y[:, -1]
+
+
+def _number(problem, options: SimulateAsk, ctx, key: str) -> float:  # type: ignore[no-untyped-def]
+    """A scalar option (a number, or an expression parsed with the problem's names: parameters with values
+    allowed), as a float."""
+    raw = getattr(options, key)
+    val = ctx.expr(key) if isinstance(raw, str) else raw
+    x = sp.sympify(val).xreplace(problem.values) if not isinstance(val, list) else None
+    if x is None or x.free_symbols or not x.is_real:
+        raise UserError(f"{key} must be a number", _place(problem, ctx, key))
+    return float(x)
 
 
 def _floats(problem, options: SimulateAsk, ctx, key: str, n: int) -> list[float]:  # type: ignore[no-untyped-def]
