@@ -362,8 +362,9 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              t_end=float(Ts[-1]), nfev=budget["nfev"], e_final=float(en[-1]), e_max=float(en.max()),
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
              umax=[float(x) for x in np.abs(U).max(axis=0)], ahat_final=_column(A[-1]) if ahat else None,
-             true_a=_column(true_a) if true_a else None, crossings=crossings, external=rec.get("tau_ext") is not None,
+             true_a=_column(true_a) if true_a else None, crossings=crossings,
              iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=T_phase,
+             **({"external": True} if rec.get("tau_ext") is not None else {}),
              **({"integral": True, "xi_final": _column(XI[-1])} if xi else {}))
     return sol
 
