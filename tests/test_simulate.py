@@ -393,6 +393,9 @@ def test_external_force_with_other_regulation_laws():
     _, _, res = run(_ext("pd_constant", ", compensated: 0", sim="    T: 15\n"))
     qT = qd - np.array([fnum(x) for x in res["e_final"].value])
     assert np.max(np.abs(qT - ref)) < 1e-5 and abs(ref[0] - 0.4085945) < 1e-6
+    # the regulation ask's own equilibrium: unique by the α condition, but not q_d (it said [q_d])
+    eq = [np.array([fnum(x) for x in c]) for c in res["equilibria"].value]
+    assert len(eq) == 1 and np.max(np.abs(eq[0] - ref)) < 1e-6
     _, _, res = run(_ext("cartesian_pd", ", compensated: 0", "    task: " + TIP + "\n    pd: [0.6, 0.5]\n"
                          "    kp: [200, 200]\n    kd: [10, 8]\n", "    q0: [0.4, 0.5]\n    T: 15\n"))
     e = np.array([fnum(x) for x in res["e_final"].value])

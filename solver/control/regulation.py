@@ -942,8 +942,8 @@ class _Regulation:
         for st in self.sol.steps:
             if st.name == "alpha":
                 met = st.data.get("met")
-        if configs is None and met and self.eq_known is not None:
-            configs, how = [self.eq_known], "convex"
+        if configs is None and met and self.eq_known is not None and not mismatch:
+            configs, how = [self.eq_known], "convex"   # (unique by α; q_d only when τ_ext is compensated exactly)
         numeric_ok = self.all_numeric(phi, allow=tuple(q)) and (law != "cartesian_pd" or
                                                                self.f.rows == n)
         found = None
