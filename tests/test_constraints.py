@@ -805,3 +805,40 @@ def test_simulation_prints_the_initial_state_as_written():
         assert "q_0 = \\begin{bmatrix} 0.3333 \\\\ -0.3333 \\end{bmatrix}" in out, fmt
         assert "\\dot q_0 = \\begin{bmatrix} -1.5 \\cdot 10^{-3} \\\\ 0.0015 \\end{bmatrix}" in out, fmt
         assert "3333" not in out.replace("0.3333", ""), fmt
+
+
+TIP_X = """
+id: cd-det2
+title: 2R with its tip on the vertical line x = 1/2, v = dq2
+robot:
+  joints: [R, R]
+  links:
+    - {mass: 1, com: [cos(q1), sin(q1)], angle: q1, inertia: 0}
+    - {mass: 1, com: [cos(q1) + cos(q1 + q2), sin(q1) + sin(q1 + q2)], angle: q1 + q2, inertia: 0}
+asks:
+  - kind: constrained_dynamics
+    h: cos(q1) + cos(q1 + q2) - 1/2
+    D: [[0, 1]]
+    multiplier: false
+"""
+
+
+def test_fdot_over_the_square_of_the_determinant():
+    """det [A; D] = -(sin q1 + sin(q1 + q2)) is a sum: Ḟ = (Ṅ_F δ − N_F δ̇)/δ² is written over
+    2 (sin q1 + sin(q1 + q2))², not over the expanded square (cos 2q1 + 2 cos q2 − 2 cos(2q1 + q2) + ...), and the
+    terms over δ², δ³ keep the power too; Ḟ is the time derivative of F = [A; D]⁻¹[:, 1] computed here."""
+    p, _, res = solved(TIP_X)
+    q1, q2 = p.robot.q
+    delta = sp.sin(q1) + sp.sin(q1 + q2)
+    for name, e in (("Fdot", 2), ("reduced_inertia", 2), ("FtBFdot", 3), ("EtBF", 2), ("EtBFdot", 3)):
+        den = sp.fraction(sp.together(value(res, name)[0]))[1]
+        assert (den / delta ** e).is_Rational, (name, den)
+    A, D = value(res, "A"), sp.Matrix([[0, 1]])
+    F = A.col_join(D).inv()[:, 1]
+    Fdot = time_derivative(F, p.robot.q, p.robot.dq)
+    assert all(zero(a - b) for a, b in zip(value(res, "Fdot"), Fdot))
+    assert zero(value(res, "Fdot")[0] - (
+        (sp.sin(q2) * (2 * p.robot.dq[0] + p.robot.dq[1]) - p.robot.dq[1] * sp.sin(2 * q1 + q2)) / (2 * delta ** 2)))
+    md = render(*solved(TIP_X)[:2], "md")
+    assert "{2 \\left(\\sin {q_{1}} + \\sin{\\left(q_{1} + q_{2} \\right)}\\right)^{2}}" in md
+

@@ -312,20 +312,23 @@ def _num_den(e: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
 
 def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     """n/d for trigonometric polynomials n, d: both tidied, the factors of d that divide n cancelled (d factored
-    when small; no multivariate gcd, which is far too slow on these expressions), the sign in the numerator."""
+    when small; no multivariate gcd, which is far too slow on these expressions), the sign in the numerator. A
+    power of a sum (δ², δ³ of the reduced model) stays a power of its factors: expanded, δ² would be a long sum."""
     n1, n2 = _num_den(sp.sympify(n))
     d1, d2 = _num_den(sp.sympify(d))
     n = tidy_expanded(n1 * d2)
     if n == 0:
         return sp.Integer(0)
     mono = _monomial(n2 * d1)  # c Π bᵉ (sin q2⁷ sin(q1 + q2)): factored already, and shorter than its Fourier form
-    d = n2 * d1 if mono is not None else tidy_expanded(n2 * d1)
+    powered = _sum_powers(n2 * d1) if mono is None else None  # δ² with δ a sum: kept a power, not expanded
+    d = n2 * d1 if mono is not None else tidy_expanded(n2 * d1) if powered is None else \
+        sp.Mul(powered[0], *(f ** e for f, e in powered[1]))
     if d == 1:
         return n
     if d.is_number:
         return tidy(n / d)
     if count_ops(d) <= MAX_CANCEL_OPS and count_ops(n) <= MAX_CANCEL_OPS * 10:
-        coeff, factors = mono if mono is not None else factor_list_expr(d)  # (sympy's factor_list, faster)
+        coeff, factors = mono or powered or factor_list_expr(d)  # (sympy's factor_list, faster)
         rest = sp.sympify(coeff)
         n, powers, tidy_form = _divide_symbols(n, [(f, e) for f, e in factors if f.is_Symbol],
                                                fourier_form(n1 * d2))  # (memoized: what tidy_expanded printed)
@@ -339,7 +342,9 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
         if divided:
             n = tidy_expanded(n)
         d = rest
-        if mono is None and d.has(sp.sin, sp.cos) and count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
+        if powered is not None:  # (1 - cos q)²(1 + cos q)² -> sin(q)^4, the powers kept
+            d = _paired_sines(d) or d
+        elif mono is None and d.has(sp.sin, sp.cos) and count_ops(d) <= 40:  # (1 - cos q)(1 + cos q) -> sin(q)^2
             d = _short_denominator(d)
         if d.is_number:
             return tidy(n / d)
@@ -361,6 +366,33 @@ def _monomial(d: sp.Expr) -> tuple[sp.Rational, list[tuple[sp.Expr, int]]] | Non
             return None
         factors.append((b, int(e)))
     return c, factors
+
+
+@lru_cache(maxsize=1024)
+def _sum_powers(d: sp.Expr) -> tuple[sp.Rational, list[tuple[sp.Expr, int]]] | None:
+    """d = c Π bᵉ with c rational, e positive integers, each b a symbol, a sine/cosine or a sum (a polynomial in
+    them), and some sum raised to e ≥ 2 (a power of a determinant δ², δ³ as the reduced model divides by):
+    (c, [(f, e)]) with each sum factored by itself (its factors' exponents times e), so that δᵏ stays a power
+    instead of being expanded; None for anything else. Memoized (the entries of a matrix share δᵏ)."""
+    c, factors, powered = sp.Integer(1), {}, False
+    for f in sp.Mul.make_args(d):
+        if f.is_Rational:
+            c *= f
+            continue
+        b, e = f.as_base_exp()
+        if not (e.is_Integer and e > 0 and (b.is_Symbol or isinstance(b, (sp.sin, sp.cos)) or b.is_Add)):
+            return None
+        if not b.is_Add:
+            factors[b] = factors.get(b, 0) + int(e)
+            continue
+        powered = powered or e > 1
+        k, parts = factor_list_expr(b)
+        if not k.is_Rational:
+            return None
+        c *= k ** int(e)
+        for p, j in parts:
+            factors[p] = factors.get(p, 0) + j * int(e)
+    return (c, list(factors.items())) if powered else None
 
 
 def _paired_sines(d: sp.Expr) -> sp.Expr | None:
