@@ -842,3 +842,29 @@ def test_fdot_over_the_square_of_the_determinant():
     md = render(*solved(TIP_X)[:2], "md")
     assert "{2 \\left(\\sin {q_{1}} + \\sin{\\left(q_{1} + q_{2} \\right)}\\right)^{2}}" in md
 
+
+TOY3 = """
+id: cd-toy3
+title: 3R with a given inertia matrix
+symbols: {a: frozen q2, b: frozen q3}
+values: {a: 0.3, b: 0.3}
+robot:
+  joints: [R, R, R]
+  model:
+    B: [[3 + cos(q2), 1, 0], [1, 2, 0], [0, 0, 1]]
+    g: [0, 0, 0]
+asks:
+  - kind: constrained_dynamics
+"""
+
+
+def test_at_state_decimals_are_printed_as_written():
+    """at: {q1: 0.4, q2: 0.3, ...} is printed as 0.4, 0.3 (it read q_1 = 2/5, q_2 = 3/10); an entry written as a
+    fraction stays one; the results keep the exact values."""
+    p, sols, res = solved(TOY3 + "    h: q1 + q2 + q3 - 1\n    at: {q1: 0.4, q2: 0.35, q3: 1/4}\n")
+    assert value(res, "q_at") == sp.Matrix([sp.Rational(2, 5), sp.Rational(7, 20), sp.Rational(1, 4)])
+    for fmt in ("md", "tex"):
+        out = render(p, sols, fmt)
+        shown = out[out.index("t the given state"):].split(";")[0]
+        assert shown.endswith(" ($q_{1} = 0.4$, $q_{2} = 0.35$, $q_{3} = \\frac{1}{4}$"), (fmt, shown)
+

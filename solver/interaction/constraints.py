@@ -1283,7 +1283,8 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
                              Adot.xreplace(subs), dq_at)
     lam = lam.applyfunc(_num)
     add("lambda_at", lam, "vector", label="\\lambda\\big|_{*}")
-    data: dict[str, Any] = {"state": state, "values": problem.values, "A": A_at, "lam": lam,
+    shown = {x: as_written(spec.options.at[x.name], val) for x, val in state.items()}  # (decimals as written)
+    data: dict[str, Any] = {"state": shown, "values": problem.values, "A": A_at, "lam": lam,
                             "B": _evaluate(dm.B, subs), "nvec": _evaluate(nvec, subs)}
     if red is not None:
         det_at = red.det.xreplace(subs)
