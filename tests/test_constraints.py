@@ -868,3 +868,13 @@ def test_at_state_decimals_are_printed_as_written():
         shown = out[out.index("t the given state"):].split(";")[0]
         assert shown.endswith(" ($q_{1} = 0.4$, $q_{2} = 0.35$, $q_{3} = \\frac{1}{4}$"), (fmt, shown)
 
+
+@pytest.mark.parametrize("time, shown", [(1, "1"), (0.5, "0.5"), (2.0, "2")])
+def test_simulation_duration_without_a_trailing_zero(time, shown):
+    """simulate.time: 1 is read as 1.0 and was printed "for 1.0 s": now 1 s (0.5 s stays)."""
+    p, sols, _ = solved(TOY3 + "    h: q1 + q2 + q3 - 1\n    simulate: {u: [0, 0, 1], q0: [0.4, 0.3, 0.3], "
+                        f"time: {time}, points: 11}}\n")
+    for fmt in ("md", "tex"):
+        out = render(p, sols, fmt)
+        assert f"for {shown} s from" in out and ".0 s" not in out, fmt
+
