@@ -878,3 +878,41 @@ def test_simulation_duration_without_a_trailing_zero(time, shown):
         out = render(p, sols, fmt)
         assert f"for {shown} s from" in out and ".0 s" not in out, fmt
 
+
+K_TEXTS = {  # (k = 1, k = 2) sentences of the report that depend on the number of constraints (md; tex alike)
+    "h": ("h: q1 + q2 + q3 - 1", "h: [q1 + q2 + q3 - 1, q2 - q3]"),
+    "A": ("A: [[1, 1, 1]]", "A: [[1, 1, 1], [0, 1, -1]]"),
+    "freeze": ("freeze: {q3: b}", "freeze: {q2: a, q3: b}"),
+}
+
+
+@pytest.mark.parametrize("kind", list(K_TEXTS))
+def test_sentences_agree_with_the_number_of_constraints(kind):
+    """Freezing two coordinates read "is the holonomic constraint" and the other sentences said "the constraint",
+    "the multiplier ... is" for k = 2; the simulation said "the multipliers λ(t)" for k = 1 and named h(q(t)) for
+    Pfaffian constraints (the figure has no such panel). Each sentence with k = 1 and k = 2, h, A and freeze."""
+    sim = "    simulate: {u: [0, 0, 1], q0: [0.4, 0.3, 0.3], time: 1, points: 11}\n"
+    for k, spec in enumerate(K_TEXTS[kind], 1):
+        s = "s" if k > 1 else ""
+        p, sols, _ = solved(TOY3 + f"    {spec}\n" + sim + ("    at: {q1: 0.4, q2: 0.3, q3: 0.3}\n"
+                                                            if kind != "A" else ""))
+        md, tex = render(p, sols, "md"), render(p, sols, "tex")
+        want = [f"Along the constraint{s} ($\\dot q = F v$)", f"along the constraint{s}\n",
+                f"keep the constraint{s})", f"(on the constraint{s})",
+                f"the associated multiplier{s} {'are' if k > 1 else 'is'}",
+                f"the multiplier{s} $\\lambda(t)$ needed to keep the constraint{s}"]
+        if kind != "A":
+            want.append(f"the multiplier{s} as a function of the input {'are' if k > 1 else 'is'}")
+            want.append(f"the constraint{s} $h(q(t))$, which {'stay' if k > 1 else 'stays'} at zero")
+        else:
+            assert "h(q(t))" not in md + tex and "needed to keep the constraint" + s + " and the motion $q(t)$." in md
+        if kind == "freeze":
+            want.append("$q_{2} = a$ and $q_{3} = b$ gives the 2 holonomic constraints $h(q)" if k > 1 else
+                        "Freezing $q_{3} = b$ is the holonomic constraint $h(q)")
+        else:
+            want.append("the 2 other columns of $A$ form" if k > 1 else "the other column of $A$ is")
+        for text in want:
+            assert text in md, (kind, k, text)
+            assert text.replace("\n", "") in tex.replace("\n", ""), (kind, k, text)
+        wrong = "s" if k == 1 else ""
+        assert f"constraint{wrong} ($\\dot q" not in md and f"multiplier{wrong} $\\lambda(t)$" not in md

@@ -1198,7 +1198,7 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
         else:
             lam_dv = None
     sol.step("u_dv", u=u_dv, dv_d=dv_d, lam_d=lam_d, lam_given=lam_given, s=sol_dv, check=check, lam_dv=lam_dv,
-             m=m, n=n, G=dm.G)
+             m=m, n=n, k=k, G=dm.G)
     eq = _equilibrium(spec, red, dm, dm.G if dm.G is not None else sp.eye(n), u, None)
     if eq["s"].exists:
         add("u_eq", eq["s"].u, "vector", label="u_{eq}(q)")
@@ -1207,7 +1207,7 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
         add("lambda_eq", eq["lam"], "vector", label="\\lambda_{eq}")
     if eq["lam0"] is not None:
         add("u_eq_lambda0", eq["lam0"], "vector", label="u_{eq}\\ (\\lambda = 0)")
-    sol.step("equilibrium", e=eq, at=False, G=dm.G)
+    sol.step("equilibrium", e=eq, at=False, G=dm.G, k=k)
     return red
 
 
@@ -1284,7 +1284,7 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
     lam = lam.applyfunc(_num)
     add("lambda_at", lam, "vector", label="\\lambda\\big|_{*}")
     shown = {x: as_written(spec.options.at[x.name], val) for x, val in state.items()}  # (decimals as written)
-    data: dict[str, Any] = {"state": shown, "values": problem.values, "A": A_at, "lam": lam,
+    data: dict[str, Any] = {"state": shown, "values": problem.values, "A": A_at, "lam": lam, "k": spec.k,
                             "B": _evaluate(dm.B, subs), "nvec": _evaluate(nvec, subs)}
     if red is not None:
         det_at = red.det.xreplace(subs)
@@ -1399,7 +1399,8 @@ def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> No
     shown = {key: [as_written(r, x) for r, x in zip(raw if isinstance(raw, list) else [raw] * len(vals), vals)]
              for key, raw, vals in (("q0", opts.q0, q0), ("dq0", opts.dq0, dq0))}
     written = any(isinstance(x, str) for x in shown["q0"] + shown["dq0"])  # (decimals: their entries as written)
-    sol.step("simulation", T=T, q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), u=sp.Matrix(u_t), unit=unit, t=t,
+    sol.step("simulation", T=T, q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), u=sp.Matrix(u_t), unit=unit, t=t, k=k,
+             holonomic=fh is not None,
              **({"q0_shown": shown["q0"], "dq0_shown": shown["dq0"]} if written else {}))
 
 
