@@ -269,6 +269,14 @@ def test_ask_sns_and_comparison_render():
     assert "Saturation in the Null Space" in md and "**Comparison.**" in md
     tex = render(p, sols, "tex")
     assert "Saturation in the Null Space" in tex and "Comparison" in tex
+    assert "no preferred joint motion" not in md
+    # with a damping q̈0 = −K_d q̇ (used by the null-space method), the report says the basic SNS does not use it
+    p = load_problem_text(text.replace("    joint_velocity: [0, 0, 0, 0]\n", "    joint_velocity: [1, 0, 0, -1]\n"
+                                       "    damping: 2\n"))
+    sols = solve_problem(p)
+    v2 = np.array(sp.Matrix(all_results(sols)["qddot_sns"].value).evalf().tolist(), dtype=float).ravel()
+    md = render(p, sols, "md")
+    assert "This basic SNS has no preferred joint motion" in md and "no preferred joint motion" in render(p, sols, "tex")
 
 
 # ----------------------------------------------------------------------------------------------- issue 8, items 15-16
