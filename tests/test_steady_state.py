@@ -669,3 +669,139 @@ def test_same_value_of_parametric_roots():
     assert _same_value(sp.atan2(l1 * sp.sin(q2), l1 * sp.cos(q2)), q2, True)
     assert _same_value(sp.cos(q2) ** 2 * l1, l1 - l1 * sp.sin(q2) ** 2, False)
     assert not _differ_at_a_point(sp.acos(1 + x), sp.pi / 2 - sp.asin(1 + x), False)
+
+
+# --- conditions on the parameters in the steady-motion and solve_for paths ------------------------------------------
+
+RP_SLIDER = """
+id: rp_slider
+title: a planar RP arm whose slider stays vertical at the tip of link 1, pushed up by a constant force
+symbols: {m1: m1, m2: m2, r1: r1, l1: l1, I1: I1, g0: g0, F: F, fv1: fv1}
+robot:
+  joints: [R, P]
+  gravity: [0, -g0, 0]
+  links:
+    - {mass: m1, com: [r1*cos(q1), r1*sin(q1)], angle: q1, inertia: I1}
+    - {mass: m2, com: [l1*cos(q1), l1*sin(q1) + q2]}
+  friction: {viscous: [fv1, 0]}
+asks:
+  - kind: equilibria
+    input: {u2: F}
+  - kind: equilibria
+    steady: velocity
+    input: {u2: F}
+    suffix: _v
+  - kind: equilibria
+    solve_for: [u1]
+    input: {u2: F}
+    suffix: _s
+  - kind: equilibria
+    steady: velocity
+    velocity: {q1: 0}
+    solve_for: [u1]
+    input: {u2: F}
+    suffix: _vs
+"""
+RP_VALUES = {"m1": 1.5, "m2": 0.8, "r1": 0.3, "l1": 0.7, "I1": 0.2, "g0": 9.81, "fv1": 0.4}
+
+
+def _steady_residual(p, sol, values: dict[str, float], seed: int = 1) -> float:
+    """max |B q̈ + c + g + F_v q̇ − G ū| over the reported motions along q̄ + v̄ t (t = 0, 1.3), the coordinates and
+    velocities left free (arbitrary) at random values."""
+    robot, dm, rng = p.robot, derive(p.robot), np.random.default_rng(seed)
+    num = {p.names[k]: v for k, v in values.items()}
+    worst, d = 0.0, sol.steps[-1].data
+    if "motions" not in d:   # the rest path: g(q) = G ū at each configuration
+        for c in d["configs"]:
+            free = {x: rng.uniform(-2, 2) for x in c.free_symbols if x in robot.q}
+            r = dm.g.xreplace(dict(zip(robot.q, c.xreplace(free)))) - d["rhs"]
+            worst = max(worst, max(abs(complex(sp.N(x.xreplace(num)))) for x in r))
+        return worst
+    for m in d["motions"]:
+        free = {x: rng.uniform(-2, 2) for x in m["q"].free_symbols | m["v"].free_symbols if x in robot.q + robot.dq}
+        for t in (0.0, 1.3):
+            on = {x: (m["q"][i] + m["v"][i] * t).xreplace(free) for i, x in enumerate(robot.q)}
+            on |= {d: m["v"][i].xreplace(free) for i, d in enumerate(robot.dq)} | {a: 0 for a in robot.ddq}
+            u = m["u"].xreplace(free).xreplace(on)
+            r = dm.lhs.xreplace(on) - (dm.G * u if dm.G is not None else u)
+            worst = max(worst, max(abs(complex(sp.N(x.xreplace(num)))) for x in r))
+    return worst
+
+
+def test_steady_and_solve_for_report_a_row_free_of_the_unknowns_as_a_condition():
+    """The slider's row m2 g0 = F is free of q, q̇ and u1: every path reports it as the condition F = m2 g0 (the
+    steady-motion and solve_for paths said "no steady motion" / "no equilibrium"). Rest: q1 = ±π/2, any q2; steady
+    velocity: the same with the slider at any speed; solve_for: any q with u1 = (m1 r1 + m2 l1) g0 cos q1. Checked by
+    substituting each motion in the model with F = m2 g0 (residual 0) and F ≠ m2 g0 (not 0), and by simulation."""
+    p, sols, res = run(RP_SLIDER)
+    m2, g0, F = S("m2"), S("g0"), S("F")
+    for sfx in ("", "_v", "_s", "_vs"):
+        (cond,) = res["equilibrium_conditions" + sfx].value
+        assert same(cond, m2 * g0 - F) or same(cond, F - m2 * g0), sfx
+    q1, q2 = sp.Symbol("q1"), sp.Symbol("q2")
+    dq2 = sp.Symbol("dq2")
+    assert sorted([[plain(x) for x in e] for e in res["equilibria"].value], key=str) == \
+        [[-sp.pi / 2, q2], [sp.pi / 2, q2]]
+    assert sorted([[plain(x) for x in e] for e in res["steady_state_v"].value], key=str) == \
+        [[-sp.pi / 2, q2], [sp.pi / 2, q2]]
+    assert [[plain(x) for x in v] for v in res["steady_velocity_v"].value] == [[0, dq2]]
+    assert [[plain(x) for x in e] for e in res["equilibria_s"].value] == [[q1, q2]]
+    (u,) = res["equilibrium_input_s"].value
+    assert same(u[0], (S("m1") * S("r1") + m2 * S("l1")) * g0 * sp.cos(q1)) and same(u[1], F)
+    assert [[plain(x) for x in v] for v in res["steady_velocity_vs"].value] == [[0, dq2]]
+    held = RP_VALUES | {"F": RP_VALUES["m2"] * RP_VALUES["g0"]}
+    for k in range(4):
+        assert _steady_residual(p, sols[k], held) < 1e-9
+        assert _steady_residual(p, sols[k], held | {"F": 5.0}) > 1.0   # the condition is needed
+    md, tex = render(p, sols, "md"), render(p, sols, "tex", fragment=True)
+    for text in (md, tex):
+        assert "free of $q$ require $- F + g_{0} m_{2} = 0$: for any other value of the parameters there is no " \
+               "equilibrium." in text
+        assert "free of $q$ and $\\dot q$ require $- F + g_{0} m_{2} = 0$: for any other value of the parameters " \
+               "there is no steady motion with constant velocity." in text
+        assert "free of $q$ and $u_{1}$ require $- F + g_{0} m_{2} = 0$" in text
+        assert "free of $q$, $\\dot q$ and $u_{1}$ require" in text
+    assert "No steady motion" not in md and "No equilibrium" not in md
+    # simulation with F = m2 g0, u1 = 0: from q1 = -pi/2 the slider keeps its speed, link 1 stays
+    v = {k: held[k] for k in held}
+    b11 = v["I1"] + v["m1"] * v["r1"] ** 2 + v["m2"] * v["l1"] ** 2
+    a = (v["m1"] * v["r1"] + v["m2"] * v["l1"]) * v["g0"]
+
+    def f(t, x):
+        q1_, _, w1, w2 = x
+        B = np.array([[b11, v["m2"] * v["l1"] * np.cos(q1_)], [v["m2"] * v["l1"] * np.cos(q1_), v["m2"]]])
+        rhs = -np.array([a * np.cos(q1_) + v["fv1"] * w1, -v["m2"] * v["l1"] * np.sin(q1_) * w1 ** 2
+                         + v["m2"] * v["g0"]]) + np.array([0.0, v["F"]])
+        return [w1, w2, *np.linalg.solve(B, rhs)]
+    out = solve_ivp(f, (0, 5), [-np.pi / 2, 0.1, 0.0, 0.7], rtol=1e-10, atol=1e-12)
+    assert np.allclose(out.y[2:, -1], [0.0, 0.7], atol=1e-8) and np.isclose(out.y[0, -1], -np.pi / 2, atol=1e-8)
+
+
+def test_steady_conditions_that_differ_between_motions_are_said_per_motion():
+    """An unbalanced rotor (CoM offset rc of either sign): at rest at ±π/2, or spinning at any speed iff
+    g0 m rc = 0 (was dropped as "an equation of the parameters alone"); the condition is said on that motion only."""
+    text = """
+id: rotor
+title: an unbalanced rotor in a vertical plane
+symbols: {m: m, rc: {meaning: CoM offset, sign: real}, g0: g0}
+robot:
+  joints: [R]
+  gravity: [0, -g0, 0]
+  links:
+    - {mass: m, com: [rc*cos(q1), rc*sin(q1)]}
+asks:
+  - kind: equilibria
+    steady: velocity
+"""
+    p, sols, res = run(text)
+    q1, dq1 = sp.Symbol("q1"), sp.Symbol("dq1")
+    got = [([plain(x) for x in m["q"]], [plain(x) for x in m["v"]], [plain(r) for r in m.get("requires", [])])
+           for m in sols[0].steps[-1].data["motions"]]
+    rc_m_g0 = sp.Symbol("g0") * sp.Symbol("m") * sp.Symbol("rc")
+    assert sorted(map(str, got)) == sorted(map(str, [([-sp.pi / 2], [0], []), ([sp.pi / 2], [0], []),
+                                                     ([q1], [dq1], [rc_m_g0])]))
+    assert [plain(x) for x in res["equilibrium_conditions"].value] == [rc_m_g0]
+    vals = {"m": 2.0, "g0": 9.81}
+    assert _steady_residual(p, sols[0], vals | {"rc": 0.0}) < 1e-12
+    md = render(p, sols, "md")
+    assert "\\quad (\\text{if } g_{0} m rc = 0)$$" in md and "free of $q$" not in md

@@ -20,7 +20,9 @@ one rotating angle, and for several ones rotating at speeds with irrational rati
 The configurations are listed as distinct sets: an angle left free by the solver (cos θ in terms of sin θ on half
 a circle) is written as θ in the other values, equal sets (angles modulo 2π) are kept once and, at rest, a point
 inside a listed family is dropped. At rest, a row of g(q) − G ū free of q is a condition on the parameters
-(F − m g0 = 0), reported with the configurations of the other rows instead of "no solution".
+(F − m g0 = 0), reported with the configurations of the other rows instead of "no solution"; the steady motions
+(and solve_for) split off an equation free of their unknowns the same way (:func:`split_conditions`), as a condition
+of the motions of that set of rotating angles.
 """
 from __future__ import annotations
 
@@ -98,12 +100,10 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
     on the parameters: the configurations are those of the other rows, and exist iff every r = 0 (none when some r
     is non-zero for every value of the parameters, e.g. m g0 without input). ``clean``: raise :class:`Unclean` at
     the first angle whose cosine or sine is a radical of the parameters, before writing it (atan2 of radicals)."""
-    g_list = [tidy(x) for x in g]
-    requires = [x for x in g_list if x != 0 and not (x.free_symbols & set(q))]
-    if any(x.is_zero is False for x in requires):
+    split = split_conditions([tidy(x) for x in g], set(q))
+    if split is None:
         return [], [], False, []
-    requires = list(dict.fromkeys(requires))
-    g_list = [x for x in g_list if x.free_symbols & set(q)]
+    requires, g_list = split
     if all(x == 0 for x in g_list):
         return [sp.Matrix(q)], [], True, requires
     angles = _angles(g_list, q)
@@ -142,6 +142,18 @@ def _parametric_root(e: sp.Expr, q: list[sp.Symbol]) -> bool:
     """Whether e has a fractional power of an expression in symbols other than the coordinates (√(l1² − r²))."""
     return any(p.exp.is_Rational and not p.exp.is_Integer and (p.base.free_symbols - set(q))
                for p in e.atoms(sp.Pow))
+
+
+def split_conditions(rows: list[sp.Expr], unknowns: set[sp.Symbol]
+                     ) -> Optional[tuple[list[sp.Expr], list[sp.Expr]]]:
+    """(conditions, the other rows): a non-zero row free of the unknowns (a constant input against a constant force,
+    m g0 − F) is a condition r = 0 on the parameters, listed once; the rows that are 0 are dropped. None when a
+    condition is non-zero for every value of the parameters (m g0 without input): then nothing satisfies the rows."""
+    free = [tidy(x) for x in rows if not (x.free_symbols & unknowns)]
+    conditions = list(dict.fromkeys(x for x in free if x != 0))
+    if any(x.is_zero is False for x in conditions):
+        return None
+    return conditions, [x for x in rows if x.free_symbols & unknowns]
 
 
 def _angles(rows: list[sp.Expr], q: list[sp.Symbol]) -> list[sp.Symbol]:
@@ -291,6 +303,7 @@ class SteadyMotion:
     q: sp.Matrix
     v: sp.Matrix
     u: sp.Matrix
+    requires: list[sp.Expr] = field(default_factory=list)   # conditions r = 0 on the parameters for it to exist
 
 
 @dataclass
@@ -396,6 +409,10 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
             continue
         eqs = list(dict.fromkeys(sp.expand(x) for x in eqs if sp.expand(x) != 0))
         su, eqs = _eliminate_inputs(eqs, list(unknown_u))
+        split = split_conditions(eqs, set(q) | set(unknown_u) | {d for d in dq if d not in given_v and d not in stay})
+        if split is None:
+            continue  # an equation of the parameters alone that cannot hold (m g0 l = 0 for a rotating angle)
+        requires, eqs = split
         still = [a for a in angles if a not in rotating and any(a in x.free_symbols for x in eqs)]
         poly, cs2 = _to_polynomial(eqs, still)
         unknowns = ([x for a in still for x in cs2[a]] + others
@@ -438,9 +455,13 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                 for p in x.atoms(sp.Pow):
                     if p.exp == sp.Rational(1, 2) and not p.base.is_nonnegative:
                         conditions.append(sp.GreaterThan(p.base, 0))
-            m = SteadyMotion(sp.Matrix(qs), sp.Matrix(vs), sp.Matrix(us))
-            if not any(same_configurations(_stacked(m), _stacked(o), names, set(angles)) for o in motions):
+            m = SteadyMotion(sp.Matrix(qs), sp.Matrix(vs), sp.Matrix(us), requires)
+            twin = next((o for o in motions if same_configurations(_stacked(m), _stacked(o), names, set(angles))),
+                        None)
+            if twin is None:
                 motions.append(m)
+            elif not requires:
+                twin.requires = []   # also found without conditions
     motions.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in list(m.v) + list(m.q)])
     return motions, list(dict.fromkeys(conditions)), angles, partial
 
@@ -623,12 +644,19 @@ def solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type:
         sol.add("n_steady" + sfx, sp.Integer(len(motions)), "number", label="N_s")
         if unknown:
             sol.add("steady_input" + sfx, _distinct([m.u for m in motions]), "set", label="\\bar u")
+    requires = list(dict.fromkeys(r for m in motions for r in m.requires))
+    if requires:
+        sol.add("equilibrium_conditions" + sfx, sp.Matrix(requires), "vector", label="\\text{conditions } (=0)")
     if defs:
         sol.add("deformations" + sfx, _distinct(dvals), "set", label="\\delta")
+    shared = all(m.requires == requires for m in motions)
     sol.step("steady", rest=rest, q=q, dq=dq, rows=an.rows, rhs=an.rhs, input=given_u, unknown=unknown,
-             given_v=list(given_v.items()), motions=[dict(q=m.q, v=m.v, u=m.u) for m in motions],
+             given_v=list(given_v.items()),
+             motions=[dict(q=m.q, v=m.v, u=m.u, **({"requires": m.requires} if m.requires and not shared else {}))
+                      for m in motions],
              conditions=conditions, angles=angles, partial=partial, K=K, rigid=rigid, sums=sums,
-             defs=sp.Matrix(defs) if defs else None, dvals=dvals, inputs=list(robot.inputs))
+             defs=sp.Matrix(defs) if defs else None, dvals=dvals, inputs=list(robot.inputs),
+             **({"requires": requires} if requires and shared else {}))
     return sol
 
 
