@@ -152,3 +152,105 @@ def test_check_finds_bad_calls_and_states_without_solving(old, new, words):
     without the recursions."""
     text = SPATIAL.replace("{conv}", "standard").replace(old, new)
     assert words in error_found_without_solving(text)
+
+
+# --- a planar 2R in modified DH with friction or a spring (no exercise uses it) -------------------------------------
+
+MOD2R = """
+id: mod2r
+title: planar 2R in modified DH frames
+symbols: {l1: l1, d1: d1, d2: d2, m1: m1, m2: m2, I1: I1, I2: I2, g0: g0, fv1: fv1, fv2: fv2, k: k}
+robot:
+  joints: [R, R]
+  gravity: [0, -g0, 0]
+  dh:
+    convention: modified
+    table:
+      - {a: 0, alpha: 0, d: 0, theta: q1}
+      - {a: l1, alpha: 0, d: 0, theta: q2}
+    links:
+      - {mass: m1, com: [d1, 0, 0], inertia: I1}
+      - {mass: m2, com: [d2, 0, 0], inertia: I2}
+EXTRA
+asks:
+  - kind: newton_euler
+    routines: [gravity, coriolis, static, inertia, kinetic_energy]
+"""
+
+
+def _hand_2r():
+    """B, c, g of the planar 2R (CoM of link i at d_i from joint i on the link, gravity along −y), written by hand."""
+    l1, d1, d2, m1, m2, I1, I2, g0 = sp.symbols("l1 d1 d2 m1 m2 I1 I2 g0")
+    q1, q2, dq1, dq2 = sp.symbols("q1 q2 dq1 dq2")
+    b12 = I2 + m2 * (d2 ** 2 + l1 * d2 * sp.cos(q2))
+    B = sp.Matrix([[I1 + m1 * d1 ** 2 + I2 + m2 * (l1 ** 2 + d2 ** 2 + 2 * l1 * d2 * sp.cos(q2)), b12],
+                   [b12, I2 + m2 * d2 ** 2]])
+    h = m2 * l1 * d2 * sp.sin(q2)
+    c = sp.Matrix([-h * (2 * dq1 * dq2 + dq2 ** 2), h * dq1 ** 2])
+    g = sp.Matrix([(m1 * d1 + m2 * l1) * g0 * sp.cos(q1) + m2 * d2 * g0 * sp.cos(q1 + q2),
+                   m2 * d2 * g0 * sp.cos(q1 + q2)])
+    return B, c, g
+
+
+def _plain(m):
+    return sp.sympify(m).xreplace({x: sp.Symbol(x.name) for x in sp.sympify(m).free_symbols})
+
+
+def _equal(a, b) -> bool:
+    return all(sp.simplify(x) == 0 for x in sp.Matrix(_plain(a)) - sp.Matrix(b))
+
+
+def test_modified_dh_2r_with_friction_report_and_ne_c_label():
+    """Modified DH: u = NE(q, q̇, q̈) equals the hand-written B q̈ + c + g + F_v q̇, and the report writes the
+    modified recursion (ω_i = ⁱR_{i−1}ω_{i−1} + q̇_i ẑ_i, a_i = ⁱR_{i−1}(a_{i−1} + ω̇_{i−1} × P_i + ...), moments about
+    O_i) instead of the standard one; ne_c = NE₀(q, q̇, 0) carries the friction and is labelled c + F_v q̇ (it said
+    c)."""
+    p = load_problem_text(MOD2R.replace("EXTRA", "  friction: {viscous: [fv1, fv2]}"))
+    sols = solve_problem(p)
+    r = all_results(sols)
+    B, c, g = _hand_2r()
+    ddq, dq = sp.Matrix(sp.symbols("ddq1 ddq2")), sp.Matrix(sp.symbols("dq1 dq2"))
+    Fv = sp.diag(*sp.symbols("fv1 fv2"))
+    assert r["ne_equals_lagrange"].value is True
+    assert _equal(r["ne_u"].value, B * ddq + c + g + Fv * dq)
+    assert _equal(r["ne_c"].value, c + Fv * dq)
+    assert _equal(r["ne_B"].value, B) and _equal(r["ne_g"].value, g)
+    assert r["ne_c"].label == "c(q,\\dot q) + F_v\\dot q"
+    for text in (render(p, sols, "md"), render(p, sols, "tex", fragment=True)):
+        assert "c(q,\\dot q) + F_v\\dot q = NE_0(q, \\dot q, 0) =" in text
+        assert "\\omega_i = {}^{i}R_{i-1}\\,\\omega_{i-1} + \\sigma_i \\dot q_i \\hat z_i" in text
+        assert ("a_i = {}^{i}R_{i-1}\\left(a_{i-1} + \\dot\\omega_{i-1} \\times {}^{i-1}P_i + \\omega_{i-1} \\times "
+                "(\\omega_{i-1} \\times {}^{i-1}P_i)\\right)") in text
+        assert "{}^{i}P_{i+1} \\times ({}^{i}R_{i+1} f_{i+1}) + r_{i,ci} \\times m_i a_{ci}" in text
+        assert "r_{i-1,i}" not in text and "{}^{i-1}R_i^T a_{i-1}" not in text   # no standard-DH formula
+        assert "g(q) + F_v\\dot q$ derived independently" in text
+    # the standard robot keeps its text and its label c
+    std = load_problem_text(MOD2R.replace("EXTRA", "").replace("convention: modified", "convention: standard")
+                            .replace("- {a: 0, alpha: 0, d: 0, theta: q1}", "- {a: l1, alpha: 0, d: 0, theta: q1}")
+                            .replace("- {a: l1, alpha: 0, d: 0, theta: q2}", "- {a: l2, alpha: 0, d: 0, theta: q2}")
+                            .replace("[d1, 0, 0]", "[d1 - l1, 0, 0]").replace("[d2, 0, 0]", "[d2 - l2, 0, 0]")
+                            .replace("k: k}", "k: k, l2: l2}"))
+    s2 = solve_problem(std)
+    r2 = all_results(s2)
+    assert r2["ne_equals_lagrange"].value is True and _equal(r2["ne_c"].value, c)
+    assert r2["ne_c"].label == "c(q,\\dot q)"
+    md = render(std, s2, "md")
+    assert "{}^{i-1}R_i^T a_{i-1} + \\dot\\omega_i \\times r_{i-1,i}" in md and "{}^{i}P_{i+1}" not in md
+
+
+def test_ne0_routines_leave_out_springs():
+    """A spring ½ k q2² is part of g(q) but not of c, B or T: NE₀ leaves out all of g(q), so ne_c = c, ne_B = B and
+    ne_T = T (they carried k q2, and the check said "differs"); ne_g and ne_static keep it."""
+    p = load_problem_text(MOD2R.replace("EXTRA", '  extra: {potential: ["1/2*k*q2^2"]}'))
+    sols = solve_problem(p)
+    r = all_results(sols)
+    B, c, g = _hand_2r()
+    k, q2 = sp.symbols("k q2")
+    gk = g + sp.Matrix([0, k * q2])
+    dq, ddq = sp.Matrix(sp.symbols("dq1 dq2")), sp.Matrix(sp.symbols("ddq1 ddq2"))
+    assert r["ne_equals_lagrange"].value is True
+    assert _equal(r["ne_c"].value, c) and _equal(r["ne_B"].value, B)
+    assert sp.simplify(_plain(r["ne_T"].value) - (dq.T * B * dq)[0] / 2) == 0
+    assert _equal(r["ne_g"].value, gk) and _equal(r["ne_static"].value, B * ddq + gk)
+    assert _equal(r["ne_u"].value, B * ddq + c + gk)
+    assert "without all of $g(q)$" in render(p, sols, "md")

@@ -19,7 +19,8 @@ joint i's axis: O_{i−1} standard, O_i modified; ℓᵢ = from that point to th
 
 (the standard-DH form is the textbook τᵢ = ⁱR_{i+1}τ_{i+1} + (ⁱR_{i+1}f_{i+1}) × r_{i,ci} − fᵢ × (r_{i−1,i} + r_{i,ci})
 + Iᵢω̇ᵢ + ωᵢ × Iᵢωᵢ, rearranged). As a routine, NE_γ(q, q̇, q̈) with gravity switch γ gives g(q) = NE(q, 0, 0),
-c(q, q̇) = NE₀(q, q̇, 0), b_j(q) = NE₀(q, 0, e_j), B q̈ + g = NE(q, 0, q̈), T = q̇ᵀ NE₀(q, 0, q̇/2).
+c(q, q̇) + F_v q̇ = NE₀(q, q̇, 0) (the friction of the model is in u), b_j(q) = NE₀(q, 0, e_j), B q̈ + g = NE(q, 0, q̈),
+T = q̇ᵀ NE₀(q, 0, q̇/2); NE₀ leaves out all of g(q) (gravity, and springs or a given U/g added from the model).
 
 Every quantity is computed as a trigonometric polynomial of :mod:`solver.math.trigpoly` (exact; nothing simplified
 in between) and each reported one is written once at the end, in the form ``tidy`` gives; data outside that
@@ -170,7 +171,7 @@ def newton_euler(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: b
         u[i] = s.u
         f_next, t_next, R_next = s.f, s.tau, j.R
     if extras:
-        u += extra_terms(robot, dq, ddq, q)
+        u += extra_terms(robot, dq, ddq, q, potential=gravity)
     return NEResult(states, tidy_matrix(u) if simplify else u, a0)
 
 
@@ -191,7 +192,7 @@ def _canonical(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], gravity: boo
     g0 = robot.gravity if (gravity and robot.gravity is not None) else sp.zeros(3, 1)
     if g0.shape[0] == 2:
         g0 = g0.col_join(sp.zeros(1, 1))
-    extra = extra_terms(robot, dq, ddq, q) if extras and has_extras(robot) else None
+    extra = extra_terms(robot, dq, ddq, q, potential=gravity) if extras and has_extras(robot) else None
     masses = [b.mass for b in robot.bodies]
     try:
         A = TrigAlgebra.of(frames + coms + inertias + masses + [g0] + list(dq) + list(ddq),
@@ -312,22 +313,35 @@ def same_function(x: sp.Matrix, y: sp.Matrix) -> bool:
         return all(is_zero(sp.expand(d)) for d in (x - y))
 
 
+def has_friction(robot: Robot) -> bool:
+    """Whether the model has a viscous friction term F_v q̇ (not identically 0)."""
+    return robot.friction is not None and any(x != 0 for x in robot.friction)
+
+
+def has_potential(robot: Robot) -> bool:
+    """Whether g(q) has terms besides gravity (springs, a given U or g): NE₀ leaves them out too."""
+    return bool(robot.potential_extra or robot.given_g is not None or robot.given_U is not None)
+
+
 def has_extras(robot: Robot) -> bool:
     return bool(robot.kinetic_extra or robot.potential_extra or robot.given_B is not None
                 or robot.given_g is not None or robot.given_U is not None or robot.friction is not None)
 
 
-def extra_terms(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], q: list[sp.Expr] | None = None) -> sp.Matrix:
+def extra_terms(robot: Robot, dq: list[sp.Expr], ddq: list[sp.Expr], q: list[sp.Expr] | None = None,
+                potential: bool = True) -> sp.Matrix:
     """Model terms the link bodies do not carry (motor kinetic energy, springs, given B/U/g, friction F_v q̇),
-    from their Lagrangian: B_x q̈ + c_x + g_x + F_v q̇."""
+    from their Lagrangian: B_x q̈ + c_x + g_x + F_v q̇; without g_x (``potential`` False) in NE₀, which leaves out
+    all of g(q) so that NE₀(q, 0, e_j) = b_j and q̇ᵀNE₀(q, 0, q̇/2) = T hold with springs too."""
     if not has_extras(robot):
         return sp.zeros(robot.n, 1)
     bare = Robot(q=robot.q, dq=robot.dq, ddq=robot.ddq, joints=robot.joints, gravity=None,
                  kinetic_extra=robot.kinetic_extra, potential_extra=robot.potential_extra, friction=robot.friction,
                  given_B=robot.given_B, given_U=robot.given_U, given_g=robot.given_g)
     dm = derive(bare)
+    lhs = dm.lhs if potential else dm.lhs - dm.g
     subs = {**dict(zip(robot.dq, dq)), **dict(zip(robot.ddq, ddq)), **(dict(zip(robot.q, q)) if q else {})}
-    return dm.lhs.xreplace(subs) if subs else dm.lhs
+    return lhs.xreplace(subs) if subs else lhs
 
 
 # ------------------------------------------------------------------------------------------------ the ask
@@ -341,7 +355,8 @@ class NECall(Strict):
     q: ExprT | None = Field(None, description="configuration (default: the symbolic q)")
     dq: ExprT = Field(0, description="velocity argument: a list of n expressions, or 0")
     ddq: ExprT = Field(0, description="acceleration argument: a list of n expressions, or 0")
-    gravity: bool = Field(True, description="with gravity (NE_g) or without (NE_0)")
+    gravity: bool = Field(True, description="with gravity (NE_g) or without (NE_0: without all of g(q), springs and "
+                                            "given potential terms too)")
     dot_with: ExprT | None = Field(None, description="also the scalar product vᵀ y with this vector "
                                                          "(result <name>_dot), e.g. dq for T = q̇ᵀ NE₀(q, 0, q̇/2)")
 
@@ -353,9 +368,10 @@ class NewtonEulerAsk(Strict):
     title: str | None = Field(None, description="heading of this part in the report")
     model: bool = Field(True, description="run NE(q, q̇, q̈) symbolically, recursions shown step by step (results "
                                           "ne_w<i>, ne_dw<i>, ne_a<i>, ne_ac<i>, ne_f<i>, ne_tau<i>, ne_u)")
-    gravity: bool = Field(True, description="gravity in the model run (a₀ = −g₀)")
+    gravity: bool = Field(True, description="gravity in the model run (a₀ = −g₀); false: NE₀, without all of g(q)")
     routines: list[Literal["gravity", "coriolis", "static", "inertia", "kinetic_energy"]] = Field(
-        [], description="NE used as a routine: gravity = NE(q,0,0) -> ne_g; coriolis = NE₀(q,q̇,0) -> ne_c; "
+        [], description="NE used as a routine: gravity = NE(q,0,0) -> ne_g; coriolis = NE₀(q,q̇,0) -> ne_c "
+                        "(c + F_v q̇ when the robot has friction); "
                         "static = NE(q,0,q̈) -> ne_static (B q̈ + g); inertia = NE₀(q,0,e_j), j = 1..n -> ne_B; "
                         "kinetic_energy = q̇ᵀ NE₀(q,0,q̇/2) -> ne_T")
     calls: list[NECall] = Field([], description="further calls with given arguments")
@@ -446,9 +462,11 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
             sol.add(f"ne_tau{i}", s.tau, "vector", label=f"{{}}^{i}\\tau_{{{i}}}")
         sol.add("ne_u", res.u, "vector", label="u")
         sol.step("model", res=res, gravity=options.gravity, modified=robot.dh_convention == "modified",
-                 abbr=abbreviated(res, robot))
+                 abbr=abbreviated(res, robot), **({"potential": True} if has_potential(robot) else {}))
     routine_out = []
-    names = {"gravity": ("ne_g", "g(q) = NE(q, 0, 0)"), "coriolis": ("ne_c", "c(q,\\dot q) = NE_0(q, \\dot q, 0)"),
+    friction = has_friction(robot)
+    c_label = "c(q,\\dot q) + F_v\\dot q" if friction else "c(q,\\dot q)"   # the friction is in the recursion's u
+    names = {"gravity": ("ne_g", "g(q) = NE(q, 0, 0)"), "coriolis": ("ne_c", c_label + " = NE_0(q, \\dot q, 0)"),
              "static": ("ne_static", "B(q)\\ddot q + g(q) = NE(q, 0, \\ddot q)"),
              "inertia": ("ne_B", "B(q) = \\big[NE_0(q, 0, e_1)\\ \\cdots\\ NE_0(q, 0, e_n)\\big]"),
              "kinetic_energy": ("ne_T", "T = \\dot q^T NE_0(q, 0, \\tfrac12 \\dot q)")}
@@ -480,17 +498,14 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
             sol.add(f"{c.name}_dot", dot, "scalar", label=f"v^T {c.name}")
         calls_out.append((c, qa, dqa, ddqa, y, dot))
     if routine_out or calls_out:
-        sol.step("routines", routines=routine_out, calls=calls_out, robot=robot)
+        sol.step("routines", routines=routine_out, calls=calls_out, robot=robot,
+                 **({"potential": True} if has_potential(robot) else {}))
     if options.check:
         dm = derive(robot)
-        without: list = []  # the model without gravity, derived only when a check needs it
 
         def lag(grav: bool, dq: list, ddq: list) -> sp.Matrix:
-            """The Lagrangian left-hand side B q̈ + c + g (+ F_v q̇) with gravity on/off, at (q̇, q̈)."""
-            if not grav and not without:
-                without.append(derive(_without_gravity(robot)) if robot.gravity is not None else dm)
-            m = dm if grav else without[0]
-            return m.lhs.xreplace({**dict(zip(robot.dq, dq)), **dict(zip(robot.ddq, ddq))})
+            """The Lagrangian left-hand side B q̈ + c + g (+ F_v q̇) with g(q) on/off, at (q̇, q̈)."""
+            return (dm.lhs if grav else dm.lhs - dm.g).xreplace({**dict(zip(robot.dq, dq)), **dict(zip(robot.ddq, ddq))})
 
         ok = True
         if ne_u is not None:
@@ -503,7 +518,7 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
         for r, _, val in routine_out:
             ok = ok and same_function(val if isinstance(val, sp.MatrixBase) else sp.Matrix([val]), ref[r]())
         sol.add("ne_equals_lagrange", bool(ok), "bool", label="\\text{NE} = \\text{Lagrange}")
-        sol.step("check", ok=ok, dm=dm)
+        sol.step("check", ok=ok, dm=dm, **({"friction": True} if friction else {}))
     if options.at and ne_u is not None:
         state = _state(problem, options, ctx, robot)
         subs = {**problem.values, **{x: v.subs(problem.values) for x, v in state.items()}}
@@ -512,7 +527,3 @@ def solve_newton_euler(problem, options: NewtonEulerAsk, ctx) -> Solution:  # ty
         sol.step("at", state=state, value=val)
     return sol
 
-
-def _without_gravity(robot: Robot) -> Robot:
-    from dataclasses import replace
-    return replace(robot, gravity=None)
