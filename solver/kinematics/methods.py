@@ -686,7 +686,7 @@ def solve_methods(problem, o, ctx, sol: Solution) -> Solution:  # type: ignore[n
                      "rank": st.rank_JW} for st in res.steps]
             sol.step("m_sns", rows=rows, v=la.sym(res.qdot), s=la.scalar(res.s), lo=lo, hi=hi, acc=acc,
                      lo_m=sp.Matrix([la.scalar(x) for x in lo]), hi_m=sp.Matrix([la.scalar(x) for x in hi]),
-                     feasible=res.feasible, n=n, m=JE.shape[0], preferred=q0 is not None,
+                     feasible=res.feasible, n=n, m=JE.shape[0], **({"preferred": True} if q0 is not None else {}),
                      realized=float(la.norm(JE @ res.qdot - xE * res.s)) <= 1e-9 * max(1.0, float(la.norm(xE))))
             record("sns", "SNS", res.qdot)
     # comparison
