@@ -805,3 +805,24 @@ asks:
     assert _steady_residual(p, sols[0], vals | {"rc": 0.0}) < 1e-12
     md = render(p, sols, "md")
     assert "\\quad (\\text{if } g_{0} m rc = 0)$$" in md and "free of $q$" not in md
+
+
+def test_equilibria_family_of_a_repeated_row_and_a_solver_failure():
+    """g = (a c12 − b s12) twice: the family q1 + q2 = atan2(a, b) (+ π) was reported as "no solution" (sympy's
+    solve returned [] for the repeated equation; now each equation once, and an empty answer is checked by least
+    squares before it is believed: roots found, the equations are solved again each once). U = a s2 + b c1 c2 made
+    sympy's Gröbner basis divide by zero: an internal error, now a message at the ask."""
+    p, _, res = run(model_robot("R, R", "[a*cos(q1 + q2) - b*sin(q1 + q2), a*cos(q1 + q2) - b*sin(q1 + q2)]"))
+    q1, q2 = p.robot.q
+    got = res["equilibria"].value
+    assert len(got) == 2
+    phis = set()
+    for c in got:
+        for v in (0.3, -1.1, 2.0):
+            pt = {q2: v, p.names["a"]: 1.3, p.names["b"]: 0.7}
+            x = [float(sp.N(e.xreplace(pt))) for e in c]
+            assert abs(1.3 * np.cos(x[0] + x[1]) - 0.7 * np.sin(x[0] + x[1])) < 1e-12
+            phis.add(round((x[0] + x[1]) % (2 * np.pi), 9))
+    assert len(phis) == 2   # the two families q1 + q2 = φ, φ + π
+    with pytest.raises(UserError, match="not solved in closed form"):
+        run(model_robot("R, R", "0").replace('g: "0"', 'U: "a*sin(q2) + b*cos(q1)*cos(q2)"'))

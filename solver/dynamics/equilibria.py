@@ -88,6 +88,19 @@ def equilibria(g: sp.Matrix, q: list[sp.Symbol]) -> tuple[list[sp.Matrix], list[
     return ([], [], False) if requires else (configs, conditions, every)
 
 
+class NotSolved(Exception):
+    """sympy's polynomial solver failed on the equations (a Gröbner basis dividing by a coefficient that vanishes
+    for the parameters, or a system it does not handle): not an answer, and not the user's fault."""
+
+
+def solve_polynomials(eqs: list[sp.Expr], unknowns: list[sp.Symbol]) -> list[dict]:
+    """sympy's solve of a polynomial system (dict solutions); its internal failures raised as :class:`NotSolved`."""
+    try:
+        return sp.solve(eqs, unknowns, dict=True)
+    except (ZeroDivisionError, NotImplementedError, sp.PolynomialError) as exc:
+        raise NotSolved(f"{type(exc).__name__}: {exc}") from None
+
+
 class Unclean(Exception):
     """A solution of :func:`conditional_equilibria` with ``clean=True`` has an angle that is a root of its
     parameters (atan2 of radicals): the caller wants only numbers and free coordinates."""
@@ -109,7 +122,13 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
     angles = _angles(g_list, q)
     eqs, cs = _to_polynomial(g_list, angles)
     unknowns = [v for a in angles for v in cs[a]] + [x for x in q if x not in angles]
-    sols = sp.solve(eqs, unknowns, dict=True)
+    sols = solve_polynomials(eqs, unknowns)
+    if not sols and _numeric_root(g_list, q, angles):   # roots exist: sympy missed them (a family of a repeated
+        once = [e for k, e in enumerate(eqs) if not any(x in (e, -e) for x in eqs[:k])]   # equation: once each)
+        sols = solve_polynomials(once, unknowns) if len(once) < len(eqs) else []
+        if not sols:
+            raise NotSolved("it found no solution, but g(q) = 0 has roots (found numerically at sample values of "
+                            "the parameters)")
     configs, conditions = [], []
     for s in sols:
         vals = []
@@ -136,6 +155,30 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
         configs.append(sp.Matrix(vals))
     configs.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in m])
     return distinct_configurations(configs, q, set(angles)), list(dict.fromkeys(conditions)), False, requires
+
+
+def _numeric_root(rows: list[sp.Expr], q: list[sp.Symbol], angles: list[sp.Symbol], starts: int = 24) -> bool:
+    """Whether the rows vanish together somewhere, found by least squares from random starts (angles in (−π, π],
+    other coordinates in (−3, 3)) at random values of the parameters (positive ones positive): the check before
+    saying "no solution" when sympy's solve returned none (it may miss a family)."""
+    import numpy as np
+    from scipy.optimize import least_squares
+
+    from solver.math.numeric import lambdify_np
+    rng = random.Random(3)
+    params = sorted(set().union(*(x.free_symbols for x in rows)) - set(q), key=lambda x: x.name)
+    pt = {x: (1 if x.is_nonnegative or rng.random() < .5 else -1) * rng.uniform(0.5, 2) for x in params}
+    f = lambdify_np(q, [x.xreplace(pt) for x in rows])
+    gen = np.random.default_rng(3)
+    for _ in range(starts):
+        x0 = np.array([gen.uniform(-np.pi, np.pi) if x in angles else gen.uniform(-3, 3) for x in q])
+        try:
+            r = least_squares(lambda x: np.asarray(f(*x), dtype=float).ravel(), x0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
+        except (ValueError, FloatingPointError, ZeroDivisionError):
+            continue
+        if r.success and np.max(np.abs(r.fun)) < 1e-10:
+            return True
+    return False
 
 
 def _parametric_root(e: sp.Expr, q: list[sp.Symbol]) -> bool:
@@ -421,7 +464,7 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
         unknowns = [x for x in unknowns if x in present]  # sympy's solve can miss solutions given absent unknowns
         if any(not (x.free_symbols & set(unknowns)) for x in poly):
             continue  # an equation of the parameters alone (generic parameters: it does not hold)
-        sols = sp.solve(poly, unknowns, dict=True) if poly else [{}]
+        sols = solve_polynomials(poly, unknowns) if poly else [{}]
         named = _branches(sols, still, cs2)
         for k, s in enumerate(sols):
             qs, trig, raw = [], {}, []
@@ -525,7 +568,7 @@ def _eliminate_inputs(eqs: list[sp.Expr], unknown_u: list[sp.Symbol]) -> tuple[d
         r = M.rank(simplify=True)
         if r > rank:
             chosen, rank = chosen + [e], r
-    sol = sp.solve(chosen, unknown_u, dict=True) if chosen else [{}]
+    sol = solve_polynomials(chosen, unknown_u) if chosen else [{}]
     su = sol[0] if sol else {}
     rest = [sp.numer(sp.together(sp.expand(e.xreplace(su)))) for e in eqs]
     return su, [sp.expand(e) for e in rest if sp.expand(e) != 0]
@@ -595,6 +638,15 @@ def solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type:
     """Results (with the suffix): at rest equilibria (set of configurations), n_equilibria (and equilibrium_input
     with solve_for); with steady: velocity steady_state (set of q̄), steady_velocity (set of v̄), n_steady (and
     steady_input with solve_for); deformations (set of the given expressions at each steady state)."""
+    try:
+        return _solve_equilibria(problem, options, ctx)
+    except NotSolved as exc:
+        raise UserError("the equilibrium equations are not solved in closed form: sympy's polynomial solver fails on "
+                        f"them ({str(exc)[:80]})", problem.located.place(ctx.path),
+                        "give the parameters numeric values in the model, or fewer symbolic parameters") from None
+
+
+def _solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     robot = require_model(problem)
     dm = derive(robot)
     n, q, dq = robot.n, list(robot.q), list(robot.dq)
