@@ -420,3 +420,43 @@ def test_time_and_band_are_parsed_expressions():
     assert exc.value.place.line == 20   # the T: line
     with pytest.raises(UserError, match="settle must be a positive"):
         run(base + "    settle: -1\n")
+
+
+# a constant force F = (1, −2) at p = 0.5 (cos q1, sin q1) on the link of the elastic joint of ELV (m = 1, d = 0.3,
+# I = 0.05, Im = 0.02, K = 100, g0 = 9.81): the plant's link equation at rest is m g0 d cos q + K(q − θ) − J(q)ᵀF = 0
+ELF = np.array([1.0, -2.0])
+
+
+def _elastic_jtf(q, F):
+    return F[0] * (-0.5 * np.sin(q)) + F[1] * (0.5 * np.cos(q))
+
+
+@pytest.mark.parametrize("comp,Fh", [("", ELF), (", compensated: 0", np.zeros(2)),
+                                     (", compensated: [2, 1]", np.array([2.0, 1.0]))],
+                         ids=["compensated exactly", "not compensated", "compensated wrongly"])
+def test_regulation_elastic_external_force_law_uses_the_estimate(comp, Fh):
+    """θ_d and u_d balance the compensated F̂ (∇_q U_F̂(q_d, θ_d) = 0): with F̂ = F the link reaches q_d; otherwise
+    the rest point solves the plant's equations with the true F (fsolve below), and is the ask's equilibrium. The law
+    used to balance the true F whatever compensated: said (the link reached q_d even with F̂ = 0)."""
+    from scipy.optimize import fsolve
+    kp, qd, K, mgd = 20.0, 0.5, 100.0, 9.81 * 0.3
+    thd = qd + (mgd * np.cos(qd) - _elastic_jtf(qd, Fh)) / K     # the law's θ_d and u_d, from F̂
+    ud = K * (thd - qd)
+
+    def rest(x):
+        q, th = x
+        return [mgd * np.cos(q) + K * (q - th) - _elastic_jtf(q, ELF), K * (th - q) - kp * (thd - th) - ud]
+    ref = fsolve(rest, [qd, thd], xtol=1e-13)
+    text = ELV + "  - kind: regulation\n    law: elastic\n    qd: [0.5]\n    kp: 20\n    kd: 2\n    external:\n" \
+        f"      - {{point: [0.5*cos(q1), 0.5*sin(q1)], force: [1, -2]{comp}}}\n  - kind: simulate\n    T: 20\n"
+    p, sols, res = run(text)
+    assert abs(float(res["thetad"].value[0].xreplace(p.values)) - thd) < 1e-12
+    assert abs(float(res["ud"].value[0].xreplace(p.values)) - ud) < 1e-10
+    eq = [np.array([float(sp.sympify(x).xreplace(p.values)) for x in c]) for c in res["equilibria"].value]
+    assert len(eq) == 1 and np.max(np.abs(eq[0] - ref)) < 1e-7
+    qT = qd - fnum(res["e_final"].value[0])
+    assert abs(qT - ref[0]) < 1e-7
+    if not comp:
+        assert fnum(res["e_final_norm"].value) < 1e-9
+    else:
+        assert fnum(res["e_final_norm"].value) > 0.07    # 0.0728 (F̂ = 0) and 0.0702 (F̂ = (2, 1))

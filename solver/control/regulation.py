@@ -11,7 +11,7 @@ p_i(q); a law compensates F̂_i, by default F̂_i = F_i), e = q_d − q, K_P, K_
     saturated_pd  τ = K_P tanh(e) − K_D tanh(q̇) + γ(q)    V = T + Σ k_Pi ln cosh e_i,  |τ − γ| < K_P + K_D
     iterative     τ = K_P e − K_D q̇ + û_{i−1},  û_i = û_{i−1} + K_P e_i:   ‖e_i‖ ≤ β/(1 − β) ‖e_{i−1}‖, β = α/K_P,m < ½
     elastic       x = (q, θ), θ actuated (G selects them): u = K_P(θ_d − θ) − K_D θ̇ + u_d, ∇_q U(q_d, θ_d) = 0,
-                  u_d = ∇_θ U(q_d, θ_d);  V = T + U + ½(θ_d − θ)ᵀK_P(θ_d − θ) − θᵀu_d − min,
+                  u_d = ∇_θ U(q_d, θ_d) (U with the compensated forces, −Σ F̂_iᵀp_i);  V = T + U + ½(θ_d − θ)ᵀK_P(θ_d − θ) − θᵀu_d − min,
                   unique if λ_min(∇²U_elastic + diag(0, K_P)) > α (α: gravity only)
     cartesian_pd  τ = J(q)ᵀK_P(p_d − f(q)) − K_D q̇ + γ(q)   V = T + ½ e_pᵀK_P e_p,  equilibria J(q)ᵀK_P e_p = 0
 
@@ -651,7 +651,7 @@ class _Regulation:
         if U is None:
             raise UserError("law: elastic needs the potential energy U(q) (g(q) given directly is not a gradient)",
                             self.problem.located.place(("robot",)))
-        U = U + self.U_ext
+        U = U + self.U_comp    # the law's model: the compensated forces F̂ (the plant feels F: U_ext)
         Ue = sum(r.potential_extra, sp.Integer(0))
         K = sp.hessian(Ue, x) if Ue != 0 else sp.zeros(n, n)
         if any(k.free_symbols & set(x) for k in K):
