@@ -460,3 +460,67 @@ def test_regulation_elastic_external_force_law_uses_the_estimate(comp, Fh):
         assert fnum(res["e_final_norm"].value) < 1e-9
     else:
         assert fnum(res["e_final_norm"].value) > 0.07    # 0.0728 (F̂ = 0) and 0.0702 (F̂ = (2, 1))
+
+
+# ------------------------------------------------------------------------------------------------ the simulated plant
+def _balanced(values, extra=""):
+    """The 2R of R2, balanced by assume: (d2 = 0, d1 = −m2 l1/m1: g ≡ 0), with ``values`` and robot lines ``extra``."""
+    return R2.replace("values: {m1: 2, m2: 1.5, d1: 0.25, d2: 0.2,", "values: {" + values + " m1: 2, m2: 1.5,") \
+        .replace("robot:\n", "robot:\n" + extra) + """  - kind: regulation
+    law: pd_gravity
+    assume: {d2: 0, d1: -m2*l1/m1}
+    qd: [1, 0.5]
+    kp: 50
+    kd: 15
+  - kind: simulate
+    T: 10
+"""
+
+
+def test_simulated_plant_satisfies_the_assumptions():
+    """The ask's assume: relations describe the controlled robot: the plant satisfies them too, overriding values:
+    for the same parameters. pd_gravity compensates g ≡ 0 of the balanced robot, so e → 0 only on that plant; with
+    the values d1 = 0.25, d2 = 0.2 the plant kept its gravity and the simulation stopped short of q_d (‖e(10)‖ =
+    0.184); without them it asked for numbers for d1, d2."""
+    for values in ("d1: 0.25, d2: 0.2,", ""):
+        p, sols, res = run(_balanced(values))
+        assert res["completed"].value is True and fnum(res["e_final_norm"].value) < 1e-9
+        md = render(p, sols, "md")
+        assert "under the assumptions of part 1 ($d_{2} = 0$" in md
+        assert ("$d_{1} = - \\frac{l_{1} m_{2}}{m_{1}} = -0.375$ instead of the value $0.25$" in md) == bool(values)
+        assert "$d_{2} = 0$ instead of the value $0.2$" in render(p, sols, "tex") or not values
+
+
+def test_closed_loop_sentence_is_the_integrated_plant():
+    """With viscous friction and an input map the plant is B q̈ + c + g + F_v q̇ = G u: the report wrote
+    B q̈ + c + g = u; the motion is that of the model (e → 0: G⁻¹ in the law matches the G of the plant)."""
+    text = _balanced("d1: 0.25, d2: 0.2,", "  input_map: [[1, 0], [1, 1]]\n  friction: {viscous: [0.5, 0.3]}\n") \
+        .replace("    assume: {d2: 0, d1: -m2*l1/m1}\n", "")
+    p, sols, res = run(text)
+    assert fnum(res["e_final_norm"].value) < 1e-9
+    for fmt in ("md", "tex"):
+        out = render(p, sols, fmt)
+        assert "The closed loop $B(q)\\ddot q + c(q,\\dot q) + g(q) + F_v\\dot q = G\\,u(t, q, \\dot q)$" in out
+    p, sols, _ = run(_ext("pd_gravity", sim="    T: 1\n"))     # neither: unchanged
+    assert "The closed loop $B(q)\\ddot q + c(q,\\dot q) + g(q) = u(t, q, \\dot q) + \\tau_{ext}(q)$" in \
+        render(p, sols, "md")
+
+
+def test_iterative_starts_from_the_asks_feedforward():
+    """û₀ is the regulation ask's (g(q₀) at its q0, or its u0), whatever q(0) the simulation starts from: the
+    simulated iterations then match the ask's static iterates q_i (g(q) = K_P(q_d − q) + û_{i−1}, solved exactly).
+    It used to be g at the simulation's q(0) = (0.3, −0.2): ‖e_1‖ = 0.1815 instead of 0.19358."""
+    base = R2 + "  - kind: regulation\n    law: iterative\n    qd: [1, 0.5]\n    kp: 60\n    kd: 15\n    q0: [0, 0]\n" \
+        "U0    epsilon: 0.001\n  - kind: simulate\n    T: 3\n    q0: [0.3, -0.2]\n"
+    for u0, start in (("", "$g(q_0)$ at the initial configuration $q_0 = \\begin{bmatrix} 0 \\\\ 0 \\end{bmatrix}$ "
+                           "of part 1, as there"), ("    u0: [1, 2]\n", "the $u_0$ given in part 1")):
+        p, sols, res = run(base.replace("U0", u0))
+        sim = [fnum(x) for x in res["iteration_errors"].value]
+        static = [np.linalg.norm(np.array([1, 0.5]) - np.array([fnum(v) for v in x])) for x in res["iterates"].value]
+        assert len(sim) == int(res["iterations_actual"].value)
+        assert np.max(np.abs(np.array(sim) - static[:len(sim)])) < 2e-5
+        assert start in render(p, sols, "md")
+    # no q0 in the ask: g at the simulation's start, and said so
+    p, sols, res = run(base.replace("    q0: [0, 0]\n", "").replace("U0", ""))
+    assert abs(fnum(res["iteration_errors"].value[0]) - 0.181539) < 1e-5
+    assert "at the simulation's initial configuration (part 1 gives no $q_0$)" in render(p, sols, "tex")

@@ -1,11 +1,12 @@
 """Closed-loop simulation of a designed control law (ask kind ``simulate``).
 
 The law is the ``u`` of another ask of the problem (``control_law`` or ``regulation``, chosen by ``ask:``), the plant
-the spec's robot with its numeric ``values``:
+the spec's robot with its numeric ``values`` (a regulation's ``assume:`` relations on top: they describe the robot):
     B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u(t, q, q̇, â, ξ) + τ_ext(q),    â̇ = Γ Y_rᵀ s   (adaptive law only),
                                                                            ξ̇ = e         (PID regulation only),
 with τ_ext = Σ J(q)ᵀF the regulation's ``external:`` forces (0 otherwise),
-integrated with scipy's ``solve_ivp`` from (q₀, q̇₀, â₀, ξ₀ = 0) in chunks, within a budget of right-hand-side
+integrated with scipy's ``solve_ivp`` from (q₀, q̇₀, â₀, ξ₀ = 0) in chunks (the iterative law from the regulation's
+û₀, the same constant feedforward as its static iterates), within a budget of right-hand-side
 evaluations and wall seconds. The reference q_d(t) is any expression of t (constant, polynomial, sinusoidal, ...): its
 derivatives are taken exactly. Reported: the error e = q_d − q (or r_d − r) at the end and at its largest, the
 settling time (the instant after which ‖e‖ stays below ``settle``), the largest inputs, the final estimates; figures of
@@ -104,7 +105,9 @@ def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped
     regulation, read from the law's step: the joint coordinates with the desired symbols found by name (qd1, dqd1,
     ...); elastic: the link (non-actuated) coordinates and their q_d; cartesian_pd: the task f(q) and p_d; pid also
     the controller state ξ and its rate ξ̇ = e; with ``external:`` forces τ_ext(q) = Σ J(q)ᵀF (the true forces, which
-    act on the plant whatever the law compensates)."""
+    act on the plant whatever the law compensates); the ask's ``assume:`` relations (they describe the controlled
+    robot: the plant satisfies them too); iterative: the ask's starting configuration q₀ and feedforward û₀ (None
+    without its q0)."""
     sfx = getattr(ask.options, "suffix", "")
     rec = problem.__dict__.get("_law" + sfx) if ask.kind == "control_law" else None
     if rec is not None and rec.get("kind") == ask.kind:
@@ -113,8 +116,11 @@ def _law_record(problem, ask, sol: Solution) -> dict:  # type: ignore[no-untyped
     law = getattr(ask.options, "law", "")
     step = next((st.data for st in sol.steps if st.name == "law"), {})
     ext = sol.results.get("tau_ext" + sfx) if ask.kind == "regulation" else None
+    model = next((st.data for st in sol.steps if st.name == "model"), {})
+    iterative = next((st.data for st in sol.steps if st.name == "iterative"), {})
     out = {"kind": ask.kind, "subs": {}, "ahat": [], "adot": None, "true_a": None, "xi": [], "xidot": None,
-           "tau_ext": sp.Matrix(ext.value) if ext is not None else None}
+           "tau_ext": sp.Matrix(ext.value) if ext is not None else None, "assumed": dict(model.get("assumed") or {}),
+           "u0": iterative.get("u0"), "q0": iterative.get("q0")}
     if law in ("elastic", "cartesian_pd"):
         tracked, want, key = ((list(step["qs"]), sp.Matrix(step["qd"]), "qd") if law == "elastic"
                               else (list(step["f"]), sp.Matrix(step["pd"]), "pd"))
@@ -196,7 +202,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         if isinstance(val, list):
             raise UserError(f"set: {key} must be one expression", _place(problem, ctx, "set", key))
         setv[s] = sp.sympify(val)
-    vals = dict(problem.values)
+    vals, assumed = plant_values(problem.values, rec.get("assumed") or {})
     ahat = list(rec["ahat"])
     xi = list(rec.get("xi", []))    # pid: the controller state, ξ̇ = e, ξ(0) = 0
     state = q + dq + ahat + xi
@@ -241,10 +247,18 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     a0 = _floats(problem, options, ctx, "ahat0", len(ahat)) if ahat else []
     y0 = np.array(q0 + dq0 + a0 + [0.0] * len(xi), dtype=float)
     budget = {"nfev": 0, "deadline": time.monotonic() + options.wall}
-    ffv = np.array([float(x) for x in (plant_g.xreplace(vals).xreplace(dict(zip(q, q0))) if ff else [])])
-    if ff and getattr(ask.options, "u0", None) is not None:
-        u0v = ask.ctx.expr("u0")
-        ffv = np.array([float(sp.sympify(x).xreplace(vals)) for x in (u0v if isinstance(u0v, list) else [u0v])])
+    ffv, u0_from = np.zeros(0), None
+    if ff:    # û₀: the regulation ask's (its u0, or g − τ_ext at its q0), else g − τ_ext at the simulation's q(0)
+        u0_from = ("given" if getattr(ask.options, "u0", None) is not None else
+                   "ask" if rec.get("u0") is not None else "start")
+        if rec.get("u0") is not None:
+            u0v = list(rec["u0"])
+        elif u0_from == "given":
+            u0v = ask.ctx.expr("u0")
+            u0v = u0v if isinstance(u0v, list) else [u0v]
+        else:
+            u0v = list(plant_g.xreplace(dict(zip(q, q0))))
+        ffv = np.array([float(sp.sympify(x).xreplace(vals)) for x in u0v])
     f_g = lambdify_np([q], list(plant_g.xreplace(vals))) if ff else None
 
     def rhs(tt: float, y: np.ndarray) -> np.ndarray:
@@ -364,9 +378,30 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              umax=[float(x) for x in np.abs(U).max(axis=0)], ahat_final=_column(A[-1]) if ahat else None,
              true_a=_column(true_a) if true_a else None, crossings=crossings,
              iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=T_phase,
+             u0_from=u0_from, u0=_column(FF[0]) if ff else None,
+             q0_ask=rec.get("q0") if u0_from == "ask" else None,
+             friction=dm.Fv is not None, input_map=dm.G is not None, assumed=assumed,
              **({"external": True} if rec.get("tau_ext") is not None else {}),
              **({"integral": True, "xi_final": _column(XI[-1])} if xi else {}))
     return sol
+
+
+def plant_values(values: dict, assumed: dict) -> tuple[dict, list]:
+    """The plant's parameter values: the problem's ``values`` with the simulated ask's assumed relations
+    {symbol: expression} on top (they describe the controlled robot, so they override a value given for the same
+    symbol); also the report rows (symbol, relation, its value with the others, the overridden value or None)."""
+    if not assumed:
+        return dict(values), []
+    base = {k: v for k, v in values.items() if k not in assumed}
+    out, rows = dict(values), []
+    for s, rel in assumed.items():
+        x = sp.sympify(rel)
+        for _ in range(3):
+            x = x.xreplace(assumed)
+        x = x.xreplace(base)
+        out[s] = x
+        rows.append((s, sp.sympify(rel), x, values.get(s)))
+    return out, rows
 
 
 def _column(xs: Any) -> sp.Matrix:
