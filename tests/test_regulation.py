@@ -502,6 +502,29 @@ def test_reports_render_and_compile(tmp_path):
         assert out.returncode == 0, out.stdout[-2000:]
 
 
+
+def test_pid_report_breaks_the_gravity_jacobian(tmp_path):
+    """With symbolic parameters A(q_d) = ∂g/∂q at q_d was an inline matrix 132 pt wider than the page; now A(q_d) and
+    B(q_d) are displayed and a wide one is written entry by entry (symmetric: the upper triangle), like other long
+    matrices."""
+    p = load_problem_text(R2.replace("values: {m1: 2, m2: 1.5, d1: 0.25, d2: 0.2, l1: 0.5, I1: 0.05, I2: 0.03, "
+                                     "g0: 9.81}\n", "") + regulation("pid"))
+    sols = solve_problem(p)
+    tex = render(p, sols, "tex")
+    part = tex[tex.index("\\paragraph{Local analysis.}"):tex.index("differentiating once:")]
+    assert "$A(q_d)" not in part and "\\[A(q_d) = \\partial g/\\partial q\\big|_{q_d} = \\begin{bmatrix} a_{ij}" in part
+    assert "\\[a_{11} = - d_{2} g_{0} m_{2} \\sin{\\left(q_{d,1} + q_{d,2} \\right)} - g_{0} \\left(d_{1} m_{1} + l_{1} " \
+        "m_{2}\\right) \\sin {q_{d,1}}\\]" in part and "a_{21}" not in part and "\\[b_{22} = I_{2} + d_{2}^{2} m_{2},\\]" in part
+    md = render(p, sols, "md")
+    assert "$$A(q_d) = \\partial g/\\partial q\\big|_{q_d} = \\begin{bmatrix}" in md
+    if shutil.which("latexmk"):
+        (tmp_path / "r.tex").write_text(tex)
+        out = subprocess.run(["latexmk", "-pdf", "-interaction=nonstopmode", "-halt-on-error", "r.tex"],
+                             cwd=tmp_path, capture_output=True, text=True, timeout=240)
+        assert out.returncode == 0, out.stdout[-2000:]
+        assert "Overfull \\hbox" not in (tmp_path / "r.log").read_text(errors="replace")
+
+
 # ------------------------------------------------------------------------------------------------ library
 @pytest.mark.parametrize("name", ["2011-09-12-ex1", "2012-06-11-ex2", "2012-07-05-ex1", "2017-06-06-ex2",
                                   "2020-06-05-remote-ex3", "2022-02-03-ex1"])
