@@ -378,9 +378,10 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
              umax=[float(x) for x in np.abs(U).max(axis=0)], ahat_final=_column(A[-1]) if ahat else None,
              true_a=_column(true_a) if true_a else None, crossings=crossings,
              iterative=bool(ff), iter_errors=iter_errors, eps=eps, phase=T_phase,
-             u0_from=u0_from, u0=_column(FF[0]) if ff else None,
-             q0_ask=rec.get("q0") if u0_from == "ask" else None,
-             friction=dm.Fv is not None, input_map=dm.G is not None, assumed=assumed,
+             **({"u0_from": u0_from, "u0": _column(FF[0]), "q0_ask": rec.get("q0") if u0_from == "ask" else None}
+                if ff else {}),
+             **({"friction": True} if dm.Fv is not None else {}), **({"input_map": True} if dm.G is not None else {}),
+             **({"assumed": assumed} if assumed else {}),
              **({"external": True} if rec.get("tau_ext") is not None else {}),
              **({"integral": True, "xi_final": _column(XI[-1])} if xi else {}))
     return sol
