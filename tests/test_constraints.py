@@ -916,3 +916,41 @@ def test_sentences_agree_with_the_number_of_constraints(kind):
             assert text.replace("\n", "") in tex.replace("\n", ""), (kind, k, text)
         wrong = "s" if k == 1 else ""
         assert f"constraint{wrong} ($\\dot q" not in md and f"multiplier{wrong} $\\lambda(t)$" not in md
+
+
+FROZEN3 = R3 + "  - kind: constrained_dynamics\n    freeze: {q3: 0.4}\n    multiplier: false\n"
+
+
+def test_frozen_velocities_are_zero_in_the_printed_reduced_terms():
+    """With freeze: {q3: 0.4}, Fᵀn kept the velocity of the frozen joint (terms in q̇3) while the spec takes it
+    on the constraint, n_a(q_a, q_b,d, q̇_a, 0): now Fᵀn, Eᵀn, FᵀBḞ, EᵀBḞ are free of q3 and q̇3, equal to the
+    blocks of n at q3 = 0.4, q̇3 = 0, and along a motion simulated with the Lagrange (KKT) system the printed
+    terms give the reduced model and the reaction."""
+    p, sols, res = solved(FROZEN3)
+    dm = derive(p.robot)
+    q, dq, u, ddq = list(p.robot.q), list(p.robot.dq), list(p.robot.inputs), list(p.robot.ddq)
+    at = {q[2]: sp.Rational(2, 5), dq[2]: 0}
+    nvec = (dm.c + dm.g).xreplace(at)
+    assert (dm.c + dm.g)[:2, 0].xreplace({q[2]: sp.Rational(2, 5)}).has(dq[2])  # (the test can fail)
+    for name in ("Ftn", "Etn", "FtBFdot", "EtBFdot"):
+        assert not value(res, name).free_symbols & {q[2], dq[2]}, name
+    assert all(zero(a - b) for a, b in zip(value(res, "Ftn"), nvec[:2, 0]))
+    assert zero(value(res, "Etn")[0] - nvec[2])
+    m = Model(p, sp.Matrix([q[2] - sp.Rational(2, 5)]))
+    t = sp.Symbol("t")
+    fu = sp.lambdify([t] + q + dq, dm.g + sp.Matrix([3 * sp.sin(2 * t), sp.cos(t), 1]), "numpy")
+    s = solve_ivp(lambda tt, x: np.concatenate([x[3:], m.kkt(x, np.ravel(fu(tt, *x)))[0]]), (0, 1.5),
+                  [0.3, 0.2, 0.4, 0.5, -0.7, 0.0], t_eval=np.linspace(0, 1.5, 7), rtol=1e-10, atol=1e-12)
+    assert s.success and np.max(np.abs(s.y[:2, -1] - [0.3, 0.2])) > 0.1 and np.max(np.abs(s.y[2] - 0.4)) < 1e-9
+    v, dv = sp.Matrix(dq[:2]), sp.Matrix(ddq[:2])
+    lhs = value(res, "reduced_inertia") * dv + value(res, "FtBFdot") * v + value(res, "Ftn") - value(res, "Ftu")
+    lam = value(res, "EtBF") * dv + value(res, "EtBFdot") * v + value(res, "Etn") - value(res, "Etu")
+    for j, tt in enumerate(s.t):
+        x = s.y[:, j]
+        uu = np.ravel(fu(tt, *x))
+        qdd, reaction = m.kkt(x, uu)
+        sub = dict(zip(q + dq + u + ddq, [*x, *uu, *qdd]))
+        assert max(abs(float(e.xreplace(sub))) for e in lhs) < 1e-9
+        assert abs(float(lam[0].xreplace(sub)) - reaction[0]) < 1e-9
+    for fmt in ("md", "tex"):
+        assert "at the frozen values, $q_b = q_{b,d}$ and $\\dot q_b = 0$)" in render(p, sols, fmt), fmt

@@ -612,7 +612,7 @@ def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None,
                  D: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol], ddq: list[sp.Symbol], v: sp.Matrix,
                  dv: sp.Matrix, frozen: dict[sp.Symbol, sp.Expr] | None = None) -> Reduction:
     """The reduced model with the complement D (see the module doc), n = c + g + F_v q̇. ``frozen``: q_b -> q_b,d
-    substituted in the reduced terms (on the constraint).
+    and q̇_b -> 0 substituted in the reduced terms (on the constraint: Fᵀn is n_a(q_a, q_b,d, q̇_a, 0)).
 
     Everything is written over powers of δ = det [A; D]: E = N_E/δ, F = N_F/δ, Ḟ = (Ṅ_F δ − N_F δ̇)/δ²; along the
     constraint q̇ = N_F v/δ, so (with primes for Ṅ_F, δ̇ evaluated at q̇ = N_F v) Ḟ v = (Ṅ_F' δ − N_F δ̇') v/δ³ and
@@ -623,7 +623,8 @@ def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None,
     adj = AD.adjugate().applyfunc(lambda x: tidy(sp.expand(x)))
     NE, NF = adj[:, :k], adj[:, k:]
     dqv, ddqv = sp.Matrix(dq), sp.Matrix(ddq)
-    fz = frozen or {}
+    fz = dict(frozen or {})
+    fz.update({dq[i]: sp.Integer(0) for i, x in enumerate(q) if x in fz})  # q̇_b = 0 on the constraint
 
     def z(M: sp.Matrix | sp.Expr) -> Any:
         return M.xreplace(fz) if fz else M
