@@ -954,3 +954,12 @@ def test_frozen_velocities_are_zero_in_the_printed_reduced_terms():
         assert abs(float(lam[0].xreplace(sub)) - reaction[0]) < 1e-9
     for fmt in ("md", "tex"):
         assert "at the frozen values, $q_b = q_{b,d}$ and $\\dot q_b = 0$)" in render(p, sols, fmt), fmt
+
+
+def test_parameter_values_are_printed_as_written():
+    """values: {a: 0.3} was printed 'parameters a = 3/10' in the at: paragraph; now 0.3, the value stays exact."""
+    p, sols, res = solved(TOY3 + "    h: q1 + q2 + q3 - 1\n    at: {q1: 0.4, q2: 0.35, q3: 1/4}\n")
+    assert p.values[p.names["a"]] == sp.Rational(3, 10)
+    for fmt in ("md", "tex"):
+        out = render(p, sols, fmt)
+        assert "; parameters $a = 0.3$, $b = 0.3$)" in out, fmt

@@ -1285,7 +1285,10 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
     lam = lam.applyfunc(_num)
     add("lambda_at", lam, "vector", label="\\lambda\\big|_{*}")
     shown = {x: as_written(spec.options.at[x.name], val) for x, val in state.items()}  # (decimals as written)
-    data: dict[str, Any] = {"state": shown, "values": problem.values, "A": A_at, "lam": lam, "k": spec.k,
+    raw = problem.located.data.get("values") if isinstance(problem.located.data, dict) else None
+    raw = raw if isinstance(raw, dict) else {}
+    values = {x: as_written(raw.get(x.name), val) for x, val in problem.values.items()}  # (d2: 0.6 read 3/5)
+    data: dict[str, Any] = {"state": shown, "values": values, "A": A_at, "lam": lam, "k": spec.k,
                             "B": _evaluate(dm.B, subs), "nvec": _evaluate(nvec, subs)}
     if red is not None:
         det_at = red.det.xreplace(subs)
