@@ -956,6 +956,67 @@ def test_frozen_velocities_are_zero_in_the_printed_reduced_terms():
         assert "at the frozen values, $q_b = q_{b,d}$ and $\\dot q_b = 0$)" in render(p, sols, fmt), fmt
 
 
+def test_equilibrium_and_input_sentences_are_spaced():
+    """';the associated' after u_eq,min (both formats) and, in md, 'solved for the input: $u$ $= …$,$$u = …'
+    (broken math, the display glued to the text): now '…;' and 'the associated' on their own lines, and one
+    formula '$u = …$ along the constraint:' before the display."""
+    p, sols, _ = solved(TOY3 + "    h: q1 + q2 + q3 - 1\n")
+    md, tex = render(p, sols, "md"), render(p, sols, "tex")
+    for out in (md, tex):
+        assert ";the associated" not in out and "$;\nthe associated" in out.replace(";\\]", "$;")
+        assert "solved for the input, $u = B(F\\dot v_d + \\dot F v) + n - A^T\\lambda_d$ along the constraint:" in out
+    assert "the constrained model is solved for the input, $u = B(F\\dot v_d + \\dot F v) + n - A^T\\lambda_d$ " \
+           "along the constraint:\n$$u = " in md
+    assert "($\\lambda = 0$) needs $u = g(q)$:" in tex  # (it said G u without an input map)
+
+
+def test_lambda_d_symbol_is_not_repeated():
+    """lambda_d: lambdad (printed \\lambda_d) read 'λ = λ_d = λ_d'; now 'λ = λ_d'."""
+    from conftest import PROBLEMS
+    p = load_problem(PROBLEMS / "2018-07-11-ex4.yaml")
+    sols = solve_problem(p)
+    for fmt in ("md", "tex"):
+        out = render(p, sols, fmt)
+        assert "\\lambda = \\lambda_d = \\lambda_d" not in out and "with $\\lambda = \\lambda_d$, the" in out, fmt
+        assert "with $\\lambda = \\lambda_d = 0$, the" in out, fmt  # (the first ask: λ_d = 0 is said)
+
+
+@pytest.mark.parametrize("spec, pfaffian", [("h: q1 + q2 + q3 - 1", False), ("A: [[1, 1, 1]]", True)])
+def test_multiplier_paragraph_names_h_only_for_holonomic_constraints(spec, pfaffian):
+    """'any motion started with h(q0) = 0' was said of Pfaffian constraints, which have no h."""
+    p, sols, _ = solved(TOY3 + f"    {spec}\n")
+    for fmt in ("md", "tex"):
+        out = render(p, sols, fmt)
+        assert "motion of this model started with " + ("" if pfaffian else "$h(q_0) = 0$, ") + \
+            "$A(q_0)\\dot q_0 = 0$ keeps" in out, fmt
+
+
+def test_rank_sentences_with_one_constraint():
+    """k = 1 read 'every 1×1 minor of A' and 'no configuration makes all 1×1 minors of A vanish'; the note 'which
+    depends on the parameters' was said of numeric h(q), and 'a coordinate left as itself is arbitrary' of
+    configurations without one; a selected pseudo-velocity read 'q̇3 = q̇3'."""
+    p, sols, _ = solved(TOY3 + "    h: q1 + q2 + q3 - 1\n")
+    md, tex = render(p, sols, "md"), render(p, sols, "tex")
+    assert "The rank never drops (no configuration makes $A(q) = 0$)." in md
+    assert "The rank never drops: the entries of $A$ never vanish together." in tex
+    assert "1×1" not in md and "1$\\times$1" not in tex
+    pseudo = "The pseudo-velocities and their derivatives are\n"
+    assert pseudo + "$$v = D\\dot q = \\begin{bmatrix} \\dot{q}_{2}" in md
+    assert pseudo + "\\[v = D\\dot q = \\begin{bmatrix} \\dot{q}_{2}" in tex
+    assert md.count("\\dot v = D\\ddot q + \\dot D\\dot q = \\begin{bmatrix} \\ddot{q}_{2}") == 1
+    p, sols, _ = solved(TOY3 + "    h: cos(q1) + cos(q1 + q2)\n    reduced: false\n")
+    md, tex = render(p, sols, "md"), render(p, sols, "tex")
+    assert "The rank drops where $A(q) = 0$ (every entry vanishes):" in md
+    assert "The rank drops where $A(q) = 0$ (every entry vanishes), at" in tex
+    for out in (md, tex):  # q = (0, pi, q3), ...: h = 0 on two of them, a number on all
+        assert "(a coordinate left as itself is arbitrary); only those with $h(q) = 0$ are on the constraint." in out
+        assert "depends on the parameters" not in out
+    p, sols, _ = solved(TOY3 + "    h: cos(q1) + cos(q1 + q2) - 3\n    reduced: false\n")
+    for fmt in ("md", "tex"):
+        assert "arbitrary); none of them satisfies $h(q) = 0$: on the constraint the rank never drops." in \
+            render(p, sols, fmt)
+
+
 def test_parameter_values_are_printed_as_written():
     """values: {a: 0.3} was printed 'parameters a = 3/10' in the at: paragraph; now 0.3, the value stays exact."""
     p, sols, res = solved(TOY3 + "    h: q1 + q2 + q3 - 1\n    at: {q1: 0.4, q2: 0.35, q3: 1/4}\n")
@@ -963,3 +1024,17 @@ def test_parameter_values_are_printed_as_written():
     for fmt in ("md", "tex"):
         out = render(p, sols, fmt)
         assert "; parameters $a = 0.3$, $b = 0.3$)" in out, fmt
+
+
+def test_equilibrium_input_at_the_state_in_the_singular_when_unique():
+    """'At rest there, the equilibrium inputs are u_eq = (…)' was said of a unique input."""
+    text = TOY3.replace("    g: [0, 0, 0]\n", "    g: [0, 0, sin(q3)]\n  input_map: [[1, 0], [0, 1], [0, 0]]\n"
+                        "  inputs: [u1, u2]\n") + "    h: q3 - 1\n    D: [[1, 0, 0], [0, 1, 0]]\n    at: {q3: 1}\n"
+    p, sols, res = solved(text)
+    assert not value(res, "u_eq_at").free_symbols & set(p.robot.inputs)
+    for fmt in ("md", "tex"):
+        out = render(p, sols, fmt)
+        assert "At rest there, the equilibrium input is" in out and "equilibrium inputs are" not in out, fmt
+    assert "\\[\\lambda = \\sin {1}.\\]\nThe input giving" in out  # (tex: the sentence ended without a period)
+    p, sols, _ = solved(TOY3 + "    h: q1 + q2 + q3 - 1\n    at: {q1: 0.4, q2: 0.35, q3: 1/4}\n")
+    assert "At rest there, the equilibrium inputs are" in render(p, sols, "md")

@@ -1085,9 +1085,11 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
     h_at_sing = [spec.h.xreplace(dict(zip(q, c))).applyfunc(tidy) for c in sing] if spec.h is not None else []
     sol.step("model", B=dm.B, nvec=nvec, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, u=sp.Matrix(u), n=n,
              friction=dm.Fv is not None, gravity=any(x != 0 for x in dm.g))
+    h_numbers = bool(h_at_sing) and all(x.is_number for hs in h_at_sing for x in hs)
     sol.step("constraints", h=spec.h, A=A, Adot=Adot, k=k, n=n, G=dm.G, frozen=spec.frozen,
              pfaffian=options.A is not None, singular=sing, every=sing_every, done=sing_done, h_at=h_at_sing,
-             q=sp.Matrix(q))
+             q=sp.Matrix(q), arbitrary=_arbitrary(sing, q), h_numbers=h_numbers,
+             on_h=h_numbers and any(all(x == 0 for x in hs) for hs in h_at_sing))
     X = atoms
     # only the constraint side is atomized: the model's own sums (I2 + m2 d2^2) must stay free to cancel
     sm = SymModel(dm.B, dm.c, dm.g, dm.Fv, G, G * sp.Matrix(u), nvec, X(A), X(Adot), X(spec.D),
@@ -1103,7 +1105,8 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
         add("constrained_model", mult.model, "vector",
             label="B\\ddot q - (I - A^T A_B^{\\#T})(Gu - n) + B A_B^{\\#}\\dot A\\dot q")
     if options.multiplier:
-        sol.step("multiplier", m=mult, k=k, G=dm.G, too_big=not mult_symbolic, n=n, at=spec.state is not None)
+        sol.step("multiplier", m=mult, k=k, G=dm.G, too_big=not mult_symbolic, n=n, at=spec.state is not None,
+                 pfaffian=options.A is not None)
 
     red = None
     if options.reduced and symbolic:
@@ -1161,7 +1164,7 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
     const_det = not (red.det.free_symbols & set(q))
     sol.step("reduced", r=red, chosen=chosen, free=[spec.q[j] for j in free] if free else None, det_S=det_S,
              k=k, n=n, frozen=spec.frozen, const_det=const_det, selects=selected_coordinates(D) is not None,
-             q=sp.Matrix(q))
+             q=sp.Matrix(q), arbitrary=_arbitrary(sing, q))
     sol.step("reduced_model", r=red, k=k, n=n, G=dm.G, frozen=spec.frozen)
     # inputs: v̇ = v̇_d with λ = λ_d, and the static equilibria
     dv_d, lam_d = _desired(problem, spec, D)
@@ -1210,6 +1213,11 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
         add("u_eq_lambda0", eq["lam0"], "vector", label="u_{eq}\\ (\\lambda = 0)")
     sol.step("equilibrium", e=eq, at=False, G=dm.G, k=k)
     return red
+
+
+def _arbitrary(configs: list[sp.Matrix], q: list[sp.Symbol]) -> bool:
+    """Some configuration of the list leaves a coordinate as itself (arbitrary), as the report then says."""
+    return any(c[i] == x for c in configs for i, x in enumerate(q))
 
 
 def _equilibrium(spec: _Spec, red: Reduction, dm, G: sp.Matrix, u: list[sp.Symbol],  # type: ignore[no-untyped-def]
