@@ -4,7 +4,7 @@ factorization satisfies S q̇ = c (skew / not skew as claimed), the inverse dyna
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import error_found_without_solving
+from conftest import R2_ROBOT, error_found_without_solving
 from scipy.integrate import solve_ivp
 
 from solver.dynamics.model import derive
@@ -559,6 +559,70 @@ def test_check_finds_bad_ranges_without_solving():
         RP.replace("    ranges: {q2: [0.2, 1.5]}\n", "    ranges: {q7: [0.2, 1.5]}\n"))
     assert "empty range for q2" in error_found_without_solving(
         RP.replace("    ranges: {q2: [0.2, 1.5]}\n", "    ranges: {q2: [1.5, 0.2]}\n"))
+
+
+# a planar 2R in a vertical plane with symbolic parameters: one `find` per ask, its options only
+TWO_R = ("id: t2\ntitle: 2R\nsymbols: {m1: m1, m2: m2, d1: d1, d2: d2, l1: l1, I1: I1, I2: I2, g0: g0}\n" + R2_ROBOT
+         + "asks:\n  - kind: dynamic_properties\n")
+
+BAD_FINDS = [
+    ("forward_dynamics", "", "forward_dynamics needs u: [...]"),
+    ("forward_dynamics", "    u: [1]\n", "u must be a list of 2 expressions"),
+    ("forward_dynamics", "    u: [1, 0]\n    state: {q5: 1}\n", "'q5' in state: is not a coordinate or velocity"),
+    ("fault", "    u: [1, 0]\n", "fault needs fault: {joint: i, ddq: ...} and u: [...]"),
+    ("fault", "    u: [1, 0]\n    fault: {joint: 3, ddq: 0}\n", "joint must be between 1 and 2"),
+    ("fault", "    u: [1, 0, 2]\n    fault: {joint: 2, ddq: 0}\n", "u must be a list of 2 expressions"),
+    ("fault", "    u: [1, 0]\n    fault: {joint: 2, ddq: [0, 1]}\n", "ddq must be one expression"),
+    ("power", "    u: [1, 0]\n", "power needs state: {q.., dq..} and u: [...]"),
+    ("power", "    u: [1, 0]\n    state: {x: 1}\n", "'x' in state: is not a coordinate or velocity"),
+    ("power", "    u: [1]\n    state: {q1: 1}\n", "u must be a list of 2 expressions"),
+    ("torque_limits", "", "torque_limits needs limits: [T1, T2, ...]"),
+    ("torque_limits", "    limits: [1, 2, 3]\n", "limits must be a list of 2 expressions"),
+    ("torque_limits", "    limits: [1, 2]\n    cases: [{q1: 0}]\n", "'q1' in cases: is not a parameter"),
+    ("inverse_dynamics", "", "inverse_dynamics needs trajectory: (q_d(t), n expressions in t)"),
+    ("inverse_dynamics", "    trajectory: [t]\n", "trajectory must be a list of 2 expressions in t"),
+    ("inverse_dynamics", "    trajectory: [t, t]\n    cases: [{zz: 1}]\n", "'zz' in cases: is not a parameter"),
+    ("inverse_dynamics", "    trajectory: [t, t]\n    times: [zz]\n", "unknown name 'zz'"),
+    ("balancing", "", "balancing needs unknowns: [the parameters to choose]"),
+    ("balancing", "    unknowns: [q1]\n", "'q1' is not a parameter of g(q)"),
+    ("balancing", "    unknowns: [zz]\n", "'zz' is not a parameter of g(q)"),
+    ("cartesian_inertia", "", "cartesian_inertia needs task: [f1(q), ...]"),
+    ("cartesian_inertia", "    task: [q1, q2, q1 + q2]\n", "the task has 3 components for 2 joints"),
+    ("cartesian_inertia", "    task: [q1, q2]\n    state: {q9: 1}\n", "'q9' in state: is not a coordinate"),
+    ("cartesian_inertia", "    task: [q1 + q2, q1 + q2]\n    state: {q1: 0, q2: 0}\n",
+     "the task Jacobian is singular at this state"),
+    ("coordinates", "", "coordinates needs transform: (q = T θ) or map: (q = φ(θ))"),
+    ("coordinates", "    transform: [[1, 0], [0, 1]]\n    map: [th1, th2]\n", "coordinates needs transform:"),
+    ("coordinates", "    transform: [[1, 0, 0], [0, 1, 0]]\n", "transform must be an invertible 2x2 matrix"),
+    ("coordinates", "    transform: [[1, 1], [1, 1]]\n", "transform must be an invertible 2x2 matrix"),
+    ("coordinates", "    transform: [[1, 0], [1, 1]]\n    new_coordinates: [a]\n", "1 names for 2 coordinates"),
+    ("coordinates", "    transform: [[1, 0], [1, 1]]\n    new_coordinates: [m1, b]\n",
+     "'m1' is already a name of the problem"),
+    ("coordinates", "    map: [th1]\n", "map must list 2 expressions"),
+    ("coordinates", "    map: [th1 + q2, th2]\n", "map must be written in the new coordinates, not in q2"),
+    ("coordinates", "    map: [th1 + th2, th1 + th2]\n", "the map q = φ(θ) is singular"),
+    ("feasibility", "    candidates: [{name: 'a b', B: [[1, 0], [0, 1]]}]\n", "candidate name 'a b' is not a plain"),
+    ("feasibility", "    candidates: [{name: A, B: [[1, 0]]}]\n", "B must be a 2x2 matrix"),
+    ("feasibility", "    candidates: [{name: A, B: [[1, 0], [0, 1]], g: [1, 2, 3]}]\n", "g must have 2 components"),
+    ("factorizations", "    factorizations: [{name: S3, S: [[1, 0]]}]\n", "S must be a 2x2 matrix"),
+]
+
+
+@pytest.mark.parametrize("find, extra, words", BAD_FINDS, ids=[f"{b[0]}-{k}" for k, b in enumerate(BAD_FINDS)])
+def test_check_reads_each_find_as_solve_does(find, extra, words):
+    """Each `find`'s own options are read by its `_read_<find>`, which its solver and the validate hook (`check`)
+    both run: solving's error, found without the model (each of these passed check and failed solve)."""
+    assert words in error_found_without_solving(TWO_R + f"    find: [{find}]\n" + extra)
+
+
+def test_check_of_coordinates_registers_no_name():
+    """The validate hook reads new_coordinates: without registering them (solving does: expected: may use them)."""
+    from solver.dynamics.properties import validate_dynamic_properties
+    p = load_problem_text(TWO_R + "    find: [coordinates]\n    transform: [[1, 0], [1, 1]]\n")
+    validate_dynamic_properties(p, p.asks[0].options, p.asks[0].ctx)
+    assert "th1" not in p.names and "dth2" not in p.names
+    solve_problem(p)
+    assert p.names["th1"] == sp.Symbol("th1", real=True) and "dth2" in p.names
 
 
 def test_forward_dynamics_of_a_spatial_3r_at_a_state_and_in_q():

@@ -361,9 +361,81 @@ def _ranges(problem, options: DynamicPropertiesAsk, ctx, robot: Robot) -> dict: 
 
 
 def validate_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> None:  # type: ignore[no-untyped-def]
-    """The options every `find` shares, read and checked as :func:`solve_dynamic_properties` reads them (a robot
-    with dynamics, the ranges), without deriving the model; each `find`'s own options are read when solving."""
-    _ranges(problem, options, ctx, require_model(problem))
+    """The options read and checked as :func:`solve_dynamic_properties` reads them (a robot with dynamics, the
+    ranges, then each `find`'s own options by its ``_read_<find>``, the reader its solver calls), without deriving
+    the model; what needs the model (B's eigenvalues, a balancing unknown absent from g(q)) is checked when
+    solving."""
+    robot = require_model(problem)
+    _ranges(problem, options, ctx, robot)
+    for what in options.find:
+        reader = READERS.get(what)
+        if reader is not None:
+            reader(problem, options, ctx, robot)
+
+
+def _read_factorizations(problem, options: DynamicPropertiesAsk, ctx, robot: Robot) -> list[sp.Matrix]:  # type: ignore[no-untyped-def]
+    """The given S matrices (n x n) of ``factorizations``; the Christoffel factorization needs B (not a given c)."""
+    if robot.given_c is not None:
+        raise UserError("factorizations need c from B (the model gives c directly)",
+                        problem.located.place(("robot", "model", "c")), "give B instead of c")
+    return [_square(problem, ctx, robot.n, "S", "factorizations", k, "S") for k in range(len(options.factorizations))]
+
+
+def _read_coordinates(problem, options: DynamicPropertiesAsk, ctx, robot: Robot  # type: ignore[no-untyped-def]
+                      ) -> tuple[sp.Matrix, list[sp.Symbol], list[sp.Symbol], sp.Matrix | None]:
+    """(T, θ, θ̇, φ) of ``coordinates``: q = T θ (T invertible n x n) or q = φ(θ) (T = ∂φ/∂θ not singular), with
+    the new names, which must not be names of the problem yet (the solver registers them, not this reader)."""
+    n, q = robot.n, robot.q
+    if (options.transform is None) == (options.map is None):
+        raise UserError("coordinates needs transform: (q = T θ) or map: (q = φ(θ))",
+                        _place(problem, ctx, "find"), "add transform: [[1, 0], [1, 1]]")
+    T = None
+    if options.transform is not None:
+        T = sp.Matrix(ctx.expr("transform"))
+        if T.shape != (n, n) or T.det() == 0:
+            raise UserError(f"transform must be an invertible {n}x{n} matrix",
+                            _place(problem, ctx, "transform"))
+    names = options.new_coordinates or [f"th{i + 1}" for i in range(n)]
+    if len(names) != n:
+        raise UserError(f"{len(names)} names for {n} coordinates", _place(problem, ctx, "new_coordinates"))
+    th = [sp.Symbol(s, real=True) for s in names]
+    dth = [sp.Symbol("d" + s, real=True) for s in names]
+    for s_, ds_ in zip(th, dth):
+        if problem.names.get(s_.name, s_) != s_ or problem.names.get(ds_.name, ds_) != ds_:
+            raise UserError(f"'{s_.name}' is already a name of the problem",
+                            _place(problem, ctx, "new_coordinates"), "choose other names")
+    phi = None
+    if T is None:
+        raw = problem.parse_at(ctx.path + ("map",), {**problem.names, **{x.name: x for x in th + dth}})
+        if not isinstance(raw, list) or len(raw) != n or any(isinstance(x, list) for x in raw):
+            raise UserError(f"map must list {n} expressions q_i = φ_i(θ)", _place(problem, ctx, "map"))
+        phi = sp.Matrix(raw)
+        extra = phi.free_symbols & set(q)
+        if extra:
+            raise UserError("map must be written in the new coordinates, not in "
+                            + ", ".join(sorted(x.name for x in extra)), _place(problem, ctx, "map"))
+        T = phi.jacobian(th)
+        if is_zero(sp.simplify(T.det())):
+            raise UserError("the map q = φ(θ) is singular (its Jacobian has zero determinant)",
+                            _place(problem, ctx, "map"))
+    return T, th, dth, phi
+
+
+def _read_feasibility(problem, options: DynamicPropertiesAsk, ctx, robot: Robot  # type: ignore[no-untyped-def]
+                      ) -> list[tuple[str, sp.Matrix, sp.Matrix]]:
+    """(name, B, g) of each of ``candidates``: a plain name, B n x n, g of n components (default 0)."""
+    n = robot.n
+    out = []
+    for k, cand in enumerate(options.candidates):
+        if not cand.name.isidentifier():
+            raise UserError(f"candidate name '{cand.name}' is not a plain name",
+                            _place(problem, ctx, "candidates", k, "name"), "use letters, digits and _")
+        Bc = _square(problem, ctx, n, "B", "candidates", k, "B")
+        gc = sp.Matrix(ctx.expr("candidates", k, "g")) if cand.g is not None else sp.zeros(n, 1)
+        if gc.shape != (n, 1):
+            raise UserError(f"g must have {n} components", _place(problem, ctx, "candidates", k, "g"))
+        out.append((cand.name, Bc, gc))
+    return out
 
 
 @ask_kind("dynamic_properties", DynamicPropertiesAsk,
@@ -407,9 +479,7 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
                 sol.add("q_alpha", gb.q_max, "vector", label="q_\\alpha")
             sol.step("alpha", gb=gb, affine=affine, s=gb.unbounded[0] if affine is not None else None)
         elif what == "factorizations":
-            if dm.C is None:
-                raise UserError("factorizations need c from B (the model gives c directly)",
-                                problem.located.place(("robot", "model", "c")), "give B instead of c")
+            given = _read_factorizations(problem, options, ctx, robot)
             Bd = bdot(dm.B, q, dq)
             S1 = dm.S
             S2, how = alternative_factorization(dm.B, dm.c, q, dq, S1)
@@ -421,8 +491,7 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             sol.add("N_alt", N2, "matrix", label="\\dot B - 2S_2")
             sol.add("skew_alt", is_skew(N2), "bool", label="\\dot B - 2S_2 \\text{ skew}")
             checked = []
-            for k, f in enumerate(options.factorizations):
-                S = _square(problem, ctx, n, "S", "factorizations", k, "S")
+            for f, S in zip(options.factorizations, given):
                 valid = all(is_zero(sp.expand(x)) for x in (S * sp.Matrix(dq) - dm.c))
                 N = tidy_matrix(Bd - 2 * S)
                 skew = is_skew(N)
@@ -442,42 +511,12 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
         elif what == "inverse_dynamics":
             _inverse_dynamics(problem, options, ctx, sol, dm, robot)
         elif what == "coordinates":
-            if (options.transform is None) == (options.map is None):
-                raise UserError("coordinates needs transform: (q = T θ) or map: (q = φ(θ))",
-                                _place(problem, ctx, "find"), "add transform: [[1, 0], [1, 1]]")
-            T = None
-            if options.transform is not None:
-                T = sp.Matrix(ctx.expr("transform"))
-                if T.shape != (n, n) or T.det() == 0:
-                    raise UserError(f"transform must be an invertible {n}x{n} matrix",
-                                    _place(problem, ctx, "transform"))
-            names = options.new_coordinates or [f"th{i + 1}" for i in range(n)]
-            if len(names) != n:
-                raise UserError(f"{len(names)} names for {n} coordinates", _place(problem, ctx, "new_coordinates"))
-            th = [sp.Symbol(s, real=True) for s in names]
-            dth = [sp.Symbol("d" + s, real=True) for s in names]
+            T, th, dth, phi = _read_coordinates(problem, options, ctx, robot)
             for s_, ds_ in zip(th, dth):
-                if problem.names.get(s_.name, s_) != s_ or problem.names.get(ds_.name, ds_) != ds_:
-                    raise UserError(f"'{s_.name}' is already a name of the problem",
-                                    _place(problem, ctx, "new_coordinates"), "choose other names")
                 problem.names[s_.name], problem.names[ds_.name] = s_, ds_   # expected: values may use them
                 base = latex_of(s_.name).replace("th_", "\\theta_")
                 problem.latex_names.setdefault(s_, base)
                 problem.latex_names.setdefault(ds_, f"\\dot{{{base}}}")
-            phi = None
-            if T is None:
-                raw = problem.parse_at(ctx.path + ("map",), {**problem.names, **{x.name: x for x in th}})
-                if not isinstance(raw, list) or len(raw) != n or any(isinstance(x, list) for x in raw):
-                    raise UserError(f"map must list {n} expressions q_i = φ_i(θ)", _place(problem, ctx, "map"))
-                phi = sp.Matrix(raw)
-                extra = phi.free_symbols & set(q)
-                if extra:
-                    raise UserError("map must be written in the new coordinates, not in "
-                                    + ", ".join(sorted(x.name for x in extra)), _place(problem, ctx, "map"))
-                T = phi.jacobian(th)
-                if is_zero(sp.simplify(T.det())):
-                    raise UserError("the map q = φ(θ) is singular (its Jacobian has zero determinant)",
-                                    _place(problem, ctx, "map"))
             Bt, ct, gt = change_coordinates(dm.B, dm.g, q, T, th, dth, phi)
             sol.add("B_new", Bt, "matrix", label="B_\\theta")
             sol.add("c_new", ct, "vector", label="c_\\theta")
@@ -487,16 +526,10 @@ def solve_dynamic_properties(problem, options: DynamicPropertiesAsk, ctx) -> Sol
             sol.step("coordinates", T=T, th=th, q=q, Bt=Bt, ct=ct, gt=gt, phi=phi,
                      Tinv=T.inv() if phi is None else None)
         elif what == "feasibility":
+            candidates = _read_feasibility(problem, options, ctx, robot)
             _feasibility(sol, dm.B, dm.g, robot, revolute)
-            for k, cand in enumerate(options.candidates):
-                if not cand.name.isidentifier():
-                    raise UserError(f"candidate name '{cand.name}' is not a plain name",
-                                    _place(problem, ctx, "candidates", k, "name"), "use letters, digits and _")
-                Bc = _square(problem, ctx, n, "B", "candidates", k, "B")
-                gc = sp.Matrix(ctx.expr("candidates", k, "g")) if cand.g is not None else sp.zeros(n, 1)
-                if gc.shape != (n, 1):
-                    raise UserError(f"g must have {n} components", _place(problem, ctx, "candidates", k, "g"))
-                _feasibility(sol, Bc, gc, robot, revolute, cand.name + "_")
+            for name, Bc, gc in candidates:
+                _feasibility(sol, Bc, gc, robot, revolute, name + "_")
         elif what == "power":
             _power(problem, options, ctx, sol, dm, robot)
         elif what == "forward_dynamics":
@@ -521,9 +554,10 @@ def cartesian_inertia(J: sp.Matrix, B: sp.Matrix) -> sp.Matrix:
     return tidy_matrix(N / d ** 2)
 
 
-def _cartesian_inertia(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
-    """M_p = (J B⁻¹ Jᵀ)⁻¹ (= J⁻ᵀ B J⁻¹ for a square J): symbolic for a square J, and at `state` (q values) with its
-    eigenvalues and inverse (p̈ = M_p⁻¹ F from rest without gravity)."""
+def _read_cartesian_inertia(problem, options, ctx, robot  # type: ignore[no-untyped-def]
+                            ) -> tuple[sp.Matrix, sp.Matrix, dict, sp.Matrix | None]:
+    """(f, J, state, J at the state) of ``cartesian_inertia``: m ≤ n task components; with a full state (every q)
+    the Jacobian there (parameter values substituted) has full row rank (else None)."""
     if options.task is None:
         raise UserError("cartesian_inertia needs task: [f1(q), ...]", _place(problem, ctx, "find"),
                         "add task: [l1*cos(q1) + ..., ...]")
@@ -534,19 +568,29 @@ def _cartesian_inertia(problem, options, ctx, sol, dm, robot) -> None:  # type: 
     m, n = J.shape
     if m > n:
         raise UserError(f"the task has {m} components for {n} joints", _place(problem, ctx, "task"))
+    state = _read_state(problem, options, ctx, robot) if options.state else {}
+    Ja = None
+    if state and all(x in state for x in q):
+        Ja = J.xreplace({**state, **problem.values})
+        if Ja.rank() < m:
+            raise UserError("the task Jacobian is singular at this state: no Cartesian inertia",
+                            _place(problem, ctx, "state"))
+    return f, J, state, Ja
+
+
+def _cartesian_inertia(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """M_p = (J B⁻¹ Jᵀ)⁻¹ (= J⁻ᵀ B J⁻¹ for a square J): symbolic for a square J, and at `state` (q values) with its
+    eigenvalues and inverse (p̈ = M_p⁻¹ F from rest without gravity)."""
+    f, J, state, Ja = _read_cartesian_inertia(problem, options, ctx, robot)
+    m, n = J.shape
     sol.add("J_cart", J.applyfunc(tidy), "matrix", label="J(q)")
     Mp = None
     if m == n and sp.count_ops(J) + sp.count_ops(dm.B) <= 400:
         Mp = cartesian_inertia(J, dm.B)
         sol.add("M_p", Mp, "matrix", label="M_p(q) = J^{-T} B J^{-1}")
-    state = _read_state(problem, options, ctx, robot) if options.state else {}
     at = None
-    if state and all(x in state for x in q):
-        sub = {**state, **problem.values}
-        Ja, Ba = J.xreplace(sub), dm.B.xreplace(sub)
-        if Ja.rank() < m:
-            raise UserError("the task Jacobian is singular at this state: no Cartesian inertia",
-                            _place(problem, ctx, "state"))
+    if Ja is not None:
+        Ba = dm.B.xreplace({**state, **problem.values})
         Mpa = (Ja * Ba.inv() * Ja.T).inv().applyfunc(sp.nsimplify if all(x.is_Rational for x in Ja) and all(
             x.is_Rational for x in Ba) else sp.simplify)
         Mpa = Mpa.applyfunc(lambda x: sp.nsimplify(x) if x.is_Float and sp.nsimplify(x).is_Rational else x)
@@ -578,18 +622,32 @@ def balancing_conditions(g: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symb
     return conds
 
 
-def _balancing(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
-    """Parameters (``unknowns``) making g(q) ≡ 0: solve the coefficient conditions."""
+def _not_in_gravity(problem, ctx, k: int, name: str) -> UserError:  # type: ignore[no-untyped-def]
+    return UserError(f"'{name}' is not a parameter of g(q)",
+                     _place(problem, ctx, "unknowns", k), "name parameters that appear in the gravity term")
+
+
+def _read_balancing(problem, options, ctx, robot) -> list[sp.Symbol]:  # type: ignore[no-untyped-def]
+    """The ``unknowns`` of ``balancing``: names of the problem that are not coordinates (whether g(q) contains
+    them is checked by the solver, on the model)."""
     if not options.unknowns:
         raise UserError("balancing needs unknowns: [the parameters to choose]", _place(problem, ctx, "find"),
                         "add unknowns: [d1, d2]")
     unk = []
     for k, name in enumerate(options.unknowns):
         x = problem.names.get(name)
-        if x is None or x in robot.q or not (dm.g.free_symbols & {x}):
-            raise UserError(f"'{name}' is not a parameter of g(q)", _place(problem, ctx, "unknowns", k),
-                            "name parameters that appear in the gravity term")
+        if x is None or x in robot.q:
+            raise _not_in_gravity(problem, ctx, k, name)
         unk.append(x)
+    return unk
+
+
+def _balancing(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """Parameters (``unknowns``) making g(q) ≡ 0: solve the coefficient conditions."""
+    unk = _read_balancing(problem, options, ctx, robot)
+    for k, (name, x) in enumerate(zip(options.unknowns, unk)):
+        if not (dm.g.free_symbols & {x}):
+            raise _not_in_gravity(problem, ctx, k, name)
     revolute = {x for x, j in zip(robot.q, robot.joints) if j == "R"}
     g = dm.g
     conds = balancing_conditions(g, list(robot.q), revolute)
@@ -606,7 +664,9 @@ def _balancing(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[n
     sol.step("balancing", g=dm.g, conds=conds, unknowns=unk, sols=sols, vals=vals)
 
 
-def _inverse_dynamics(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+def _read_inverse_dynamics(problem, options, ctx, robot  # type: ignore[no-untyped-def]
+                           ) -> tuple[sp.Symbol, list[sp.Expr], list[sp.Expr], list[dict]]:
+    """(t, q_d(t), the times, the parameter values of each case) of ``inverse_dynamics``: n expressions in t."""
     n = robot.n
     if options.trajectory is None:
         raise UserError("inverse_dynamics needs trajectory: (q_d(t), n expressions in t)",
@@ -616,20 +676,24 @@ def _inverse_dynamics(problem, options, ctx, sol, dm, robot) -> None:  # type: i
     qd = problem.parse_at(ctx.path + ("trajectory",), names)
     if not isinstance(qd, list) or len(qd) != n:
         raise UserError(f"trajectory must be a list of {n} expressions in t", _place(problem, ctx, "trajectory"))
-    qd = [sp.sympify(x) for x in qd]
+    times = [problem.parse_at(ctx.path + ("times", k), names) for k in range(len(options.times))]
+    return t, [sp.sympify(x) for x in qd], times, _case_subs(problem, ctx, options, robot, names)
+
+
+def _inverse_dynamics(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    t, qd, times, case_subs = _read_inverse_dynamics(problem, options, ctx, robot)
     dqd = [sp.diff(x, t) for x in qd]
     ddqd = [sp.diff(x, t, 2) for x in qd]
     sub = {**dict(zip(robot.q, qd)), **dict(zip(robot.dq, dqd)), **dict(zip(robot.ddq, ddqd))}
     ud = tidy_matrix(dm.lhs.xreplace(sub))
     sol.add("u_d", ud, "vector", label="u_d(t)")
     rows = []
-    for k, _ in enumerate(options.times):
-        tk = problem.parse_at(ctx.path + ("times", k), names)
+    for k, tk in enumerate(times):
         v = ud.xreplace({t: tk}).applyfunc(tidy)
         sol.add(f"u_d_at{k + 1}", v, "vector", label=f"u_d(t_{k + 1})")
         rows.append((tk, v, v.xreplace(problem.values).evalf(6) if problem.values else None))
     cases = []
-    for k, sub in enumerate(_case_subs(problem, ctx, options, robot, names)):
+    for k, sub in enumerate(case_subs):
         v = ud.xreplace(sub).applyfunc(tidy)
         sol.add(f"u_d_case{k + 1}", v, "vector", label=f"u_d\\big|_{{{k + 1}}}")
         cases.append((sub, v))
@@ -707,17 +771,23 @@ def _inverse(problem, ctx, B: sp.Matrix, q: list[sp.Symbol]) -> tuple[sp.Matrix,
     return B.adjugate(method="berkowitz").applyfunc(lambda x: tidy(tidy(x) / det)), used
 
 
-def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
-    """q̈ = B⁻¹ (G u − c − g − F_v q̇) for the given u (at the given state, else symbolic)."""
+def _read_forward_dynamics(problem, options, ctx, robot) -> tuple[list, dict]:  # type: ignore[no-untyped-def]
+    """(u, state) of ``forward_dynamics``: one input per column of G (the inputs' names allowed), the state's
+    coordinates and velocities."""
     m = len(robot.inputs)
     if options.u is None:
         raise UserError("forward_dynamics needs u: [...]", _place(problem, ctx, "find"), "add u: [0, ua]")
     u = problem.parse_at(ctx.path + ("u",), {**problem.names, **{x.name: x for x in robot.inputs}})
     if not isinstance(u, list) or len(u) != m:
         raise UserError(f"u must be a list of {m} expressions", _place(problem, ctx, "u"))
+    return u, _read_state(problem, options, ctx, robot)
+
+
+def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """q̈ = B⁻¹ (G u − c − g − F_v q̇) for the given u (at the given state, else symbolic)."""
+    u, state = _read_forward_dynamics(problem, options, ctx, robot)
     G = robot.input_map if robot.input_map is not None else sp.eye(robot.n)
     v = sp.Matrix(robot.dq)
-    state = _read_state(problem, options, ctx, robot)
     # the state first: B(q*) and u − n(q*, q̇*) are smaller than B(q) and u − n, and numbers off the π grid
     # (q1 = 0.3) evaluated, since their exact products run to pages
     B = evaluate_transcendental(dm.B.xreplace(state))
@@ -732,9 +802,8 @@ def _forward(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-
     sol.step("forward_dynamics", u=sp.Matrix(u), Binv=Binv, rhs=rhs, state=shown, ddq=ddq)
 
 
-def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
-    """B q̈ + n = G u − e_i τ_f with H = B⁻¹: q̈ = H (G u − n) − h_i τ_f, so q̈_i = a needs
-    τ_f = (h_iᵀ (G u − n) − a) / h_ii, and then q̈_j = h_jᵀ (G u − n) − h_ji τ_f."""
+def _read_fault(problem, options, ctx, robot) -> tuple[int, list, sp.Expr]:  # type: ignore[no-untyped-def]
+    """(joint i, u, the imposed q̈_i) of ``fault``."""
     n = robot.n
     if options.fault is None or options.u is None:
         raise UserError("fault needs fault: {joint: i, ddq: ...} and u: [...]", _place(problem, ctx, "find"),
@@ -750,6 +819,14 @@ def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-un
     a = problem.parse_at(ctx.path + ("fault", "ddq"), names)
     if isinstance(a, list):
         raise UserError("ddq must be one expression", _place(problem, ctx, "fault", "ddq"))
+    return i, u, a
+
+
+def _fault(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """B q̈ + n = G u − e_i τ_f with H = B⁻¹: q̈ = H (G u − n) − h_i τ_f, so q̈_i = a needs
+    τ_f = (h_iᵀ (G u − n) − a) / h_ii, and then q̈_j = h_jᵀ (G u − n) − h_ji τ_f."""
+    n = robot.n
+    i, u, a = _read_fault(problem, options, ctx, robot)
     G = robot.input_map if robot.input_map is not None else sp.eye(n)
     v = sp.Matrix(robot.dq)
     H, used = _inverse(problem, ctx, dm.B, robot.q)
@@ -780,10 +857,8 @@ def _case_subs(problem, ctx, options, robot, names=None) -> list[dict]:  # type:
     return out
 
 
-def _torque_limits(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
-    """|u_i| ≤ T_i with u = B q̈ + n (n = c + g + F_v q̇): −T − n ≤ B q̈ ≤ T − n, a parallelogram (n = 2) of
-    accelerations with vertices B⁻¹(±T₁ − n₁, ±T₂ − n₂); the zero-torque lines b_i1 q̈₁ + b_i2 q̈₂ = 0 have slopes
-    −b_i1/b_i2; q̈ = 0 is feasible iff |n_i| ≤ T_i."""
+def _read_torque_limits(problem, options, ctx, robot) -> tuple[sp.Matrix, list[dict]]:  # type: ignore[no-untyped-def]
+    """(T, the parameter values of each case) of ``torque_limits``: n bounds, one torque per coordinate."""
     n = robot.n
     if robot.input_map is not None:
         raise UserError("torque_limits needs one torque per coordinate (no input_map)", _place(problem, ctx, "find"))
@@ -792,7 +867,15 @@ def _torque_limits(problem, options, ctx, sol, dm, robot) -> None:  # type: igno
     T = ctx.expr("limits")
     if not isinstance(T, list) or len(T) != n:
         raise UserError(f"limits must be a list of {n} expressions", _place(problem, ctx, "limits"))
-    T = sp.Matrix(T)
+    return sp.Matrix(T), _case_subs(problem, ctx, options, robot)
+
+
+def _torque_limits(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    """|u_i| ≤ T_i with u = B q̈ + n (n = c + g + F_v q̇): −T − n ≤ B q̈ ≤ T − n, a parallelogram (n = 2) of
+    accelerations with vertices B⁻¹(±T₁ − n₁, ±T₂ − n₂); the zero-torque lines b_i1 q̈₁ + b_i2 q̈₂ = 0 have slopes
+    −b_i1/b_i2; q̈ = 0 is feasible iff |n_i| ≤ T_i."""
+    n = robot.n
+    T, case_subs = _read_torque_limits(problem, options, ctx, robot)
     v = sp.Matrix(robot.dq)
     nv = (dm.c + dm.g + (dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1))).applyfunc(tidy)
     Bq = (dm.B * sp.Matrix(robot.ddq)).applyfunc(tidy)
@@ -810,7 +893,7 @@ def _torque_limits(problem, options, ctx, sol, dm, robot) -> None:  # type: igno
     zero = reduce_conds([T[i] - nv[i] for i in range(n)] + [T[i] + nv[i] for i in range(n)])
     sol.add("zero_acc_conditions", zero, "conditions", label="\\ddot q = 0 \\text{ feasible}")
     cases = []
-    for k, sub in enumerate(_case_subs(problem, ctx, options, robot)):
+    for k, sub in enumerate(case_subs):
         l_k, h_k = lo.xreplace(sub).applyfunc(tidy), hi.xreplace(sub).applyfunc(tidy)
         sol.add(f"tau_lower_case{k + 1}", l_k, "vector", label=f"(-T - n)_{{{k + 1}}}")
         sol.add(f"tau_upper_case{k + 1}", h_k, "vector", label=f"(T - n)_{{{k + 1}}}")
@@ -831,22 +914,22 @@ def reduce_conds(conds: list[sp.Expr]) -> list[sp.Expr]:
     return reduce_conditions([normalize_condition(c) for c in conds])
 
 
-def _power(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+def _read_power(problem, options, ctx, robot) -> tuple[dict, sp.Matrix]:  # type: ignore[no-untyped-def]
+    """(state, u) of ``power``: both needed, u of n generalized forces."""
     n = robot.n
     if options.state is None or options.u is None:
         raise UserError("power needs state: {q.., dq..} and u: [...]", _place(problem, ctx, "find"),
                         "add state: {q1: 0, dq1: 1, ...} and u: [1, 0]")
-    state = {}
-    for name in options.state:
-        sym = problem.names.get(name)
-        if sym is None or sym not in robot.q + robot.dq:
-            raise UserError(f"'{name}' in state: is not a coordinate or velocity", _place(problem, ctx, "state", name),
-                            "use q1, dq1, ...")
-        state[sym] = ctx.expr("state", name)
+    state = _read_state(problem, options, ctx, robot)
     u = ctx.expr("u")
     if not isinstance(u, list) or len(u) != n:
         raise UserError(f"u must be a list of {n} expressions", _place(problem, ctx, "u"))
-    u = sp.Matrix(u)
+    return state, sp.Matrix(u)
+
+
+def _power(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-untyped-def]
+    n = robot.n
+    state, u = _read_power(problem, options, ctx, robot)
     v = sp.Matrix(robot.dq)
     fr = dm.Fv * v if dm.Fv is not None else sp.zeros(n, 1)
     Edot = (v.T * (u - fr))[0]
@@ -857,6 +940,14 @@ def _power(problem, options, ctx, sol, dm, robot) -> None:  # type: ignore[no-un
     for k, x in vals.items():
         sol.add(k, x, "scalar", label=labels[k])
     sol.step("power", u=u, state=state, Edot=Edot, Udot=Udot, vals=vals, friction=dm.Fv is not None)
+
+
+READERS = {"factorizations": _read_factorizations, "inverse_dynamics": _read_inverse_dynamics,
+           "coordinates": _read_coordinates, "feasibility": _read_feasibility, "power": _read_power,
+           "forward_dynamics": _read_forward_dynamics, "fault": _read_fault, "torque_limits": _read_torque_limits,
+           "balancing": _read_balancing, "cartesian_inertia": _read_cartesian_inertia}
+"""The reader of each `find` with options of its own: ``_read_<find>(problem, options, ctx, robot)``, called by its
+solver and by the validate hook."""
 
 
 # ------------------------------------------------------------------------------------------------ grading
