@@ -265,6 +265,69 @@ def test_check_finds_bad_scaling_input_without_solving(body, where, words):
     assert words in error_found_without_solving(robot() + body)
 
 
+# a point mass on a rail and a held joint (the time-optimal motion is analytic), without dynamics: no robot
+RAIL = """id: t
+title: t
+robot:
+  joints: [P, P]
+  model: {B: "[[2, 0], [0, 1]]", c: "[0, -4*dq1^2]"}
+asks:
+"""
+NO_ROBOT = "id: t\ntitle: t\nasks:\n"
+SQUARE = robot().replace("asks:", "  input_map: [[1], [0]]\nasks:")   # one input for two coordinates
+PEAK = "[{joint: 1, tau: 10, q: [0, 0]}]"
+OPTIMAL = dict(find="time_optimal", moving="q1", initial="0", final="1", torque_max="[4, 100]", hold="{q2: 0}")
+
+BAD_FIND = [
+    (SQUARE + ask(find="torque", motion=MOTION), "torque bounds need a square input map G"),
+    (SQUARE + ask(find="scaling", motion=MOTION, torque_max="[60, 12]"), "torque bounds need a square input map G"),
+    (robot() + ask(find="scaling", motion=MOTION, torque_max="[60, 12]", at="5"),
+     "the instant 5 is outside the motion [0, 6/5]"),
+    (robot() + ask(find="scaling", torque_max="[60, 12]", peaks="[{joint: 3, tau: 10, q: [0, 0]}]"),
+     "joint 3 does not exist (n = 2)"),
+    (robot() + ask(find="scaling", torque_max="[60, 12]", peaks="[{joint: 1, tau: 10}]"),
+     "with gravity, a peak needs its configuration q:"),
+    (robot() + ask(find="scaling", torque_max="[60, 12]", peaks="[{joint: 1, tau: 10, q: [0]}]"), "q needs 2 values"),
+    (robot() + ask(find="scaling", torque_max="[60, 12, 3]", peaks=PEAK), "torque_max needs one bound or a list of 2"),
+    (robot() + ask(find="scaling", torque_max="[60, 12]", peaks=PEAK, T="zz"), "unknown name 'zz'"),
+    (NO_ROBOT + ask(find="scaling", torque_max="[60, 12, 3]", peaks="[{joint: 2, tau: 10}]"),
+     "torque_max needs one bound or a list of 2"),
+    (NO_ROBOT + ask(find="minimum_time", motion=MOTION, vmax="1"), "minimum_time needs the robot"),
+    (robot() + ask(find="minimum_time", vmax="1"), "find: minimum_time needs motion:"),
+    (robot() + ask(find="minimum_time", motion=MOTION, torque_max="[60, 12]", vmax="1"),
+     "give kinematic bounds (vmax/amax) or torque bounds, not both"),
+    (robot() + ask(find="minimum_time", motion=MOTION), "minimum_time needs bounds: vmax/amax or torque_max"),
+    (robot() + ask(find="minimum_time", motion=MOTION, vmax="[1, 2, 3]"), "vmax needs one bound or a list of 2"),
+    (robot() + ask(find="minimum_time", motion=MOTION, vmax="1", amax="-2"), "the bounds of amax must be positive"),
+    (robot() + ask(find="minimum_time", vmax="1", amax="2",
+                   motion="{law: trapezoidal, V: 1, initial: {q: [0, 0]}, final: {q: [1, 1]}}"),
+     "the bounds define the trapezoidal law: remove Ts/V/A from it"),
+    (robot() + ask(find="minimum_time", vmax="1",
+                   motion="{law: quintic, initial: {q: [0, 0, 1]}, final: {q: [1, 1]}}"), "lists of different lengths"),
+    (robot() + ask(find="minimum_time", motion=MOTION, torque_max="[60, 12, 3]"),
+     "torque_max needs one bound or a list of 2"),
+    (robot() + ask(find="minimum_time", torque_max="[60, 12]",
+                   motion="{law: trapezoidal, T: 2, V: 1, initial: {q: [0, 0]}, final: {q: [1, 1]}}"),
+     "a law whose shape does not change with T"),
+    (SQUARE + ask(find="minimum_time", motion=MOTION, torque_max="[60, 12]"), "torque bounds need a square input map"),
+    (robot() + ask(find="minimum_time", motion=MOTION, torque_max="[60, 12]", at="zz"), "unknown name 'zz'"),
+    (RAIL + ask(**{k: v for k, v in OPTIMAL.items() if k != "initial"}), "find: time_optimal needs initial:"),
+    (RAIL + ask(**{**OPTIMAL, "hold": "{q3: 0}"}), "'q3' is not a coordinate held still"),
+    (RAIL + ask(**{**OPTIMAL, "hold": "{}"}), "give the values of the coordinates held still: q2"),
+    (RAIL + ask(**{**OPTIMAL, "final": "0"}), "the final value equals the initial one"),
+    (RAIL + ask(**{**OPTIMAL, "torque_max": "[1, 2, 3]"}), "torque_max needs one bound or a list of 2"),
+    (RAIL + ask(**{**OPTIMAL, "at": "[0, -1]"}), "the instant -1 is outside the motion [0, T]"),
+]
+
+
+@pytest.mark.parametrize("text, words", BAD_FIND, ids=[f"{k}-{b[1][:24]}" for k, b in enumerate(BAD_FIND)])
+def test_check_reads_every_find_as_solve_does(text, words):
+    """Each `find` is read by the `_Job.read_<find>` its solver runs first (the motion, instants, bounds, peaks,
+    the moving and held coordinates, a square input map), and the validate hook (`check`) runs it without the
+    model: solving's error (each of these passed check and failed solve)."""
+    assert words in error_found_without_solving(text)
+
+
 @pytest.mark.parametrize("name", ["2019-07-11-ex3", "2019-09-11-ex2", "2020-07-15-remote-ex4",
                                   "2020-04-15-remote-midterm-ex9", "2021-04-14-remote-midterm-ex3",
                                   "2009-09-10-ex2", "2021-02-04-ex2", "2018-04-26-midterm-ex2b"])

@@ -46,6 +46,7 @@ Scalar = Union[str, int, float]
 ExprT = Union[str, int, float, list[Any]]
 GRID = 801
 EDGE = 1e-7
+UNKNOWN_T = sp.Symbol("T", positive=True)   # a duration found when solving: at: read before it is known
 
 
 class Peak(Strict):
@@ -362,27 +363,16 @@ def torque_figure(pieces: list[Piece], U: Optional[list[sp.Expr]], values: dict,
 
 # ------------------------------------------------------------------------------------------------ the ask
 def validate_time_scaling(problem, options: TimeScalingAsk, ctx) -> None:  # type: ignore[no-untyped-def]
-    """The options of `find: torque` and `find: scaling` along a motion (the motion, the instants, the torque
-    bounds), read and checked as :func:`solve_time_scaling` reads them, without the model; peaks and the minimum
-    time searches read theirs when solving."""
+    """The options of the ask's `find`, read and checked by the reader :func:`solve_time_scaling` runs first
+    (``_Job.read_<find>``: the motion, the instants, the bounds, the peaks, the moving and held coordinates, a
+    square input map), without the model; what needs the torques (a bound below gravity, an instant after the
+    minimum time) is checked when solving."""
     job = _Job(problem, options, ctx, Solution("time_scaling"), positive_expressions(problem, options, ctx))
     if options.find == "scaling":
-        job.need("torque_max", "the torque bounds")
-        if options.peaks is not None:
-            if options.motion is not None:
-                raise job.fail(("peaks",), "give either motion: or peaks:, not both")
-            return
-    if options.find not in ("torque", "scaling"):
+        if job.read_scaling() is None:
+            job.read_peaks()
         return
-    robot = require_model(problem)
-    if options.find == "scaling":
-        job.motion()
-        _bounds(problem, ctx, "torque_max", robot.n)
-        return
-    motion = job.motion()
-    job.times(motion.T)
-    if options.torque_max is not None:
-        _bounds(problem, ctx, "torque_max", robot.n)
+    getattr(job, "read_" + options.find)()
 
 
 @ask_kind("time_scaling", TimeScalingAsk,
@@ -423,9 +413,10 @@ class _Job:
         if getattr(self.options, key) is None:
             raise self.fail(("find",), f"find: {self.options.find} needs {key}: ({why})", f"add {key}:")
 
-    def model(self) -> tuple[Any, DynamicModel, Optional[sp.Matrix]]:
+    def read_model(self) -> tuple[Any, Optional[sp.Matrix]]:
+        """The robot with dynamics and G⁻¹ (None without an input map), without the model."""
         robot = require_model(self.problem)
-        return robot, derive(robot), _input_inverse(robot, self.problem, self.ctx)
+        return robot, _input_inverse(robot, self.problem, self.ctx)
 
     def motion(self, T_override: sp.Expr | None = None) -> Motion:
         self.need("motion", "the joint motion")
@@ -488,15 +479,21 @@ class _Job:
         self.sol.figures.append(torque_figure(pieces, U, self.values, self.t, k, motion.names, caption, marks))
 
     # -- torque ---------------------------------------------------------------------------------------------
-    def torque(self) -> None:
-        robot, dm, Ginv = self.model()
+    def read_torque(self) -> tuple[Any, Optional[sp.Matrix], Motion, list[sp.Expr], Optional[list[sp.Expr]]]:
+        """find: torque: (robot, G⁻¹, the motion, the instants, the bounds if given)."""
+        robot, Ginv = self.read_model()
         motion = self.motion()
+        times = self.times(motion.T)
+        U = _bounds(self.problem, self.ctx, "torque_max", robot.n) if self.options.torque_max is not None else None
+        return robot, Ginv, motion, times, U
+
+    def torque(self) -> None:
+        robot, Ginv, motion, times, U = self.read_torque()
+        dm = derive(robot)
         pieces = self.torques(motion, dm, robot, self.values, Ginv)
         self.sol.step("motion", view=motion_view(motion, pieces), dm=dm, G=Ginv is not None)
         self.law_params(motion)
-        times = self.times(motion.T)
         rows = self.at_rows(pieces, times)
-        U = _bounds(self.problem, self.ctx, "torque_max", robot.n) if self.options.torque_max is not None else None
         peaks = self.peak_results(pieces, robot.n, U)
         self.sol.step("torques", rows=rows, peaks=peaks, U=U, names=motion.names)
         self.figures(motion, pieces, U, None, "Torques along the motion" + (" and their bounds." if U else "."))
@@ -537,15 +534,25 @@ class _Job:
         return out
 
     # -- uniform scaling ------------------------------------------------------------------------------------
-    def scaling(self) -> None:
+    def read_scaling(self) -> Optional[tuple[Any, Optional[sp.Matrix], Motion, list[sp.Expr], list[sp.Expr]]]:
+        """find: scaling along a motion: (robot, G⁻¹, the motion, the bounds, the instants); None with peaks:
+        (read by :meth:`read_peaks`)."""
         self.need("torque_max", "the torque bounds")
         if self.options.peaks is not None:
             if self.options.motion is not None:
                 raise self.fail(("peaks",), "give either motion: or peaks:, not both")
-            return self.scaling_peaks()
-        robot, dm, Ginv = self.model()
+            return None
+        robot, Ginv = self.read_model()
         motion = self.motion()
         U = _bounds(self.problem, self.ctx, "torque_max", robot.n)
+        return robot, Ginv, motion, U, self.times(motion.T)
+
+    def scaling(self) -> None:
+        read = self.read_scaling()
+        if read is None:
+            return self.scaling_peaks()
+        robot, Ginv, motion, U, times = read
+        dm = derive(robot)
         pieces = self.torques(motion, dm, robot, self.values, Ginv)
         self.sol.step("motion", view=motion_view(motion, pieces), dm=dm, G=Ginv is not None)
         self.law_params(motion)
@@ -555,7 +562,6 @@ class _Job:
         self.add("k", data["k"], label="k")
         self.add("T_scaled", simplified(data["k"] * motion.T), label="T' = k T")
         self.add("tau_scaled_peak", sp.Matrix(data["scaled"]), label="\\tau_i(k t_i^*)")
-        times = self.times(motion.T)
         rows = self.at_rows(pieces, times)
         self.sol.step("scaling", **data, peaks=peaks, U=U, rows=rows, names=motion.names, T=motion.T)
         kf = data["k_float"] if np.isfinite(data["k_float"]) else None
@@ -610,29 +616,43 @@ class _Job:
         return {"binds": binds, "k_joint": k_joint, "k": k, "joint": j, "exact": exact, "k_float": knum,
                 "scaled": scaled}
 
-    def scaling_peaks(self) -> None:
+    def read_peaks(self) -> tuple[list[sp.Expr], list[tuple[Any, sp.Expr, Optional[list]]], Optional[sp.Expr]]:
+        """find: scaling with peaks: (the bounds, per peak (its entry, τ, q when there is gravity), T if given):
+        joints of the robot (or of the bounds without one), a configuration of n values with gravity."""
         peaks = self.options.peaks or []
         robot = self.problem.robot
         n = robot.n if robot is not None else max(p.joint for p in peaks)
         U = _bounds(self.problem, self.ctx, "torque_max", n)
-        g_vec = None
-        if robot is not None and robot.gravity is not None:
-            g_vec = derive(robot).g
-        rows, k_list, g_list, scaled = [], [], [], []
-        probe = self.probe([self.ctx.expr("peaks", j, "tau") for j in range(len(peaks))] + U)
+        gravity = robot is not None and robot.gravity is not None
+        rows = []
         for j, p in enumerate(peaks):
             base = ("peaks", j)
             if p.joint > n:
                 raise self.fail(base + ("joint",), f"joint {p.joint} does not exist (n = {n})")
             tau = self.ctx.expr(*base, "tau")
-            g = sp.Integer(0)
-            if g_vec is not None:
+            qv = None
+            if gravity:
                 if p.q is None:
                     raise self.fail(base, "with gravity, a peak needs its configuration q: (for g(q))")
                 qv = self.ctx.expr(*base, "q")
                 qv = qv if isinstance(qv, list) else [qv]
                 if len(qv) != robot.n:
                     raise self.fail(base + ("q",), f"q needs {robot.n} values")
+            rows.append((p, tau, qv))
+        return U, rows, self.ctx.expr("T") if self.options.T is not None else None
+
+    def scaling_peaks(self) -> None:
+        U, peaks, T = self.read_peaks()
+        robot = self.problem.robot
+        g_vec = None
+        if robot is not None and robot.gravity is not None:
+            g_vec = derive(robot).g
+        rows, k_list, g_list, scaled = [], [], [], []
+        probe = self.probe([tau for _, tau, _ in peaks] + U)
+        for j, (p, tau, qv) in enumerate(peaks):
+            base = ("peaks", j)
+            g = sp.Integer(0)
+            if g_vec is not None:
                 g = simplified(g_vec[p.joint - 1].subs(dict(zip(robot.q, qv))))
             u = U[p.joint - 1]
             a = simplified(tau - g)
@@ -654,16 +674,16 @@ class _Job:
             self.add("g_peak", sp.Matrix(g_list), label="g_j(q(t_j))")
         self.add("k_joint", sp.Matrix(k_list), label="k_j")
         self.add("k", k, label="k")
-        T = None
-        if self.options.T is not None:
-            T = self.ctx.expr("T")
+        if T is not None:
             self.add("T_scaled", simplified(k * T), label="T' = k T")
         self.add("tau_scaled_peak", sp.Matrix(scaled), label="\\tau_j(k t_j)")
         self.sol.step("peaks", rows=rows, k=k, joint=jmax, T=T, gravity=g_vec is not None,
                       unit=sorted(s.name for s in probe if s not in self.values))
 
     # -- minimum time -----------------------------------------------------------------------------------------
-    def minimum_time(self) -> None:
+    def read_minimum_time(self) -> tuple[Any, Optional[sp.Expr], dict]:
+        """find: minimum_time: (robot, the motion's T if given, what :meth:`read_minimum_time_kinematic` or
+        :meth:`read_minimum_time_torque` read): a motion and either kinematic or torque bounds."""
         robot = self.problem.robot
         if robot is None:
             raise self.fail(("find",), "minimum_time needs the robot (its coordinates)", "add robot:")
@@ -675,23 +695,35 @@ class _Job:
         if not kin and self.options.torque_max is None:
             raise self.fail(("find",), "minimum_time needs bounds: vmax/amax or torque_max")
         T_given = self.ctx.expr("motion", "T") if spec.T is not None else None
-        if kin:
-            self.minimum_time_kinematic(robot, spec, T_given)
-        else:
-            self.minimum_time_torque(robot, T_given)
+        read = self.read_minimum_time_kinematic(robot, spec) if kin else self.read_minimum_time_torque()
+        return robot, T_given, read
 
-    def minimum_time_kinematic(self, robot, spec: MotionSpec, T_given: Optional[sp.Expr]) -> None:  # type: ignore[no-untyped-def]
+    def minimum_time(self) -> None:
+        robot, T_given, read = self.read_minimum_time()
+        if "V" in read:
+            self.minimum_time_kinematic(robot, self.options.motion, T_given, **read)
+        else:
+            self.minimum_time_torque(robot, T_given, **read)
+
+    def read_minimum_time_kinematic(self, robot, spec: MotionSpec) -> dict:  # type: ignore[no-untyped-def]
+        """The velocity and acceleration bounds V, A and the motion of free duration T_f (of the trapezoidal law
+        the bounds define: only its end positions, read as a cubic)."""
         n = robot.n
         V = _bounds(self.problem, self.ctx, "vmax", n) if self.options.vmax is not None else None
         A = _bounds(self.problem, self.ctx, "amax", n) if self.options.amax is not None else None
-        law = spec.law
         Tf = sp.Symbol("T_f", positive=True)
-        if law in ("trapezoidal", "bang_coast_bang") and V is not None and A is not None:
+        if spec.law in ("trapezoidal", "bang_coast_bang") and V is not None and A is not None:
             if spec.Ts is not None or spec.V is not None or spec.A is not None:
                 raise self.fail(("motion", "law"), "the bounds define the trapezoidal law: remove Ts/V/A from it")
-            ends = spec.model_copy(update={"law": "cubic"})  # only to read the end positions
-            base = read_motion(self.problem, self.ctx.path + ("motion",), ends, self.t, n=n,
-                               names=[x.name for x in robot.q], T_override=Tf)
+            spec = spec.model_copy(update={"law": "cubic"})  # only to read the end positions
+        base = read_motion(self.problem, self.ctx.path + ("motion",), spec, self.t, n=n,
+                           names=[x.name for x in robot.q], T_override=Tf)
+        return {"V": V, "A": A, "Tf": Tf, "base": base}
+
+    def minimum_time_kinematic(self, robot, spec: MotionSpec, T_given: Optional[sp.Expr], V: Optional[list],  # type: ignore[no-untyped-def]
+                               A: Optional[list], Tf: sp.Symbol, base: Motion) -> None:
+        law = spec.law
+        if law in ("trapezoidal", "bang_coast_bang") and V is not None and A is not None:
             qi = [law_.pieces[0].subs(self.t, 0) for law_ in base.laws]
             qf = [law_.pieces[-1].subs(self.t, Tf) for law_ in base.laws]
             notes: list[str] = []
@@ -703,8 +735,6 @@ class _Job:
                     "T_coast": lw.params["T_coast"], "T_bang": lw.params["T_bang"]} for lw in laws]
             how = "trapezoid"
         else:
-            base = read_motion(self.problem, self.ctx.path + ("motion",), spec, self.t, n=n,
-                               names=[x.name for x in robot.q], T_override=Tf)
             per, Ts = [], []
             for i, lw in enumerate(base.laws):
                 cands = []
@@ -739,8 +769,10 @@ class _Job:
             self.sol.figures.append(law_figure("motion", "The minimum-time motion: position, velocity, acceleration.",
                                                motion, self.values, labels=coordinate_labels(self.problem, motion)))
 
-    def minimum_time_torque(self, robot, T_given: Optional[sp.Expr]) -> None:  # type: ignore[no-untyped-def]
-        _, dm, Ginv = self.model()
+    def read_minimum_time_torque(self) -> dict:
+        """G⁻¹, the law of unit duration (a rest-to-rest law: the same shape for every T) and the torque bounds;
+        the instants, read with T unknown (whether they lie in [0, T_min] is checked when solving)."""
+        robot, Ginv = self.read_model()
         Tsym = sp.Symbol("T_s", positive=True)
         if not _shape_invariant(self.motion(Tsym), Tsym):
             raise self.fail(("motion", "law"), "under torque bounds the minimum time is found by scaling a law whose "
@@ -748,6 +780,12 @@ class _Job:
                             "find: scaling for a given T")
         unit = self.motion(sp.Integer(1))
         U = _bounds(self.problem, self.ctx, "torque_max", robot.n)
+        self.times(UNKNOWN_T)
+        return {"Ginv": Ginv, "unit": unit, "U": U}
+
+    def minimum_time_torque(self, robot, T_given: Optional[sp.Expr], Ginv: Optional[sp.Matrix], unit: Motion,  # type: ignore[no-untyped-def]
+                            U: list[sp.Expr]) -> None:
+        dm = derive(robot)
         pieces = self.torques(unit, dm, robot, self.values, Ginv)
         data = self.uniform_min_time(pieces, U, robot.n)
         T_min = data["k"]
@@ -797,8 +835,11 @@ class _Job:
             return Law(t, [sp.Integer(0), V / A1, T - V / A2, T], [p1, p2, p3])
         return Law(t, [sp.Integer(0), V / A1, T], [p1, p3])
 
-    def time_optimal(self) -> None:
-        robot, dm, Ginv = self.model()
+    def read_time_optimal(self) -> tuple[Any, Optional[sp.Matrix], int, dict, sp.Expr, sp.Expr, sp.Expr,
+                                         list[sp.Expr]]:
+        """find: time_optimal: (robot, G⁻¹, the moving coordinate's index j, the held values, q_i, q_f, Δ, the
+        bounds); the instants read with T unknown (whether they lie in [0, T*] is checked when solving)."""
+        robot, Ginv = self.read_model()
         for key in ("moving", "initial", "final", "torque_max"):
             self.need(key, {"moving": "the coordinate that moves", "initial": "its initial value",
                             "final": "its final value", "torque_max": "the torque bounds"}[key])
@@ -819,6 +860,12 @@ class _Job:
         if D == 0:
             raise self.fail(("final",), "the final value equals the initial one: nothing to move")
         U = _bounds(self.problem, self.ctx, "torque_max", robot.n)
+        self.times(UNKNOWN_T)
+        return robot, Ginv, j, hold, qi, qf, D, U
+
+    def time_optimal(self) -> None:
+        robot, Ginv, j, hold, qi, qf, D, U = self.read_time_optimal()
+        dm = derive(robot)
         x, v, a = robot.q[j], robot.dq[j], robot.ddq[j]
         sub = dict(hold)
         for i in range(robot.n):
