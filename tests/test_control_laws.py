@@ -541,3 +541,45 @@ def test_check_finds_bad_law_options_without_solving(ask, words):
     """The law's options, q_d and the gains (joint space and Cartesian) are read by the kind's validate hook
     (`check`) as by solving, without the model."""
     assert words in error_found_without_solving(RP + ask)
+
+
+def law(name: str, **opts: str) -> str:
+    return f"  - kind: control_law\n    law: {name}\n" + "".join(f"    {k}: {v}\n" for k, v in opts.items())
+
+
+NO_MAP = CARTPOLE.replace("  input_map: [[1], [0]]\n", "")
+FULL_MAP = CARTPOLE.replace("input_map: [[1], [0]]", "input_map: [[1, 0], [0, 1]]")
+E1_FULL = ELASTIC1.replace("input_map: [[0], [1]]", "input_map: [[1, 0], [0, 1]]")
+OTHER_LAWS_BAD = [
+    (ELASTIC1.replace("  input_map: [[0], [1]]\n", "") + law("elastic"), "law: elastic needs robot.input_map"),
+    (E1_FULL + law("elastic"), "law: elastic is for underactuated robots, but every coordinate is actuated"),
+    (ELASTIC2.replace("input_map: [[0, 0], [0, 0], [1, 0], [0, 1]]", "input_map: [[0], [0], [1], [0]]")
+     + law("elastic"), "law: elastic needs one motor per link coordinate (1 actuated, 3 passive coordinates)"),
+    (ELASTIC1 + law("elastic", qd="[1, 2]"), "qd must list 1 values (one per link)"),
+    (ELASTIC1 + law("elastic", gains="[1, 2]"), "gains must be [k0, k1, k2, k3]"),
+    (ELASTIC1 + law("elastic", gains="[1, 2, [3, 4], 5]"), "gains[2] must be one expression or a list of 1"),
+    (NO_MAP + law("partial_fbl"), "law: partial_fbl needs robot.input_map"),
+    (FULL_MAP + law("partial_fbl"), "law: partial_fbl is for underactuated robots"),
+    (CARTPOLE.replace("input_map: [[1], [0]]", "input_map: [[1, 1], [0, 0]]") + law("partial_fbl"),
+     "law: partial_fbl needs the inputs to act one to one on 2 coordinates"),
+    (ELASTIC2.replace("input_map: [[0, 0], [0, 0], [1, 0], [0, 1]]", "input_map: [[0], [0], [1], [0]]")
+     + law("partial_fbl", collocated="false"), "with as many inputs as passive coordinates (1 inputs, 3 passive)"),
+    (CARTPOLE + law("partial_fbl", kp="[1, 2]"), "kp must be one expression or a list of 1 (the diagonal of K_P)"),
+    (CARTPOLE + law("partial_fbl", kp="1", kd="[1, 2]"), "kd must be one expression or a list of 1"),
+    (CARTPOLE + law("partial_fbl", kp="1", qd="[0, 1]"), "qd must list 1 values (the linearized coordinates)"),
+    (CARTPOLE + law("linearization"), "law: linearization needs equilibrium:"),
+    (CARTPOLE + law("linearization", equilibrium="{q3: 0}"), "equilibrium: q3 is not a coordinate (q1, q2)"),
+    (CARTPOLE + law("linearization", equilibrium="{q1: zz, q2: 0}"), "unknown name 'zz'"),
+    (CARTPOLE + law("linearization", equilibrium="{}"),
+     "equilibrium: 2 coordinates are not given, but the unactuated equations at rest are 1"),
+    (FULL_MAP + law("linearization", equilibrium="{q1: 0}"),
+     "equilibrium: 1 coordinates are not given, but the unactuated equations at rest are 0"),
+]
+
+
+@pytest.mark.parametrize("text, words", OTHER_LAWS_BAD, ids=[f"{k}-{b[1][:24]}" for k, b in enumerate(OTHER_LAWS_BAD)])
+def test_check_reads_the_elastic_underactuated_and_linearization_laws_as_solve_does(text, words):
+    """law: elastic (the input map, qd:, gains:), partial_fbl (the input map, collocated:, kp:/kd:/qd:) and
+    linearization (equilibrium:) are read by the reader each solver runs first, which the validate hook (`check`)
+    runs too, without the model: solving's error (each of these passed check and failed solve)."""
+    assert words in error_found_without_solving(text)

@@ -14,6 +14,7 @@ linearizing coordinates (q, q̇, q̈, q⃛) and q⁽⁴⁾ = v (Spong's form): u
 from __future__ import annotations
 
 import random
+from dataclasses import dataclass
 
 import sympy as sp
 
@@ -35,18 +36,47 @@ def _time_derivative(f: sp.Expr, x: list, xdot: list) -> sp.Expr:
     return sum((sp.diff(f, a) * b for a, b in zip(x, xdot)), sp.Integer(0))
 
 
+@dataclass
+class ElasticInputs:
+    """The options of ``law: elastic`` as read: the motor (actuated) and link coordinates (indices), G_m, and the
+    q_d and gains K₀..K₃ given (None: not given)."""
+
+    mot: list[int]
+    lnk: list[int]
+    Gm: sp.Matrix
+    yd: list[sp.Expr] | None
+    K: list[list[sp.Expr]] | None
+
+
+def read_elastic(problem, options: ControlLawAsk, ctx) -> ElasticInputs:  # type: ignore[no-untyped-def]
+    """The options of ``law: elastic`` read and checked without the model (``check`` runs it, and
+    :func:`solve_elastic` first): the input map (one motor per link coordinate), qd: (one per link) and gains:."""
+    from solver.control.underactuated import split_inputs
+    robot = require_model(problem)
+    mot, lnk, Gm = split_inputs(problem, robot.input_map, robot.n, ctx, "elastic")
+    if len(mot) != len(lnk):
+        raise UserError(f"law: elastic needs one motor per link coordinate ({len(mot)} actuated, {len(lnk)} passive "
+                        f"coordinates)", problem.located.place(ctx.path + ("law",)),
+                        "check robot.coordinates and input_map")
+    yd = None
+    if options.qd is not None:
+        val = ctx.expr("qd")
+        vals = val if isinstance(val, list) else [val]
+        if len(vals) != len(lnk):
+            raise UserError(f"qd must list {len(lnk)} values (one per link)", problem.located.place(ctx.path + ("qd",)))
+        yd = [sp.sympify(x) for x in vals]
+    return ElasticInputs(mot, lnk, Gm, yd, _read_gains(problem, options, ctx, len(lnk)))
+
+
 def solve_elastic(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: ddy (ÿ as a function of the state), jerk, alpha, beta, det_beta, u, v_law, closed_loop_check;
     with linear springs also theta_y (θ(q, q̇, q̈)) and u_y (u in the linearizing coordinates)."""
-    from solver.control.underactuated import split_inputs
-    robot = require_model(problem)
+    read = read_elastic(problem, options, ctx)
+    robot = problem.robot
     dm = derive(robot)
     n = robot.n
-    mot, lnk, Gm = split_inputs(problem, dm, ctx, "elastic")
+    mot, lnk, Gm = read.mot, read.lnk, read.Gm
     place = problem.located.place(ctx.path + ("law",))
-    if len(mot) != len(lnk):
-        raise UserError(f"law: elastic needs one motor per link coordinate ({len(mot)} actuated, {len(lnk)} passive "
-                        f"coordinates)", place, "check robot.coordinates and input_map")
     X, dX, ddX = list(robot.q), list(robot.dq), list(robot.ddq)
     q = [X[i] for i in lnk]
     th = [X[i] for i in mot]
@@ -83,12 +113,8 @@ def solve_elastic(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ig
     # the desired output and the gains
     tex = [problem.latex_names.get(s, s.name) for s in q]
     if options.regulation or options.qd is not None:
-        if options.qd is not None:
-            val = ctx.expr("qd")
-            vals = val if isinstance(val, list) else [val]
-            if len(vals) != len(q):
-                raise UserError(f"qd must list {len(q)} values (one per link)", problem.located.place(ctx.path + ("qd",)))
-            yd = [sp.sympify(x) for x in vals]
+        if read.yd is not None:
+            yd = read.yd
         else:
             yd = [_symbol(problem, _qname(s.name, "d"), _sub_tex(t, "d")) for s, t in zip(q, tex)]
         yds = [yd] + [[sp.Integer(0)] * len(q) for _ in range(4)]
@@ -96,7 +122,7 @@ def solve_elastic(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ig
         yds = [[_symbol(problem, pre + _qname(s.name, "d"), acc + _sub_tex(t, "d") + post) for s, t in zip(q, tex)]
                for pre, acc, post in (("", "", ""), ("d", "\\dot ", ""), ("dd", "\\ddot ", ""),
                                       ("ddd", "", "^{(3)}"), ("dddd", "", "^{(4)}"))]
-    K = _elastic_gains(problem, options, ctx, len(q))
+    K = read.K if read.K is not None else _default_gains(problem, len(q))
     derivs = [sp.Matrix(q), sp.Matrix(dq), f2, f3]
     v_law = sp.Matrix(yds[4])
     for j in range(4):
@@ -144,11 +170,16 @@ def solve_elastic(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ig
     return sol
 
 
-def _elastic_gains(problem, options: ControlLawAsk, ctx, m: int) -> list[list[sp.Expr]]:  # type: ignore[no-untyped-def]
-    """K₀..K₃: diagonal, default symbols k0_1.. (positive; Hurwitz s⁴ + k3 s³ + k2 s² + k1 s + k0 is the
+def _default_gains(problem, m: int) -> list[list[sp.Symbol]]:  # type: ignore[no-untyped-def]
+    """The default K₀..K₃: diagonal, symbols k0_1.. (positive; Hurwitz s⁴ + k3 s³ + k2 s² + k1 s + k0 is the
     designer's choice)."""
+    return [[_pos(problem, f"k{j}_{i + 1}", f"k_{{{j},{i + 1}}}") for i in range(m)] for j in range(4)]
+
+
+def _read_gains(problem, options: ControlLawAsk, ctx, m: int) -> list[list[sp.Expr]] | None:  # type: ignore[no-untyped-def]
+    """The diagonals of K₀..K₃ of ``gains:`` (each one expression or m), None when not given."""
     if options.gains is None:
-        return [[_pos(problem, f"k{j}_{i + 1}", f"k_{{{j},{i + 1}}}") for i in range(m)] for j in range(4)]
+        return None
     place = problem.located.place(ctx.path + ("gains",))
     if len(options.gains) != 4:
         raise UserError("gains must be [k0, k1, k2, k3] (each one expression or a list of one per link)", place)

@@ -152,15 +152,27 @@ GAINS = {"kp": ("kp", "kp", "k_{{P,{i}}}", "K_P"), "kd": ("kd", "kd", "k_{{D,{i}
 
 def _gains(problem, options: ControlLawAsk, ctx, key: str, n: int, pos: bool) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
     """The diagonal of a gain matrix: n positive symbols (default) or the ask's value (one or n expressions)."""
-    yaml_key, base, tex, label = GAINS[key]
+    vals = _gain_values(problem, options, ctx, key, n)
+    return vals if vals is not None else _gain_symbols(problem, key, n)
+
+
+def _gain_symbols(problem, key: str, n: int) -> list[sp.Symbol]:  # type: ignore[no-untyped-def]
+    """The default diagonal of a gain matrix: n positive symbols registered in the problem's names."""
+    _, base, tex, _ = GAINS[key]
+    syms = []
+    for i in range(n):
+        s = sp.Symbol(_fresh(problem, f"{base}{i + 1}"), positive=True)
+        problem.names.setdefault(s.name, s)
+        problem.latex_names.setdefault(s, tex.format(i=i + 1))
+        syms.append(s)
+    return syms
+
+
+def _gain_values(problem, options: ControlLawAsk, ctx, key: str, n: int) -> list[sp.Expr] | None:  # type: ignore[no-untyped-def]
+    """The ask's diagonal of a gain matrix (one expression or a list of n), None when not given."""
+    yaml_key, _, _, label = GAINS[key]
     if getattr(options, key) is None:
-        syms = []
-        for i in range(n):
-            s = sp.Symbol(_fresh(problem, f"{base}{i + 1}"), positive=True)
-            problem.names.setdefault(s.name, s)
-            problem.latex_names.setdefault(s, tex.format(i=i + 1))
-            syms.append(s)
-        return syms
+        return None
     val = ctx.expr(yaml_key)
     vals = val if isinstance(val, list) else [val] * n
     if len(vals) != n or any(isinstance(v, list) for v in vals):
@@ -294,13 +306,23 @@ def _desired_q(problem, options: ControlLawAsk, ctx, robot, regulation: bool) ->
 
 def validate_control_law(problem, options: ControlLawAsk, ctx) -> None:  # type: ignore[no-untyped-def]
     """The options of the joint-space laws read and checked as :func:`solve_control_law` reads them (the law's
-    options, q_d, the gains) and of the Cartesian law (:func:`~solver.control.cartesian.validate_cartesian`),
-    without the model; the other laws (elastic, underactuated, linearization) only for their options' names, their
-    inputs are read when solving."""
+    options, q_d, the gains), of the Cartesian law (:func:`~solver.control.cartesian.validate_cartesian`) and of
+    the elastic, underactuated and linearization laws (the readers their solvers run first:
+    :func:`~solver.control.elastic.read_elastic`, :func:`~solver.control.underactuated.read_partial`,
+    :func:`~solver.control.linearization.read_equilibrium`), without the model."""
     _check_options(problem, options, ctx)
     if options.law == "cartesian_computed_torque":
         from solver.control.cartesian import validate_cartesian
         validate_cartesian(problem, options, ctx)
+    elif options.law == "elastic":
+        from solver.control.elastic import read_elastic
+        read_elastic(problem, options, ctx)
+    elif options.law == "partial_fbl":
+        from solver.control.underactuated import read_partial
+        read_partial(problem, options, ctx)
+    elif options.law == "linearization":
+        from solver.control.linearization import read_equilibrium
+        read_equilibrium(problem, options, ctx)
     if options.law not in JOINT_LAWS:
         return
     robot = require_model(problem)

@@ -36,19 +36,46 @@ def linearize(B: sp.Matrix, g: sp.Matrix, G: sp.Matrix, Fv: sp.Matrix, q: list, 
     return A, Bl, Ke
 
 
+def _passive(G: sp.Matrix) -> list[int]:
+    """The coordinates where no input acts (G row zero)."""
+    return [i for i in range(G.rows) if all(_zero(x) for x in G.row(i))]
+
+
 def _passive_rows(g: sp.Matrix, G: sp.Matrix) -> sp.Matrix:
-    """The rows of g where no input acts (G row zero): at rest they must vanish by themselves."""
-    return sp.Matrix([g[i] for i in range(g.rows) if all(_zero(x) for x in G.row(i))])
+    """The rows of g where no input acts: at rest they must vanish by themselves."""
+    return sp.Matrix([g[i] for i in _passive(G)])
+
+
+def read_equilibrium(problem, options: ControlLawAsk, ctx) -> tuple[dict, list[sp.Symbol]]:  # type: ignore[no-untyped-def]
+    """The configuration of ``equilibrium:`` read and checked without the model (``check`` runs it, and
+    :func:`solve_linearization` first): (the coordinates given, with their values; the ones not given, which the
+    unactuated equations at rest must determine: as many as those equations)."""
+    robot = require_model(problem)
+    q = list(robot.q)
+    place = problem.located.place(ctx.path + ("equilibrium",))
+    if options.equilibrium is None:
+        raise UserError("law: linearization needs equilibrium: {q1: .., q2: ..} (a configuration at rest)", place,
+                        "e.g. equilibrium: {q1: 0, q2: 0}")
+    names = {s.name: s for s in q}
+    at: dict = {}
+    for key in options.equilibrium:
+        if key not in names:
+            raise UserError(f"equilibrium: {key} is not a coordinate ({', '.join(names)})",
+                            problem.located.place(ctx.path + ("equilibrium", key)))
+        at[names[key]] = sp.sympify(ctx.expr("equilibrium", key))
+    missing = [x for x in q if x not in at]
+    rows = _passive(robot.input_map if robot.input_map is not None else sp.eye(robot.n))
+    if missing and len(rows) != len(missing):
+        raise UserError(f"equilibrium: {len(missing)} coordinates are not given, but the unactuated equations at rest "
+                        f"are {len(rows)}: give the other coordinates", place)
+    return at, missing
 
 
 def solve_missing(problem, g: sp.Matrix, G: sp.Matrix, q: list, at: dict, missing: list, place) -> dict:  # type: ignore[no-untyped-def]
-    """The coordinates of an equilibrium not given: from the unactuated rows of g(q) = G u at rest (as many rows as
-    missing coordinates), with the parameter values; the unique real solution (polynomial equations: all real roots
-    are found; otherwise a numeric root from 0)."""
+    """The coordinates of an equilibrium not given (as many as the unactuated rows of g(q) = G u at rest:
+    :func:`read_equilibrium`): from those rows, with the parameter values; the unique real solution (polynomial
+    equations: all real roots are found; otherwise a numeric root from 0)."""
     eqs = [x.xreplace(at) for x in _passive_rows(g, G)]
-    if len(eqs) != len(missing):
-        raise UserError(f"equilibrium: {len(missing)} coordinates are not given, but the unactuated equations at rest "
-                        f"are {len(eqs)}: give the other coordinates", place)
     num = [x.xreplace(problem.values) for x in eqs]
     free = set().union(*(x.free_symbols for x in num)) - set(missing) if num else set()
     if free:
@@ -104,25 +131,15 @@ def kalman_rank(A: sp.Matrix, Bl: sp.Matrix, trials: int = 3) -> int:
 
 def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: u_eq, K_e, A_lin, B_lin, ctrb, rank_ctrb, controllable, det_ctrb (single input), char_poly."""
-    robot = require_model(problem)
+    at, missing = read_equilibrium(problem, options, ctx)
+    robot = problem.robot
     dm = derive(robot)
     n = robot.n
     q, dq = list(robot.q), list(robot.dq)
     place = problem.located.place(ctx.path + ("equilibrium",))
-    if options.equilibrium is None:
-        raise UserError("law: linearization needs equilibrium: {q1: .., q2: ..} (a configuration at rest)", place,
-                        "e.g. equilibrium: {q1: 0, q2: 0}")
-    names = {s.name: s for s in q}
-    at: dict = {}
-    for key in options.equilibrium:
-        if key not in names:
-            raise UserError(f"equilibrium: {key} is not a coordinate ({', '.join(names)})",
-                            problem.located.place(ctx.path + ("equilibrium", key)))
-        at[names[key]] = sp.sympify(ctx.expr("equilibrium", key))
     G = dm.G if dm.G is not None else sp.eye(n)
     m = G.cols
     Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
-    missing = [x for x in q if x not in at]
     solved_for: list = []
     if missing:
         at |= solve_missing(problem, dm.g, G, q, at, missing, place)

@@ -12,11 +12,14 @@ The coordinates not linearized keep the second-order "internal" dynamics q̈_fre
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import sympy as sp
 
 from solver.control.laws import (
     ControlLawAsk,
-    _gains,
+    _gain_symbols,
+    _gain_values,
     _qname,
     _sub_tex,
     _symbol,
@@ -29,14 +32,14 @@ from solver.results import Solution
 from solver.spec.errors import UserError
 
 
-def split_inputs(problem, dm, ctx, law: str) -> tuple[list[int], list[int], sp.Matrix]:  # type: ignore[no-untyped-def]
-    """(actuated indices, passive indices, G_a): the rows of G that are not zero are the actuated coordinates."""
-    n = dm.B.rows
+def split_inputs(problem, G: sp.Matrix | None, n: int, ctx, law: str  # type: ignore[no-untyped-def]
+                 ) -> tuple[list[int], list[int], sp.Matrix]:
+    """(actuated indices, passive indices, G_a) of the input map G of n coordinates: the rows of G that are not
+    zero are the actuated coordinates."""
     place = problem.located.place(ctx.path + ("law",))
-    if dm.G is None:
+    if G is None:
         raise UserError(f"law: {law} needs robot.input_map: the inputs act on some coordinates only", place,
                         "give input_map, e.g. [[1], [0]] for a force on q1 only")
-    G = dm.G
     act = [i for i in range(n) if any(not _zero(x) for x in G.row(i))]
     pas = [i for i in range(n) if i not in act]
     Ga = G.extract(act, list(range(G.cols)))
@@ -58,24 +61,61 @@ def _inv(M: sp.Matrix) -> sp.Matrix:
         sp.Matrix([[1 / M[0, 0]]])
 
 
+@dataclass
+class PartialInputs:
+    """The options of ``law: partial_fbl`` as read: the actuated and passive coordinates (indices), G_a, the
+    linearized and free ones, and the gains and q_d given (None: not given)."""
+
+    act: list[int]
+    pas: list[int]
+    Ga: sp.Matrix
+    lin: list[int]
+    free: list[int]
+    kp: list[sp.Expr] | None
+    kd: list[sp.Expr] | None
+    yd: list[sp.Expr] | None
+
+
+def read_partial(problem, options: ControlLawAsk, ctx) -> PartialInputs:  # type: ignore[no-untyped-def]
+    """The options of ``law: partial_fbl`` read and checked without the model (``check`` runs it, and
+    :func:`solve_partial` first): the input map (underactuated, G_a invertible), as many inputs as passive
+    coordinates when not collocated, and with kp:/kd: the gains and qd: (one per linearized coordinate)."""
+    robot = require_model(problem)
+    act, pas, Ga = split_inputs(problem, robot.input_map, robot.n, ctx, "partial_fbl")
+    col = options.collocated
+    lin, free = (act, pas) if col else (pas, act)
+    if not col and len(pas) != len(act):
+        raise UserError(f"non-collocated partial feedback linearization is built here with as many inputs as passive "
+                        f"coordinates ({len(act)} inputs, {len(pas)} passive)",
+                        problem.located.place(ctx.path + ("collocated",)), "use collocated: true, or choose the inputs")
+    kp = kd = yd = None
+    if options.kp is not None or options.kd is not None:
+        kp = _gain_values(problem, options, ctx, "kp", len(lin))
+        kd = _gain_values(problem, options, ctx, "kd", len(lin))
+        if options.qd is not None:
+            val = ctx.expr("qd")
+            vals = val if isinstance(val, list) else [val]
+            if len(vals) != len(lin):
+                raise UserError(f"qd must list {len(lin)} values (the linearized coordinates)",
+                                problem.located.place(ctx.path + ("qd",)))
+            yd = [sp.sympify(x) for x in vals]
+    return PartialInputs(act, pas, Ga, lin, free, kp, kd, yd)
+
+
 def solve_partial(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: u (in v, or in the gains with kp/kd), v, ddq_free, M_v (the matrix of v in G_a u), n_v (the rest),
     coupling (det M_pa, non-collocated), closed_loop_check; with kp/kd also zero_dynamics."""
-    robot = require_model(problem)
+    read = read_partial(problem, options, ctx)
+    robot = problem.robot
     dm = derive(robot)
     n = robot.n
-    act, pas, Ga = split_inputs(problem, dm, ctx, "partial_fbl")
+    act, pas, Ga, lin, free = read.act, read.pas, read.Ga, read.lin, read.free
     q, dq = list(robot.q), list(robot.dq)
     Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
     nv = dm.c + dm.g + Fv * sp.Matrix(dq)
     M = dm.B
     col = options.collocated
-    lin, free = (act, pas) if col else (pas, act)
     place = problem.located.place(ctx.path + ("collocated",))
-    if not col and len(pas) != len(act):
-        raise UserError(f"non-collocated partial feedback linearization is built here with as many inputs as passive "
-                        f"coordinates ({len(act)} inputs, {len(pas)} passive)", place,
-                        "use collocated: true, or choose the inputs")
     v = sp.Matrix([_symbol(problem, "v" + (q[i].name[1:] if q[i].name[1:].isdigit() else q[i].name),
                            f"v_{{{i + 1}}}") for i in lin])
     Mff, Mfl = _block(M, free, free), _block(M, free, lin)
@@ -115,15 +155,10 @@ def solve_partial(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ig
     law_v = None
     zero_dyn = None
     if options.kp is not None or options.kd is not None:
-        kp = _gains(problem, options, ctx, "kp", len(lin), True)
-        kd = _gains(problem, options, ctx, "kd", len(lin), True)
-        if options.qd is not None:
-            val = ctx.expr("qd")
-            vals = val if isinstance(val, list) else [val]
-            if len(vals) != len(lin):
-                raise UserError(f"qd must list {len(lin)} values (the linearized coordinates)",
-                                problem.located.place(ctx.path + ("qd",)))
-            yd = [sp.sympify(x) for x in vals]
+        kp = read.kp if read.kp is not None else _gain_symbols(problem, "kp", len(lin))
+        kd = read.kd if read.kd is not None else _gain_symbols(problem, "kd", len(lin))
+        if read.yd is not None:
+            yd = read.yd
         else:
             yd = [_symbol(problem, _qname(q[i].name, "d"), _sub_tex(problem.latex_names.get(q[i], q[i].name), "d"))
                   for i in lin]
