@@ -539,8 +539,39 @@ def test_library_problem_verifies(name):
     ({"ranges": "{q2: [1, 0]}"}, "empty range for q2"),
     ({"assume": "{m7: 1}"}, "'m7' in assume: is not a parameter"),
     ({"limits": "{u_max: 1}"}, "limits: are checked at a state"),
+    ({"external": "[{point: [0, q1], force: [1, 2, 3]}]"}, "external force 1: force has 3 components, point has 2"),
+    ({"external": "[{point: [0, q1], force: [0, 1], compensated: [1]}]"},
+     "external force 1: compensated has 1 components, point has 2"),
+    ({"external": "[{point: [0, q1], force: [0, q2]}]"}, "external force 1: force must be constant"),
+    ({"at": "{q7: 1}"}, "'q7' in at: is not a coordinate or velocity"),
+    ({"at": "{q1: 0}", "limits": "{u_max: -1}"}, "limits.u_max must be a positive number"),
+    ({"at": "{q1: 0}", "limits": "{u_max: 1, map: [[1, 0, 0]]}"}, "limits.map must be a matrix with 2 columns"),
 ])
 def test_check_finds_bad_options_without_solving(opts, words):
     """The options every law shares are read by the kind's validate hook (`check`) as by solving, without the
     model."""
     assert words in error_found_without_solving(PR + regulation("pd_gravity", **opts))
+
+
+ELASTIC_BAD = [   # (the robot's text replaced, by, the ask's options besides qd: [0.5], words of the error)
+    ("", "", {"qd": "[1, 2]"}, "qd must be a list of 1 expressions (one per non-actuated coordinate), got 2 entries"),
+    ("", "", {"kp": "[1, 2]"}, "kp must be one expression or a list of 1"),
+    ("", "", {"kp": 2, "kd": "[1, 2]"}, "kd must be one expression or a list of 1"),
+    ("", "", {"kp": "-K"}, "kp: gain -K is negative"),
+    ("", "", {"at": "{q1: 0, theta1: 0}", "limits": "{u_max: 1, map: [[1, 0]]}"},
+     "limits.map must be a matrix with 1 columns"),
+    ("input_map: [[0], [1]]", "input_map: [[0], [2]]", {}, "needs an input map that selects the actuated coordinates"),
+    ("input_map: [[0], [1]]", "input_map: [[1, 0], [0, 1]]", {}, "every coordinate is actuated"),
+    ("  input_map: [[0], [1]]\n", "", {}, "every coordinate is actuated"),
+    ("1/2*K*(q1 - theta1)^2", "1/4*K*(q1 - theta1)^4", {}, "law: elastic needs linear springs"),
+]
+
+
+@pytest.mark.parametrize("old, new, opts, words", ELASTIC_BAD,
+                         ids=[f"{k}-{b[3][:20]}" for k, b in enumerate(ELASTIC_BAD)])
+def test_check_reads_the_elastic_law_as_solve_does(old, new, opts, words):
+    """law: elastic: the input map that selects the motor coordinates, the linear springs, q_d (one per link), the
+    gains and limits.map (one column per motor) are read by the reader solve runs first, which the validate hook
+    (`check`) runs too, without the model: solving's error (each of these passed check and failed solve)."""
+    text = ELASTIC.replace(old, new) if old else ELASTIC
+    assert words in error_found_without_solving(text + regulation("elastic", **{"qd": "[0.5]", **opts}))

@@ -201,6 +201,12 @@ def _vec(problem, ctx, path: tuple, what: str) -> sp.Matrix:  # type: ignore[no-
     return sp.Matrix([sp.sympify(v) for v in vals])
 
 
+def _substituted(x: Any, subs: dict) -> Any:
+    """x (an expression or a matrix, or None) with ``subs`` substituted, entries tidied."""
+    return None if x is None else (x.xreplace(subs).applyfunc(tidy) if isinstance(x, sp.MatrixBase)
+                                   else tidy(sp.sympify(x).xreplace(subs)))
+
+
 def _numeric(x: Any) -> bool:
     return all(sp.sympify(v).is_number for v in (x if isinstance(x, (list, sp.MatrixBase)) else [x]))
 
@@ -347,8 +353,9 @@ def largest_gains(expr: sp.Matrix, gains: list[sp.Symbol], bound: sp.Expr, value
 
 # ------------------------------------------------------------------------------------------------ the ask
 def validate_regulation(problem, options: RegulationAsk, ctx) -> None:  # type: ignore[no-untyped-def]
-    """The options every law shares (assume, the law's options, ranges), read and checked as
-    :func:`solve_regulation` reads them, without deriving the model; each law's own inputs are read when solving."""
+    """The options read and checked as :func:`solve_regulation` reads them first (:meth:`_Regulation.check`: assume,
+    the law's options, ranges, external forces, the at: state and limits:; law: elastic's input map, springs, q_d
+    and gains), without deriving the model; the other laws' q_d and gains are read when solving."""
     _Regulation(problem, options, ctx, check_only=True).check()
 
 
@@ -395,12 +402,18 @@ class _Regulation:
             return subs
 
         def sub(x):  # type: ignore[no-untyped-def]
-            return None if x is None else (x.xreplace(subs).applyfunc(tidy) if isinstance(x, sp.MatrixBase)
-                                           else tidy(sp.sympify(x).xreplace(subs)))
+            return _substituted(x, subs)
         self.dm = dataclasses.replace(dm, B=sub(dm.B), c=sub(dm.c), g=sub(dm.g), U=sub(dm.U), lhs=sub(dm.lhs),
                                       Fv=sub(dm.Fv), G=sub(dm.G), S=sub(dm.S),
                                       C=None if dm.C is None else [sub(c) for c in dm.C])
         return subs
+
+    def _input_map(self) -> sp.Matrix:
+        """G (with the assumed relations; the identity without an input map), as the model has it."""
+        G = self.robot.input_map
+        if G is None:
+            return sp.eye(self.n)
+        return _substituted(G, self.assumed) if self.assumed else G
 
     # -- small helpers
     def place(self, *key: Any):  # type: ignore[no-untyped-def]
@@ -422,11 +435,19 @@ class _Regulation:
 
     # -- the solve
     def check(self) -> None:
-        """The checks :meth:`solve` makes first (the law's options, the ranges)."""
+        """The options :meth:`solve` reads first, without the model: the law's options, the ranges, the external
+        forces, law: elastic's inputs, the at: state and limits: (pid: the names of at: only when solving, they may
+        be the law's states ξ)."""
         r = self.robot
         self.q, self.dq, self.ddq = list(r.q), list(r.dq), list(r.ddq)
         self._check_options()
         self.ranges = self._ranges()
+        self.external = self._read_forces()
+        self.elastic_inputs = self._read_elastic() if self.law == "elastic" else None
+        if self.options.at is not None and self.law != "pid":
+            self._read_at([])
+        inputs = len(self.elastic_inputs[0]) if self.elastic_inputs is not None else self.n
+        self.limits = self._read_limits(inputs) if self.options.limits is not None else None
 
     def solve(self) -> Solution:
         o, r, dm, n = self.options, self.robot, self.dm, self.n
@@ -434,7 +455,7 @@ class _Regulation:
         self.revolute = {c for c, j in zip(self.q, r.joints) if j == "R"} if r.joints else set()
         self.Fv = dm.Fv if dm.Fv is not None else sp.zeros(n, n)
         self._forces()
-        self.G = dm.G if dm.G is not None else sp.eye(n)
+        self.G = self._input_map()
         self.sol.step("model", B=dm.B, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, n=n, friction=dm.Fv is not None,
                       assumed=self.assumed,
                       forces=self.forces_view, tau_ext=self.tau_ext, tau_comp=self.tau_comp, law=self.law)
@@ -494,11 +515,9 @@ class _Regulation:
             out[by_name[name]] = (lo, hi)
         return out
 
-    def _forces(self) -> None:
-        n, q = self.n, self.q
-        self.tau_ext, self.tau_comp = sp.zeros(n, 1), sp.zeros(n, 1)
-        self.forces_view = []
-        self.U_ext, self.U_comp = sp.Integer(0), sp.Integer(0)
+    def _read_forces(self) -> list[tuple[sp.Matrix, sp.Matrix, sp.Matrix]]:
+        """(p, F, F̂) of each external force: F and F̂ constant, with as many components as p."""
+        out = []
         for i, f in enumerate(self.options.external):
             p = _vec(self.problem, self.ctx, ("external", i, "point"), "point")
             F = _vec(self.problem, self.ctx, ("external", i, "force"), "force")
@@ -510,9 +529,18 @@ class _Regulation:
                 if vec.shape != p.shape:
                     raise UserError(f"external force {i + 1}: {key} has {vec.rows} components, point has {p.rows}",
                                     self.place("external", i, key), "give as many components as the point")
-                if any(x.free_symbols & set(q + self.dq) for x in vec):
+                if any(x.free_symbols & set(self.q + self.dq) for x in vec):
                     raise UserError(f"external force {i + 1}: {key} must be constant (free of q and dq)",
                                     self.place("external", i, key))
+            out.append((p, F, Fh))
+        return out
+
+    def _forces(self) -> None:
+        n, q = self.n, self.q
+        self.tau_ext, self.tau_comp = sp.zeros(n, 1), sp.zeros(n, 1)
+        self.forces_view = []
+        self.U_ext, self.U_comp = sp.Integer(0), sp.Integer(0)
+        for i, (p, F, Fh) in enumerate(self.external):
             J = p.jacobian(q).applyfunc(tidy)
             self.tau_ext += J.T * F
             self.tau_comp += J.T * Fh
@@ -629,13 +657,16 @@ class _Regulation:
         self.sol.step("law", law="cartesian_pd", KP=KP, KD=KD, pd=pd, f=f, J=J, tau=self.tau, m=m, comp=None,
                       forces=bool(self.options.external), uhat=None)
 
-    def _elastic(self) -> None:
-        r, dm, n = self.robot, self.dm, self.n
-        G = self.G
+    def _read_elastic(self) -> tuple[list[int], list[int], sp.Matrix, sp.Matrix, list[sp.Expr], list[sp.Expr]]:
+        """law: elastic: (the actuated coordinates θ, which the columns of G select; the others; the stiffness K,
+        the constant Hessian of the extra potential; q_d, one per non-actuated coordinate; K_P, K_D, one per
+        input)."""
+        n, x = self.n, self.q
+        G = self._input_map()
         act = []
         for j in range(G.cols):
             col = list(G[:, j])
-            nz = [i for i, x in enumerate(col) if x != 0]
+            nz = [i for i, v in enumerate(col) if v != 0]
             if len(nz) != 1 or col[nz[0]] != 1:
                 raise UserError("law: elastic needs an input map that selects the actuated coordinates (columns "
                                 "of the identity)", self.problem.located.place(("robot", "input_map")),
@@ -645,6 +676,19 @@ class _Regulation:
         if not pas:
             raise UserError("law: elastic needs non-actuated (link) coordinates; every coordinate is actuated",
                             self.place("law"), "use law: pd_constant")
+        Ue = sum(self.robot.potential_extra, sp.Integer(0))
+        K = sp.hessian(Ue, x) if Ue != 0 else sp.zeros(n, n)
+        if any(k.free_symbols & set(x) for k in K):
+            raise UserError("law: elastic needs linear springs (a constant Hessian of the extra potential)",
+                            self.problem.located.place(("robot", "extra")))
+        qd = self._desired([x[i] for i in pas])
+        kp = _gains(self.problem, self.options, self.ctx, "kp", len(act), True)
+        kd = _gains(self.problem, self.options, self.ctx, "kd", len(act), False)
+        return act, pas, K, qd, kp, kd
+
+    def _elastic(self) -> None:
+        dm = self.dm
+        act, pas, K, qd, self.kp, self.kd = self.elastic_inputs
         x = self.q
         qs, th = [x[i] for i in pas], [x[i] for i in act]
         U = dm.U if dm.U is not None else potential_of(dm.g, x)
@@ -652,12 +696,6 @@ class _Regulation:
             raise UserError("law: elastic needs the potential energy U(q) (g(q) given directly is not a gradient)",
                             self.problem.located.place(("robot",)))
         U = U + self.U_comp    # the law's model: the compensated forces F̂ (the plant feels F: U_ext)
-        Ue = sum(r.potential_extra, sp.Integer(0))
-        K = sp.hessian(Ue, x) if Ue != 0 else sp.zeros(n, n)
-        if any(k.free_symbols & set(x) for k in K):
-            raise UserError("law: elastic needs linear springs (a constant Hessian of the extra potential)",
-                            self.problem.located.place(("robot", "extra")))
-        qd = self._desired(qs)
         grad_q = sp.Matrix([sp.diff(U, s) for s in qs]).xreplace(dict(zip(qs, qd)))
         sol = sp.solve(list(grad_q), th, dict=True)
         if len(sol) != 1 or any(t not in sol[0] for t in th):
@@ -667,9 +705,6 @@ class _Regulation:
         thd = sp.Matrix([tidy(sol[0][t]) for t in th])
         xd = {**dict(zip(qs, qd)), **dict(zip(th, thd))}
         ud = sp.Matrix([tidy(sp.diff(U, t).xreplace(xd)) for t in th])
-        m = len(th)
-        self.kp = _gains(self.problem, self.options, self.ctx, "kp", m, True)
-        self.kd = _gains(self.problem, self.options, self.ctx, "kd", m, False)
         KP, KD = sp.diag(*self.kp), sp.diag(*self.kd)
         thv, dthv = sp.Matrix(th), sp.Matrix([self.dq[i] for i in act])
         u = KP * (thd - thv) - KD * dthv + ud
@@ -1130,15 +1165,36 @@ class _Regulation:
         self.sol.step("pid", **data)
 
     # -- a state
-    def _at(self) -> None:
-        o = self.options
-        names = {s.name: s for s in self.q + self.dq + self.states}
+    def _read_at(self, states: list[sp.Symbol]) -> dict:
+        """The state of at: (coordinates, velocities, the law's ``states``)."""
+        names = {s.name: s for s in self.q + self.dq + states}
         state = {}
-        for name in o.at:
+        for name in self.options.at:
             if name not in names:
                 raise UserError(f"'{name}' in at: is not a coordinate or velocity", self.place("at", name),
                                 "use q1, dq1, ...")
             state[names[name]] = sp.sympify(self.ctx.expr("at", name))
+        return state
+
+    def _read_limits(self, m: int) -> tuple[sp.Expr, Optional[sp.Matrix]]:
+        """(u_max > 0, the map M of m columns or None) of limits:, for m inputs."""
+        Ulim = sp.sympify(self.ctx.expr("limits", "u_max"))
+        if self._num(Ulim) is None or self._num(Ulim) <= 0:
+            raise UserError("limits.u_max must be a positive number", self.place("limits", "u_max"))
+        M = None
+        if self.options.limits.map is not None:
+            Mv = self.ctx.expr("limits", "map")
+            try:
+                M = sp.Matrix(Mv)
+            except (TypeError, ValueError):
+                M = None
+            if M is None or M.cols != m:
+                raise UserError(f"limits.map must be a matrix with {m} columns", self.place("limits", "map"))
+        return Ulim, M
+
+    def _at(self) -> None:
+        o = self.options
+        state = self._read_at(self.states)
         for v in self.dq:
             state.setdefault(v, sp.Integer(0))
         u_at = self.u.xreplace(state).applyfunc(tidy)
@@ -1155,19 +1211,9 @@ class _Regulation:
         data: dict = {"state": state, "u_at": u_at, "net": net, "rest": rest, "friction": self.dm.Fv is not None,
                       "eq": rest and all(_zero(x) for x in net)}
         if o.limits is not None:
-            Ulim = sp.sympify(self.ctx.expr("limits", "u_max"))
-            if self._num(Ulim) is None or self._num(Ulim) <= 0:
-                raise UserError("limits.u_max must be a positive number", self.place("limits", "u_max"))
+            Ulim, M = self.limits
             y = u_at
-            if o.limits.map is not None:
-                Mv = self.ctx.expr("limits", "map")
-                try:
-                    M = sp.Matrix(Mv)
-                except (TypeError, ValueError):
-                    M = None
-                if M is None or M.cols != u_at.rows:
-                    raise UserError(f"limits.map must be a matrix with {u_at.rows} columns",
-                                    self.place("limits", "map"))
+            if M is not None:
                 y = (M * u_at).applyfunc(tidy)
                 self.add("Mu_at", y, "vector", label="M u\\big|_{*}")
                 data["M"] = M
