@@ -32,8 +32,9 @@ from pydantic import Field, field_validator
 from solver.control.gravity_bound import GradientBound, box_of, gradient_bound, matrix_function, maximize, spectral
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import identically_zero as _zero
-from solver.math.numeric import lambdify_np
-from solver.math.search import bisect_root, lp_max, newton_root, newton_roots
+from solver.math.equivalence import real_value
+from solver.math.numeric import lambdify_np, newton_zeros
+from solver.math.search import bisect_root, lp_max, newton_root
 from solver.math.simplify import expand_polynomial, factor_within, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Solution
@@ -259,11 +260,9 @@ def iterations_needed(e1_bound: float, rho: float, eps: float) -> int:
 def find_equilibria(phi: sp.Matrix, q: list[sp.Symbol], box: list[tuple[float, float]], periodic: list[bool],
                     extra: list[np.ndarray] = (), starts: int = 2000) -> list[np.ndarray]:
     """Every zero of the numeric φ(q) in the box: sign changes on a fine grid refined by bisection (n = 1,
-    :func:`solver.math.search.bisect_root`), multi-start Newton (:func:`solver.math.search.newton_roots`, every
+    :func:`solver.math.search.bisect_root`), multi-start Newton (:func:`solver.math.numeric.newton_zeros`, every
     start at once) from a grid otherwise; periodic coordinates wrapped to [−π, π)."""
     n = len(q)
-    f = lambdify_np(q, list(phi))
-    jac = lambdify_np(q, phi.jacobian(q).tolist())
     sols: list[np.ndarray] = []
 
     def add(x: np.ndarray) -> None:
@@ -274,6 +273,7 @@ def find_equilibria(phi: sp.Matrix, q: list[sp.Symbol], box: list[tuple[float, f
             sols.append(x)
 
     if n == 1:
+        f = lambdify_np(q, list(phi))
         lo, hi = box[0]
         xs = np.linspace(lo, hi, 20001)
         ys = np.array([float(f(x)[0]) for x in xs])
@@ -289,19 +289,7 @@ def find_equilibria(phi: sp.Matrix, q: list[sp.Symbol], box: list[tuple[float, f
     axes = [np.linspace(lo, hi, m) for lo, hi in box]
     grid = np.array(np.meshgrid(*axes, indexing="ij")).reshape(n, -1).T
     X0 = np.array(list(extra) + list(grid), dtype=float)
-
-    def rows(vals: Any, N: int) -> np.ndarray:  # lambdified entries (arrays or constants) as (N, ...) floats
-        return np.stack([np.broadcast_to(np.asarray(v, dtype=float), (N,)) for v in vals], axis=-1)
-
-    def fs(X: np.ndarray) -> np.ndarray:
-        return rows(f(*X.T), len(X))
-
-    def js(X: np.ndarray) -> np.ndarray:
-        return np.stack([rows(r, len(X)) for r in jac(*X.T)], axis=1)
-
-    with np.errstate(all="ignore"):
-        ends = newton_roots(fs, js, X0)
-        res = fs(ends)
+    ends, res = newton_zeros(list(phi), q, X0)
     for x, r in zip(ends, res):
         if np.all(np.isfinite(x)) and np.max(np.abs(r)) < 1e-9:
             add(x)
@@ -897,8 +885,8 @@ class _Regulation:
             try:
                 return float(v)
             except TypeError:
-                z = complex(sp.N(v, 30))
-                return z.real if abs(z.imag) <= 1e-20 * max(1.0, abs(z.real)) else None
+                z = real_value(v, {})
+                return None if z is None else z.real
         return None
 
     def _lasalle_ok(self) -> bool:

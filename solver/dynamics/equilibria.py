@@ -36,6 +36,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
+from solver.math.numeric import newton_zeros
 from solver.math.simplify import angle_symbols, tidy
 from solver.registry import ask_kind
 from solver.results import Solution
@@ -82,9 +83,10 @@ def _to_polynomial(g: list[sp.Expr], angles: list[sp.Symbol]) -> tuple[list[sp.E
     return eqs, cs
 
 
-def equilibria(g: sp.Matrix, q: list[sp.Symbol]) -> tuple[list[sp.Matrix], list[sp.Expr], bool]:
-    """(configurations, conditions, every_configuration) for g(q) = 0 (none when a row free of q is not 0)."""
-    configs, conditions, every, requires = conditional_equilibria(g, q)
+def equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False) -> tuple[list[sp.Matrix], list[sp.Expr], bool]:
+    """(configurations, conditions, every_configuration) for g(q) = 0 (none when a row free of q is not 0);
+    ``clean`` as in :func:`conditional_equilibria`."""
+    configs, conditions, every, requires = conditional_equilibria(g, q, clean)
     return ([], [], False) if requires else (configs, conditions, every)
 
 
@@ -158,27 +160,19 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
 
 
 def _numeric_root(rows: list[sp.Expr], q: list[sp.Symbol], angles: list[sp.Symbol], starts: int = 24) -> bool:
-    """Whether the rows vanish together somewhere, found by least squares from random starts (angles in (−π, π],
-    other coordinates in (−3, 3)) at random values of the parameters (positive ones positive): the check before
-    saying "no solution" when sympy's solve returned none (it may miss a family)."""
+    """Whether the rows vanish together somewhere, found by multi-start Newton (:func:`newton_zeros`; angles from
+    (−π, π], other coordinates from (−3, 3)) at a random point of the parameters (:func:`random_point`, positive
+    ones positive): the check before saying "no solution" when sympy's solve returned none (it may miss a
+    family)."""
     import numpy as np
-    from scipy.optimize import least_squares
 
-    from solver.math.numeric import lambdify_np
-    rng = random.Random(3)
-    params = sorted(set().union(*(x.free_symbols for x in rows)) - set(q), key=lambda x: x.name)
-    pt = {x: (1 if x.is_nonnegative or rng.random() < .5 else -1) * rng.uniform(0.5, 2) for x in params}
-    f = lambdify_np(q, [x.xreplace(pt) for x in rows])
+    from solver.math.equivalence import random_point
+    pt = random_point(set().union(*(x.free_symbols for x in rows)) - set(q), random.Random(3))
     gen = np.random.default_rng(3)
-    for _ in range(starts):
-        x0 = np.array([gen.uniform(-np.pi, np.pi) if x in angles else gen.uniform(-3, 3) for x in q])
-        try:
-            r = least_squares(lambda x: np.asarray(f(*x), dtype=float).ravel(), x0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
-        except (ValueError, FloatingPointError, ZeroDivisionError):
-            continue
-        if r.success and np.max(np.abs(r.fun)) < 1e-10:
-            return True
-    return False
+    X0 = np.array([[gen.uniform(-np.pi, np.pi) if x in angles else gen.uniform(-3, 3) for x in q]
+                   for _ in range(starts)])
+    ends, res = newton_zeros([x.xreplace(pt) for x in rows], q, X0)
+    return bool(np.any(np.all(np.isfinite(ends), axis=1) & (np.max(np.abs(res), axis=1) < 1e-10)))
 
 
 def _parametric_root(e: sp.Expr, q: list[sp.Symbol]) -> bool:
@@ -283,22 +277,16 @@ def _same_value(a: sp.Expr, b: sp.Expr, periodic: bool) -> bool:
 
 
 def _differ_at_a_point(a: sp.Expr, b: sp.Expr, periodic: bool) -> bool:
-    """a ≢ b proved by their real values (30 digits) at one of four random points of their symbols (with their
-    signs: a positive symbol positive); False when no point gives two finite real values (roots out of their
-    domain), or when they agree."""
+    """a ≢ b proved by their real values (30 digits) at one of four random points of their symbols
+    (:func:`random_point`, :func:`real_value`: a positive symbol positive); False when no point gives two finite real
+    values (roots out of their domain, where branch cuts may part two equal real roots), or when they agree."""
+    from solver.math.equivalence import random_point, real_value
     rng = random.Random(5)
-    syms = sorted(a.free_symbols | b.free_symbols, key=lambda x: x.name)
     for _ in range(4):
-        pt = {}
-        for x in syms:
-            v = sp.Rational(rng.randint(101, 997), 613)
-            pt[x] = -v if x.is_negative or (not x.is_nonnegative and rng.random() < .5) else v
-        try:
-            da, db = complex(sp.N(a.xreplace(pt), 30)), complex(sp.N(b.xreplace(pt), 30))
-        except (TypeError, ValueError, ZeroDivisionError):
+        pt = random_point(a.free_symbols | b.free_symbols, rng)
+        da, db = real_value(a, pt), real_value(b, pt)
+        if da is None or db is None:
             continue
-        if not all(cmath.isfinite(x) and abs(x.imag) < 1e-20 for x in (da, db)):
-            continue   # (off the real domain, where branch cuts may part two equal real roots)
         if periodic:
             d = abs(cmath.cos(da) - cmath.cos(db)) + abs(cmath.sin(da) - cmath.sin(db))
         else:

@@ -32,7 +32,7 @@ import numpy as np
 import sympy as sp
 from pydantic import Field, model_validator
 
-from solver.dynamics.equilibria import NotSolved, Unclean, conditional_equilibria
+from solver.dynamics.equilibria import NotSolved, Unclean, equilibria
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.fourier import factor_list_expr
@@ -932,11 +932,9 @@ def _singular(M: sp.Matrix, q: list[sp.Symbol], k: int) -> tuple[list[sp.Matrix]
     if len(set(angle_symbols(sp.Add(*minors))) & set(q)) > 2 or sum(count_ops(x) for x in minors) > 200:
         return [], False, False
     try:
-        configs, _, every, requires = conditional_equilibria(sp.Matrix(minors), q, clean=True)
+        configs, _, every = equilibria(sp.Matrix(minors), q, clean=True)
     except (NotImplementedError, ValueError, TypeError, sp.PolynomialError, Unclean, NotSolved):
         return [], False, False
-    if requires:   # (as equilibria(): a row free of q that is not identically 0)
-        configs, every = [], False
     allowed = set(q) | M.free_symbols
     for c in configs:  # only clean solutions: numbers and free coordinates (no radicals of the parameters)
         if any((x.free_symbols - allowed) or x.has(sp.atan2) for x in c):

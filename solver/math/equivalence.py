@@ -51,7 +51,7 @@ def _by_name(symbols: set[sp.Symbol]) -> list[sp.Symbol]:
     return sorted(symbols, key=lambda s: (s.name, str(s.assumptions0)))
 
 
-def _random_point(symbols: set[sp.Symbol], rng: random.Random) -> dict[sp.Symbol, sp.Expr]:
+def random_point(symbols: set[sp.Symbol], rng: random.Random) -> dict[sp.Symbol, sp.Expr]:
     point = {}
     for s in _by_name(symbols):
         lo = 0 if (s.is_positive or s.is_nonnegative) else -3
@@ -59,7 +59,7 @@ def _random_point(symbols: set[sp.Symbol], rng: random.Random) -> dict[sp.Symbol
     return point
 
 
-def _real_value(expr: sp.Expr, point: dict[sp.Symbol, sp.Expr]) -> complex | None:
+def real_value(expr: sp.Expr, point: dict[sp.Symbol, sp.Expr]) -> complex | None:
     """expr at ``point`` to 30 digits; None where it is undefined or not real (the point is outside the domain
     where the expression exists, e.g. acos of a number > 1)."""
     try:
@@ -81,10 +81,10 @@ def numeric_zero(expr: sp.Expr, trials: int = 6, seed: int | None = None,
     syms = expr.free_symbols.union(*(p.free_symbols for p in parts))
     seen = 0
     for _ in range(trials * 5):
-        point = _random_point(syms, rng)
-        if any(_real_value(p, point) is None for p in parts):
+        point = random_point(syms, rng)
+        if any(real_value(p, point) is None for p in parts):
             continue
-        val = _real_value(expr, point)
+        val = real_value(expr, point)
         if val is None:
             continue
         seen += 1

@@ -16,6 +16,31 @@ def lambdify_np(args: Any, expr: Any) -> Callable[..., Any]:
     return sp.lambdify(args, expr, [np])
 
 
+def newton_zeros(exprs: Any, syms: list[sp.Symbol], X0: Any) -> tuple[Any, Any]:
+    """Multi-start Newton on f(x) = ``exprs`` (numbers but ``syms``), every start (a row of X0) at once with
+    :func:`solver.math.search.newton_roots` (J Δ = −f, least squares where J is singular or not square): the end
+    points and the residuals f there, both (N, m) arrays; the caller decides which are zeros."""
+    import numpy as np
+
+    from solver.math.search import newton_roots
+    exprs = list(exprs)
+    f = lambdify_np(syms, exprs)
+    jac = lambdify_np(syms, sp.Matrix(exprs).jacobian(syms).tolist())
+
+    def rows(vals: Any, N: int) -> Any:  # lambdified entries (arrays or constants) as (N, ...) floats
+        return np.stack([np.broadcast_to(np.asarray(v, dtype=float), (N,)) for v in vals], axis=-1)
+
+    def fs(X: Any) -> Any:
+        return rows(f(*X.T), len(X))
+
+    def js(X: Any) -> Any:
+        return np.stack([rows(r, len(X)) for r in jac(*X.T)], axis=1)
+
+    with np.errstate(all="ignore"):
+        ends = newton_roots(fs, js, np.asarray(X0, dtype=float))
+        return ends, fs(ends)
+
+
 class Unsupported(Exception):
     """A node :func:`numpy_tree` cannot evaluate."""
 
