@@ -165,8 +165,7 @@ def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # ty
         C = controllability(A, Bl)
         rank = C.rank(simplify=True)
         if A.has(sp.Float):   # division-free (Berkowitz) and expanded: float coefficients neither cancel nor factor
-            cp = sp.Add(*(lam ** k * (sp.Integer(round(c)) if c.is_Float and abs(c - round(c)) < 1e-12 * max(1, abs(c))
-                                      else c) for (k,), c in A.charpoly(lam).terms()))
+            cp = sp.Add(*(lam ** k * tidy(c) for (k,), c in A.charpoly(lam).terms()))   # (1.0000000000000002 -> 1)
         else:
             cp = factor_within(sp.simplify(exact_det(lam * sp.eye(2 * n) - A)))
     else:  # the powers of A are rational functions that grow without bound: rank at random points, and
