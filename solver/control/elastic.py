@@ -24,6 +24,7 @@ from solver.control.laws import (
     _sub_tex,
     _symbol,
     _zero,
+    listed_values,
     record_law,
 )
 from solver.dynamics.model import derive, require_model
@@ -58,13 +59,7 @@ def read_elastic(problem, options: ControlLawAsk, ctx) -> ElasticInputs:  # type
         raise UserError(f"law: elastic needs one motor per link coordinate ({len(mot)} actuated, {len(lnk)} passive "
                         f"coordinates)", problem.located.place(ctx.path + ("law",)),
                         "check robot.coordinates and input_map")
-    yd = None
-    if options.qd is not None:
-        val = ctx.expr("qd")
-        vals = val if isinstance(val, list) else [val]
-        if len(vals) != len(lnk):
-            raise UserError(f"qd must list {len(lnk)} values (one per link)", problem.located.place(ctx.path + ("qd",)))
-        yd = [sp.sympify(x) for x in vals]
+    yd = listed_values(problem, ctx, "qd", len(lnk), "one per link") if options.qd is not None else None
     return ElasticInputs(mot, lnk, Gm, yd, _read_gains(problem, options, ctx, len(lnk)))
 
 

@@ -159,13 +159,7 @@ def _gains(problem, options: ControlLawAsk, ctx, key: str, n: int, pos: bool) ->
 def _gain_symbols(problem, key: str, n: int) -> list[sp.Symbol]:  # type: ignore[no-untyped-def]
     """The default diagonal of a gain matrix: n positive symbols registered in the problem's names."""
     _, base, tex, _ = GAINS[key]
-    syms = []
-    for i in range(n):
-        s = sp.Symbol(_fresh(problem, f"{base}{i + 1}"), positive=True)
-        problem.names.setdefault(s.name, s)
-        problem.latex_names.setdefault(s, tex.format(i=i + 1))
-        syms.append(s)
-    return syms
+    return [_gain_symbol(problem, f"{base}{i + 1}", tex.format(i=i + 1)) for i in range(n)]
 
 
 def _gain_values(problem, options: ControlLawAsk, ctx, key: str, n: int) -> list[sp.Expr] | None:  # type: ignore[no-untyped-def]
@@ -180,6 +174,16 @@ def _gain_values(problem, options: ControlLawAsk, ctx, key: str, n: int) -> list
                         problem.located.place(ctx.path + (yaml_key,)),
                         f"write e.g. {yaml_key}: 100 or {yaml_key}: [{', '.join(['100'] * n)}]")
     return [sp.sympify(v) for v in vals]
+
+
+def listed_values(problem, ctx, key: str, count: int, what: str) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
+    """The ``count`` expressions of a list option (one expression when count is 1), else a spec error
+    "key must list count values (what)"."""
+    val = ctx.expr(key)
+    vals = val if isinstance(val, list) else [val]
+    if len(vals) != count:
+        raise UserError(f"{key} must list {count} values ({what})", problem.located.place(ctx.path + (key,)))
+    return [sp.sympify(x) for x in vals]
 
 
 def _gain_symbol(problem, name: str, tex: str) -> sp.Symbol:  # type: ignore[no-untyped-def]

@@ -24,6 +24,7 @@ from solver.control.laws import (
     _sub_tex,
     _symbol,
     _zero,
+    listed_values,
     record_law,
 )
 from solver.dynamics.model import derive, require_model
@@ -93,12 +94,7 @@ def read_partial(problem, options: ControlLawAsk, ctx) -> PartialInputs:  # type
         kp = _gain_values(problem, options, ctx, "kp", len(lin))
         kd = _gain_values(problem, options, ctx, "kd", len(lin))
         if options.qd is not None:
-            val = ctx.expr("qd")
-            vals = val if isinstance(val, list) else [val]
-            if len(vals) != len(lin):
-                raise UserError(f"qd must list {len(lin)} values (the linearized coordinates)",
-                                problem.located.place(ctx.path + ("qd",)))
-            yd = [sp.sympify(x) for x in vals]
+            yd = listed_values(problem, ctx, "qd", len(lin), "the linearized coordinates")
     return PartialInputs(act, pas, Ga, lin, free, kp, kd, yd)
 
 
