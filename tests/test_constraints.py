@@ -731,15 +731,17 @@ asks:
     assert "F_at" in r and all(x.is_number for x in r["F_at"].value)
 
 
-ORIENT = """
-id: cd-orient
-title: 2R whose last link keeps a horizontal orientation
-robot:
+UNIT_2R = """robot:
   joints: [R, R]
   links:
     - {mass: 1, com: [cos(q1), sin(q1)], angle: q1, inertia: 0}
     - {mass: 1, com: [cos(q1) + cos(q1 + q2), sin(q1) + sin(q1 + q2)], angle: q1 + q2, inertia: 0}
-asks:
+"""   # point masses 1 at the ends of links of length 1
+
+ORIENT = """
+id: cd-orient
+title: 2R whose last link keeps a horizontal orientation
+""" + UNIT_2R + """asks:
   - kind: constrained_dynamics
     h: sin(q1 + q2)
     D: [[0, 1]]
@@ -810,12 +812,7 @@ def test_simulation_prints_the_initial_state_as_written():
 TIP_X = """
 id: cd-det2
 title: 2R with its tip on the vertical line x = 1/2, v = dq2
-robot:
-  joints: [R, R]
-  links:
-    - {mass: 1, com: [cos(q1), sin(q1)], angle: q1, inertia: 0}
-    - {mass: 1, com: [cos(q1) + cos(q1 + q2), sin(q1) + sin(q1 + q2)], angle: q1 + q2, inertia: 0}
-asks:
+""" + UNIT_2R + """asks:
   - kind: constrained_dynamics
     h: cos(q1) + cos(q1 + q2) - 1/2
     D: [[0, 1]]
