@@ -812,7 +812,7 @@ def test_equilibria_family_of_a_repeated_row_and_a_solver_failure():
     solve returned [] for the repeated equation; now each equation once, and an empty answer is checked by least
     squares before it is believed: roots found, the equations are solved again each once). U = a s2 + b c1 c2 made
     sympy's Gröbner basis divide by zero: an internal error, now a message at the ask."""
-    p, _, res = run(model_robot("R, R", "[a*cos(q1 + q2) - b*sin(q1 + q2), a*cos(q1 + q2) - b*sin(q1 + q2)]"))
+    p, sols, res = run(model_robot("R, R", "[a*cos(q1 + q2) - b*sin(q1 + q2), a*cos(q1 + q2) - b*sin(q1 + q2)]"))
     q1, q2 = p.robot.q
     got = res["equilibria"].value
     assert len(got) == 2
@@ -824,5 +824,27 @@ def test_equilibria_family_of_a_repeated_row_and_a_solver_failure():
             assert abs(1.3 * np.cos(x[0] + x[1]) - 0.7 * np.sin(x[0] + x[1])) < 1e-12
             phis.add(round((x[0] + x[1]) % (2 * np.pi), 9))
     assert len(phis) == 2   # the two families q1 + q2 = φ, φ + π
+    a, b = p.names["a"], p.names["b"]
+    assert sorted(sp.simplify(c[0] + q2 - sp.atan2(a, b)) for c in got) == [-sp.pi, 0]   # written as a teacher does
+    assert [c[1] for c in got] == [q2, q2]
+    assert "only through $\\varphi_1 = q_{1} + q_{2}$: writing" in render(p, sols, "md")
     with pytest.raises(UserError, match="not solved in closed form"):
         run(model_robot("R, R", "0").replace('g: "0"', 'U: "a*sin(q2) + b*cos(q1)*cos(q2)"'))
+
+
+def test_equilibria_in_angle_sums():
+    """g depending on the angles only through sums (q1 + q2, 2q1 + 2q2) is solved in φ = T q (T unimodular, the
+    other angles kept free) and written back: a sin²(q1 + q2) + b > 0 took 20 s in sympy's solve to say "no
+    solution"; a c123 on a 3R gives the two families q1 + q2 + q3 = ±π/2. g of q1 and q1 + q2 is left alone."""
+    from solver.dynamics.equilibria import angle_sums, conditional_equilibria
+    q1, q2, q3 = sp.symbols("q1 q2 q3", real=True)
+    a, b = sp.symbols("a b", positive=True)
+    ch = angle_sums([a * sp.cos(2 * q1 + 2 * q2) + b], [q1, q2])
+    assert ch.forms == [q1 + q2] and ch.kept == [q2] and abs(ch.T.det()) == 1
+    assert angle_sums([a * sp.cos(q1) + b * sp.cos(q1 + q2), b * sp.cos(q1 + q2)], [q1, q2]) is None
+    assert angle_sums([a * sp.cos(q1 * q2)], [q1, q2]) is None
+    assert conditional_equilibria(sp.Matrix([a * sp.sin(q1 + q2) ** 2 + b] * 2), [q1, q2]) == ([], [], False, [])
+    configs, conditions, every, _ = conditional_equilibria(sp.Matrix([a * sp.cos(q1 + q2 + q3)] * 3), [q1, q2, q3])
+    assert not every and not conditions
+    assert sorted(sp.simplify(c[0] + q2 + q3) for c in configs) == [-sp.pi / 2, sp.pi / 2]
+    assert all(list(c[1:]) == [q2, q3] for c in configs)

@@ -4,7 +4,9 @@ At rest (q̇ = 0) with the constant input ū (default 0) the robot stays at q ex
 Each angle θ (a coordinate inside sin/cos) is replaced by (c_θ, s_θ) with c_θ² + s_θ² = 1, which turns the
 equations into a polynomial system; its solutions (all of them, by Gröbner bases) give θ = atan2(s_θ, c_θ) ∈ (-π, π].
 A coordinate left free by a solution is arbitrary there (a continuum of equilibria); square roots in a solution
-give the conditions for it to exist.
+give the conditions for it to exist. When the angles enter only through r fewer integer combinations (g(q1 + q2)
+on a 2R), the system is solved in those sums φ = T θ (T unimodular, the other angles kept and free) and written
+back, θ = T⁻¹ φ: q1 = atan2(a, b) − q2 rather than atan2 of radicals in q2, and in a fraction of the time.
 
 Steady motions with constant velocity (``steady: velocity``): q(t) = q̄ + v̄ t, q̈ = 0, in the model
 B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u with u ≡ ū. They exist iff
@@ -27,6 +29,7 @@ of the motions of that set of rotating angles.
 from __future__ import annotations
 
 import cmath
+import math
 import random
 from dataclasses import dataclass, field
 from itertools import combinations
@@ -122,6 +125,9 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
     if all(x == 0 for x in g_list):
         return [sp.Matrix(q)], [], True, requires
     angles = _angles(g_list, q)
+    change = angle_sums(g_list, angles)
+    if change is not None:
+        return (*_in_sums(g_list, q, angles, change, clean), requires)
     eqs, cs = _to_polynomial(g_list, angles)
     unknowns = [v for a in angles for v in cs[a]] + [x for x in q if x not in angles]
     sols = solve_polynomials(eqs, unknowns)
@@ -144,7 +150,7 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
                 c, sn = _in_free_angles(c, subs), _in_free_angles(sn, subs)
                 if clean and any(_parametric_root(v, q) for v in (c, sn)):
                     raise Unclean(x)
-                vals.append(_atan2_angle(tidy(sp.atan2(sn, c))) if not (c.is_number and sn.is_number)
+                vals.append(_atan2_angle(tidy(_atan2_reduced(sn, c))) if not (c.is_number and sn.is_number)
                             else sp.atan2(sn, c))
             else:
                 vals.append(tidy(_in_free_angles(sp.sympify(s.get(x, x)), subs)))
@@ -157,6 +163,107 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
         configs.append(sp.Matrix(vals))
     configs.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in m])
     return distinct_configurations(configs, q, set(angles)), list(dict.fromkeys(conditions)), False, requires
+
+
+@dataclass
+class AngleSums:
+    """New angles φ = T θ (T unimodular: a bijection of the torus) when the rows depend on the angles θ only through
+    r < len(θ) independent integer combinations: φ_1..φ_r are those combinations, the others are angles of θ kept
+    as they are (free in every solution)."""
+    T: sp.Matrix
+    sums: list[sp.Symbol]     # φ_1..φ_r (dummies)
+    forms: list[sp.Expr]      # their combinations of the angles
+    kept: list[sp.Symbol]     # the angles kept as coordinates
+
+
+def _angle_form(arg: sp.Expr, angles: list[sp.Symbol]) -> Optional[tuple[int, ...]]:
+    """The integer k of arg = k·θ + b (b free of the angles), or None."""
+    try:
+        poly = sp.Poly(arg, *angles)
+    except sp.PolynomialError:
+        return None
+    if poly.total_degree() > 1:
+        return None
+    k = [poly.coeff_monomial(x) for x in angles]
+    if not all(c.is_Integer for c in k) or (poly.coeff_monomial(1).free_symbols & set(angles)):
+        return None
+    return tuple(int(c) for c in k)
+
+
+def angle_sums(rows: list[sp.Expr], angles: list[sp.Symbol]) -> Optional[AngleSums]:
+    """The change to angle sums (:class:`AngleSums`) when the sin/cos arguments of the rows span fewer than
+    len(angles) directions (g = g(q1 + q2) on a 2R: a family along q1 − q2 ... of equilibria); None otherwise or
+    when the arguments are not integer combinations of the angles. The kept angles are the last ones that complete
+    the combinations to a unimodular T."""
+    if len(angles) < 2:
+        return None
+    forms: list[tuple[int, ...]] = []
+    for r in rows:
+        for f in sp.sympify(r).atoms(sp.sin, sp.cos):
+            k = _angle_form(f.args[0], angles)
+            if k is None:
+                return None
+            if not any(k):
+                continue
+            d = math.gcd(*k) * (1 if next(c for c in k if c) > 0 else -1)   # primitive: 2q1 + 2q2 -> q1 + q2
+            k = tuple(c // d for c in k)
+            if k not in forms:
+                forms.append(k)
+    basis: list[list[int]] = []
+    for k in forms:
+        if sp.Matrix(basis + [list(k)]).rank() > len(basis):
+            basis.append(list(k))
+    if not basis or len(basis) == len(angles):
+        return None
+    kept: list[int] = []
+    for j in reversed(range(len(angles))):
+        unit = [int(i == j) for i in range(len(angles))]
+        if len(basis) + len(kept) < len(angles) and \
+                sp.Matrix(basis + [[int(i == m) for i in range(len(angles))] for m in kept] + [unit]).rank() \
+                > len(basis) + len(kept):
+            kept.append(j)
+    kept.sort()
+    T = sp.Matrix(basis + [[int(i == m) for i in range(len(angles))] for m in kept])
+    if abs(T.det()) != 1:
+        return None
+    sums = [sp.Dummy(f"phi{i + 1}", real=True) for i in range(len(basis))]
+    forms_e = [sum(c * x for c, x in zip(row, angles)) for row in basis]
+    return AngleSums(T, sums, forms_e, [angles[m] for m in kept])
+
+
+def _in_sums(rows: list[sp.Expr], q: list[sp.Symbol], angles: list[sp.Symbol], ch: AngleSums, clean: bool
+             ) -> tuple[list[sp.Matrix], list[sp.Expr], bool]:
+    """The equilibria of rows(θ) = 0 solved in the angle sums φ = T θ (fewer angles, lower degrees, families as
+    φ = const with the kept angles free), then written back as θ = T⁻¹ φ."""
+    new = ch.sums + ch.kept
+    Tinv = ch.T.inv()
+    back = dict(zip(angles, list(Tinv * sp.Matrix(new))))
+    g2 = list(dict.fromkeys(tidy(sp.expand(x.xreplace(back))) for x in rows))
+    g2 = [x for k, x in enumerate(g2) if -x not in g2[:k]]
+    others = [x for x in q if x not in angles]
+    configs, conditions, every, _ = conditional_equilibria(sp.Matrix(g2), new + others, clean)
+    fwd = dict(zip(ch.sums, ch.forms))
+    out = []
+    for c in configs:
+        vals = dict(zip(new + others, c))
+        theta = (Tinv * sp.Matrix([vals[x] for x in new])).xreplace(fwd)
+        at = dict(zip(angles, theta))
+        out.append(sp.Matrix([tidy(at[x]) if x in at else tidy(vals[x].xreplace(fwd)) for x in q]))
+    return out, [c.xreplace(fwd) for c in conditions], every
+
+
+def _atan2_reduced(y: sp.Expr, x: sp.Expr) -> sp.Expr:
+    """atan2(y, x) with the factors common to y and x that are ≥ 0 wherever they are real (positive numbers, even
+    roots) divided out: atan2(k a, k b) = atan2(a, b) for k > 0."""
+    fy, fx = list(sp.Mul.make_args(sp.factor_terms(y))), list(sp.Mul.make_args(sp.factor_terms(x)))
+    for f in list(fy):
+        nonneg = f.is_positive or (f.is_Pow and f.exp.is_Rational and f.exp.q % 2 == 0)
+        if nonneg and f in fx:
+            fy.remove(f)
+            fx.remove(f)
+    cy, cx = sp.Mul(*[f for f in fy if f.is_Rational]), sp.Mul(*[f for f in fx if f.is_Rational])
+    k = sp.gcd(cy, cx) if cy.is_Rational and cx.is_Rational and cy and cx else 1
+    return sp.atan2(sp.Mul(*fy) / abs(k), sp.Mul(*fx) / abs(k))
 
 
 def _numeric_root(rows: list[sp.Expr], q: list[sp.Symbol], angles: list[sp.Symbol], starts: int = 24) -> bool:
@@ -657,7 +764,10 @@ def _solve_equilibria(problem, options: EquilibriaAsk, ctx) -> Solution:  # type
         dvals = [sp.Matrix([tidy(x.xreplace(dict(zip(q, c)))) for x in defs]) for c in configs] if defs else []
         if defs:
             sol.add("deformations" + sfx, _distinct(dvals), "set", label="\\delta")
-        sol.step("equilibria", g=dm.g, q=q, configs=configs, conditions=conditions, every=every,
+        moving = [x for x in (dm.g - rhs).applyfunc(tidy) if x.free_symbols & set(q)]
+        ch = angle_sums(moving, _angles(moving, q)) if configs and not every else None
+        sums = {"sums": ch.forms, "kept": ch.kept} if ch else {}
+        sol.step("equilibria", g=dm.g, q=q, configs=configs, conditions=conditions, every=every, **sums,
                  free=[list(dict.fromkeys(x for x in c if x in q)) for c in configs], input=given_u, rhs=rhs,
                  defs=sp.Matrix(defs) if defs else None, dvals=dvals, **({"requires": requires} if requires else {}))
         return sol

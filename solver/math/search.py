@@ -170,7 +170,7 @@ def newton_root(f: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray
 def newton_roots(f: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray], X0: np.ndarray,
                  xtol: float = 1e-13, max_iter: int = 100, halvings: int = 10) -> np.ndarray:
     """:func:`newton_root` from every row of X0 at once (multi-start searches): f maps the (N, n) points to
-    their (N, n) residuals and jac to the (N, n, n) Jacobians; each row steps, halves and stops on its own as
+    their (N, m) residuals and jac to the (N, m, n) Jacobians (m ≠ n: least-squares steps); each row steps, halves and stops on its own as
     newton_root's rule says, and a few numpy calls per iteration serve all the rows. Returns the (N, n) end
     points (the caller checks the residuals)."""
     import numpy as np
@@ -186,8 +186,8 @@ def newton_roots(f: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarra
         rhs = -F[idx]
         try:
             S = np.linalg.solve(J, rhs[..., None])[..., 0]
-        except np.linalg.LinAlgError:  # a singular one among them: row by row, least squares where singular
-            S = np.empty_like(rhs)
+        except np.linalg.LinAlgError:  # a singular or non-square one: row by row, least squares where singular
+            S = np.empty((len(idx), X.shape[1]))
             for r in range(len(idx)):
                 try:
                     S[r] = np.linalg.solve(J[r], rhs[r])
