@@ -524,3 +524,24 @@ def test_iterative_starts_from_the_asks_feedforward():
     p, sols, res = run(base.replace("    q0: [0, 0]\n", "").replace("U0", ""))
     assert abs(fnum(res["iteration_errors"].value[0]) - 0.181539) < 1e-5
     assert "at the simulation's initial configuration (part 1 gives no $q_0$)" in render(p, sols, "tex")
+
+
+def test_options_are_numbers_of_the_simulated_plant():
+    """qd, q0, T and settle are numbers with the plant's values (the ask's assume: d2 = 0, d1 = −m2 l1/m1 = −0.375 on
+    top of values:), as the law and the plant: q_d = (−2d1, 0.5) = (0.75, 0.5), q(0) = (d1, 0), T = 40 d1 + 20 = 5,
+    band −d1/100. They were read with values: only: with d1 = 0.25 given the band was −0.0025 (refused; q(0) would
+    start at 0.25, T = 30), without it qd was refused (d1 has no value). Reference: an independent solve_ivp of the
+    same closed loop (2R model by hand, rtol 1e-10): max‖e‖ = 1.231107, e(5) ≈ 0, ‖e‖ < 0.00375 from t ≈ 1.525 on."""
+    text = _balanced("VALS").replace("  - kind: simulate\n    T: 10\n", """  - kind: simulate
+    qd: ['-2*d1', 0.5]
+    q0: ['d1', 0]
+    T: '40*d1 + 20'
+    settle: '-d1/100'
+""").replace("    qd: [1, 0.5]\n", "")
+    for values in ("d1: 0.25, d2: 0.2,", ""):
+        p, sols, res = run(text.replace("VALS", values))
+        st = next(s.data for s in sols[1].steps if s.name == "simulate")
+        assert [fnum(x) for x in st["q0"]] == [-0.375, 0] and st["T"] == 5 and abs(st["band"] - 0.00375) < 1e-12
+        assert abs(fnum(res["e_max_norm"].value) - 1.231107) < 2e-5 and fnum(res["e_final_norm"].value) < 1e-6
+        assert abs(fnum(res["settling_time"].value) - 1.525) < 0.02
+

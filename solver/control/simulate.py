@@ -170,6 +170,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         raise UserError(f"ask {idx + 1} ({ask.kind}) has no control input u to simulate",
                         _place(problem, ctx, "ask"), "simulate a law that gives u")
     rec = _law_record(problem, ask, law_sol)
+    vals, assumed = plant_values(problem.values, rec.get("assumed") or {})
     u = sp.Matrix(law_sol.results["u" + sfx].value).xreplace(rec["subs"])
     q, dq = list(robot.q), list(robot.dq)
     t = sp.Symbol("t", real=True)
@@ -178,7 +179,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     m = len(tracked)
     if options.qd is not None:
         ref = _vector(problem, ctx, "qd", m, {**problem.names, "t": t})
-        bad = set().union(*(x.free_symbols for x in ref)) - {t} - set(problem.values)
+        bad = set().union(*(x.free_symbols for x in ref)) - {t} - set(vals)
         if bad:
             raise UserError(f"qd may use only t and parameters with values (not {', '.join(sorted(map(str, bad)))})",
                             _place(problem, ctx, "qd"))
@@ -202,7 +203,6 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         if isinstance(val, list):
             raise UserError(f"set: {key} must be one expression", _place(problem, ctx, "set", key))
         setv[s] = sp.sympify(val)
-    vals, assumed = plant_values(problem.values, rec.get("assumed") or {})
     ahat = list(rec["ahat"])
     xi = list(rec.get("xi", []))    # pid: the controller state, ξ̇ = e, ξ(0) = 0
     state = q + dq + ahat + xi
@@ -242,9 +242,9 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     f_a = lambdify_np(args, list(adot)) if adot is not None else None
     f_xi = lambdify_np(args, list(xidot)) if xidot is not None else None
     f_e = lambdify_np(args, err_expr)
-    q0 = _floats(problem, options, ctx, "q0", n)
-    dq0 = _floats(problem, options, ctx, "dq0", n)
-    a0 = _floats(problem, options, ctx, "ahat0", len(ahat)) if ahat else []
+    q0 = _floats(problem, options, ctx, "q0", n, vals)
+    dq0 = _floats(problem, options, ctx, "dq0", n, vals)
+    a0 = _floats(problem, options, ctx, "ahat0", len(ahat), vals) if ahat else []
     y0 = np.array(q0 + dq0 + a0 + [0.0] * len(xi), dtype=float)
     budget = {"nfev": 0, "deadline": time.monotonic() + options.wall}
     ffv, u0_from = np.zeros(0), None
@@ -258,7 +258,11 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
             u0v = u0v if isinstance(u0v, list) else [u0v]
         else:
             u0v = list(plant_g.xreplace(dict(zip(q, q0))))
-        ffv = np.array([float(sp.sympify(x).xreplace(vals)) for x in u0v])
+        u0n = _numbers(u0v, vals)
+        if u0n is None:
+            raise UserError(f"the initial feedforward u0 of ask {idx + 1} needs numbers", _place(problem, ctx, "kind"),
+                            "give its parameters values:")
+        ffv = np.array(u0n)
     f_g = lambdify_np([q], list(plant_g.xreplace(vals))) if ff else None
 
     def rhs(tt: float, y: np.ndarray) -> np.ndarray:
@@ -279,8 +283,8 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         return np.concatenate(out)
 
     from scipy.integrate import solve_ivp
-    T = _number(problem, options, ctx, "T")
-    settle = _number(problem, options, ctx, "settle") if options.settle is not None else None
+    T = _number(problem, options, ctx, "T", vals)
+    settle = _number(problem, options, ctx, "settle", vals) if options.settle is not None else None
     if settle is not None and not settle > 0:
         raise UserError("settle must be a positive band on ||e||", _place(problem, ctx, "settle"))
     if not (0 < T <= 1e4):
@@ -289,8 +293,12 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     phases = options.iterations if ff else 1
     eps = None
     if ff:
-        eps = float(ask.ctx.expr("epsilon")) if getattr(ask.options, "epsilon", None) is not None else (
-            settle if settle is not None else 1e-3)
+        eps = _numbers([ask.ctx.expr("epsilon")], vals) if getattr(ask.options, "epsilon", None) is not None \
+            else [settle if settle is not None else 1e-3]
+        if eps is None:
+            raise UserError(f"the epsilon of ask {idx + 1} needs a number", _place(problem, ctx, "kind"),
+                            "give its parameters values:")
+        eps = eps[0]
     Ttot = T * phases
     grid = np.linspace(0.0, Ttot, options.points * (min(phases, 10) if ff else 1))
     ts, ys, FF = [0.0], [y0], [ffv.copy()]
@@ -426,31 +434,38 @@ def _final(rhs, a, b, y, r, options):  # type: ignore[no-untyped-def]
     return r2.y[:, -1]
 
 
-def _number(problem, options: SimulateAsk, ctx, key: str) -> float:  # type: ignore[no-untyped-def]
+def _numbers(xs: list, values: dict) -> Optional[list[float]]:
+    """Expressions as floats with the plant's parameter ``values`` (None if one is not a real number)."""
+    out = []
+    for x in xs:
+        x = sp.sympify(x).xreplace(values) if not isinstance(x, list) else None
+        if x is None or x.free_symbols or not x.is_real:
+            return None
+        out.append(float(x))
+    return out
+
+
+def _number(problem, options: SimulateAsk, ctx, key: str, values: dict) -> float:  # type: ignore[no-untyped-def]
     """A scalar option (a number, or an expression parsed with the problem's names: parameters with values
-    allowed), as a float."""
+    allowed), as a float with the plant's ``values``."""
     raw = getattr(options, key)
-    val = ctx.expr(key) if isinstance(raw, str) else raw
-    x = sp.sympify(val).xreplace(problem.values) if not isinstance(val, list) else None
-    if x is None or x.free_symbols or not x.is_real:
+    x = _numbers([ctx.expr(key) if isinstance(raw, str) else raw], values)
+    if x is None:
         raise UserError(f"{key} must be a number", _place(problem, ctx, key))
-    return float(x)
+    return x[0]
 
 
-def _floats(problem, options: SimulateAsk, ctx, key: str, n: int) -> list[float]:  # type: ignore[no-untyped-def]
-    """The numbers of a list option (default zeros)."""
+def _floats(problem, options: SimulateAsk, ctx, key: str, n: int, values: dict) -> list[float]:  # type: ignore[no-untyped-def]
+    """The numbers of a list option with the plant's ``values`` (default zeros)."""
     if getattr(options, key) is None:
         return [0.0] * n
     val = ctx.expr(key)
     vals = val if isinstance(val, list) else [val]
     if len(vals) != n or any(isinstance(x, list) for x in vals):
         raise UserError(f"{key} must list {n} numbers", _place(problem, ctx, key))
-    out = []
-    for x in vals:
-        x = sp.sympify(x).xreplace(problem.values)
-        if x.free_symbols or not x.is_real:
-            raise UserError(f"{key} must be numbers", _place(problem, ctx, key))
-        out.append(float(x))
+    out = _numbers(vals, values)
+    if out is None:
+        raise UserError(f"{key} must be numbers", _place(problem, ctx, key))
     return out
 
 
