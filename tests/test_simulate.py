@@ -545,3 +545,16 @@ def test_options_are_numbers_of_the_simulated_plant():
         assert abs(fnum(res["e_max_norm"].value) - 1.231107) < 2e-5 and fnum(res["e_final_norm"].value) < 1e-6
         assert abs(fnum(res["settling_time"].value) - 1.525) < 0.02
 
+
+def test_iterative_starts_from_the_asks_q0():
+    """Without q0 here, the simulation of law: iterative starts from the regulation ask's q0 (where its û₀ = g(q₀)
+    belongs), and the report says so; it started from q = 0. Independent solve_ivp of the first iteration: max‖e‖ =
+    ‖q_d − q₀‖ = 0.989949 (at t = 0), ‖e(2)‖ = 0.181124."""
+    text = R2 + "  - kind: regulation\n    law: iterative\n    qd: [1, 0.5]\n    kp: 60\n    kd: 15\n" \
+        "    q0: [0.3, -0.2]\n    epsilon: 0.1\n  - kind: simulate\n    T: 2\n"
+    p, sols, res = run(text)
+    st = next(s.data for s in sols[1].steps if s.name == "simulate")
+    assert [fnum(x) for x in st["q0"]] == [0.3, -0.2] and st["q0_from"] == "ask"
+    assert abs(fnum(res["e_max_norm"].value) - 0.989949) < 1e-5
+    assert abs(fnum(res["iteration_errors"].value[0]) - 0.181124) < 1e-5
+    assert "\\end{bmatrix}$ (the $q_0$ of part 1), $\\dot q(0)" in render(p, sols, "md")

@@ -40,7 +40,8 @@ class SimulateAsk(Strict):
     title: Optional[str] = Field(None, description="heading of this part in the report")
     ask: Optional[int] = Field(None, ge=1, description="the number (1, 2, ... in asks:) of the control_law or "
                                                        "regulation ask to simulate; default the first one")
-    q0: Optional[ExprT] = Field(None, description="initial configuration (list of n numbers); default 0")
+    q0: Optional[ExprT] = Field(None, description="initial configuration (list of n numbers); default the q0 of "
+                                                  "a regulation ask with law: iterative, else 0")
     dq0: Optional[ExprT] = Field(None, description="initial velocity (list of n numbers); default 0")
     qd: Optional[ExprT] = Field(None, description="the reference: one expression of t per tracked variable (joint "
                                                   "coordinates; link coordinates for elastic; task for Cartesian), "
@@ -242,7 +243,14 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     f_a = lambdify_np(args, list(adot)) if adot is not None else None
     f_xi = lambdify_np(args, list(xidot)) if xidot is not None else None
     f_e = lambdify_np(args, err_expr)
-    q0 = _floats(problem, options, ctx, "q0", n, vals)
+    q0_from = None
+    if options.q0 is None and rec.get("q0") is not None:    # iterative: the regulation ask's starting configuration
+        q0, q0_from = _numbers(list(rec["q0"]), vals), "ask"
+        if q0 is None:
+            raise UserError(f"the q0 of ask {idx + 1} needs numbers to start the simulation from",
+                            _place(problem, ctx, "kind"), "give its parameters values:, or give q0: here")
+    else:
+        q0 = _floats(problem, options, ctx, "q0", n, vals)
     dq0 = _floats(problem, options, ctx, "dq0", n, vals)
     a0 = _floats(problem, options, ctx, "ahat0", len(ahat), vals) if ahat else []
     y0 = np.array(q0 + dq0 + a0 + [0.0] * len(xi), dtype=float)
@@ -379,7 +387,8 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
             true_a = None
     _figures(sol, Ts, E, U, A, en, band, settling, rec, true_a, problem, options, n, m)
     sol.step("simulate", ask=idx + 1, kind=ask.kind, law=getattr(ask.options, "law", ""), ref=sp.Matrix(ref),
-             tracked=sp.Matrix(tracked), q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), a0=sp.Matrix(a0) if a0 else None,
+             tracked=sp.Matrix(tracked), q0=sp.Matrix(q0), **({"q0_from": q0_from} if q0_from else {}),
+             dq0=sp.Matrix(dq0), a0=sp.Matrix(a0) if a0 else None,
              T=T, method=options.method, setv=list(setv.items()), completed=completed,
              t_end=float(Ts[-1]), nfev=budget["nfev"], e_final=float(en[-1]), e_max=float(en.max()),
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
