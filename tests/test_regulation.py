@@ -553,6 +553,37 @@ def test_check_finds_bad_options_without_solving(opts, words):
     assert words in error_found_without_solving(PR + regulation("pd_gravity", **opts))
 
 
+LAW_BAD = [   # (law, the ask's options, words of the error): each passed check and failed only when solving
+    ("pd_gravity", {"qd": "[1, 2, 3]"}, "qd must be a list of 2 expressions (one per coordinate), got 3 entries"),
+    ("pd", {"qd": "[q2, 0]"}, "qd must be constant, free of the coordinates and velocities (it has q2)"),
+    ("pd_constant", {"kp": "[1, 2, 3]"}, "kp must be one expression or a list of 2"),
+    ("saturated_pd", {"kd": "[[1, 2]]"}, "kd must be one expression or a list of 2"),
+    ("pid", {"ki": "[1, 2, 3]"}, "ki must be one expression or a list of 2"),
+    ("pid", {"kp": "-g0"}, "kp: gain -g0 is negative"),
+    ("cartesian_pd", {"task": "[q1, q2]", "pd": "[1, 2, 3]"}, "pd must be a list of 2 expressions (one per task"),
+    ("cartesian_pd", {"task": "[q1, q2]", "pd": "[q1, 0]"}, "pd must be constant, free of the coordinates"),
+    ("cartesian_pd", {"task": "[q1, q2, q1 + q2]", "kp": "[1, 2]"}, "kp must be one expression or a list of 3"),
+    ("cartesian_pd", {"task": "[q1, q2]", "kd": "[1, 2, 3]"}, "kd must be one expression or a list of 2"),
+    ("cartesian_pd", {"task": "[]"}, "task must list the task function's components"),    # was a TypeError
+    ("cartesian_pd", {"task": "q1 + dq1"}, "task must be a function of the coordinates only (it has dq1)"),
+    ("iterative", {"beta": "0.7"}, "beta must be in (0, 1/2), got 7/10"),
+    ("iterative", {"beta": "-m1"}, "beta must be in (0, 1/2), got -m1"),
+    ("iterative", {"q0": "[1, 2, 3]"}, "q0 must be a list of 2 expressions (one per coordinate), got 3 entries"),
+    ("iterative", {"q0": "[0, dq1]"}, "q0 must be constant, free of the coordinates and velocities (it has dq1)"),
+    ("iterative", {"u0": "[1]"}, "u0 must be a list of 2 expressions (feedforward), got 1 entry"),  # solved, unread
+    ("iterative", {"epsilon": "-1"}, "epsilon must be a positive number, got -1"),    # solved without q0
+    ("iterative", {"q0": "[0, 0]", "epsilon": "0"}, "epsilon must be a positive number, got 0"),
+]
+
+
+@pytest.mark.parametrize("law, opts, words", LAW_BAD, ids=[f"{k}-{b[0]}" for k, b in enumerate(LAW_BAD)])
+def test_check_reads_each_laws_options_as_solve_does(law, opts, words):
+    """q_d, the gains (n each; cartesian_pd: K_P one per task component), cartesian_pd's task and p_d, iterative's
+    beta, q0, u0 and epsilon are read by the reader solve runs first, which `check` runs too: one error at the
+    option's line, the same for both."""
+    assert words in error_found_without_solving(PR + regulation(law, **opts))
+
+
 ELASTIC_BAD = [   # (the robot's text replaced, by, the ask's options besides qd: [0.5], words of the error)
     ("", "", {"qd": "[1, 2]"}, "qd must be a list of 1 expressions (one per non-actuated coordinate), got 2 entries"),
     ("", "", {"kp": "[1, 2]"}, "kp must be one expression or a list of 1"),

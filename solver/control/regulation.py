@@ -424,14 +424,15 @@ class _Regulation:
     # -- the solve
     def check(self) -> None:
         """The options :meth:`solve` reads first, without the model: the law's options, the ranges, the external
-        forces, law: elastic's inputs, the at: state and limits: (pid: the names of at: only when solving, they may
-        be the law's states ξ)."""
+        forces, law: elastic's inputs, the other laws' q_d, gains, task and iterative options, the at: state and
+        limits: (pid: the names of at: only when solving, they may be the law's states ξ)."""
         r = self.robot
         self.q, self.dq, self.ddq = list(r.q), list(r.dq), list(r.ddq)
         self._check_options()
         self.ranges = self._ranges()
         self.external = self._read_forces()
         self.elastic_inputs = self._read_elastic() if self.law == "elastic" else None
+        self.read = self._read_law() if self.law != "elastic" else {}
         if self.options.at is not None and self.law != "pid":
             self._read_at([])
         inputs = len(self.elastic_inputs[0]) if self.elastic_inputs is not None else self.n
@@ -551,18 +552,73 @@ class _Regulation:
         o = self.options
         if o.qd is not None:
             ex = "[" + ", ".join("0" for _ in coords) + "]"
-            return sp.Matrix(_list(self.problem, self.ctx, "qd", len(coords), "one per coordinate"
-                                   if self.law != "elastic" else "one per non-actuated coordinate", ex))
+            return self._constant("qd", _list(self.problem, self.ctx, "qd", len(coords), "one per coordinate"
+                                              if self.law != "elastic" else "one per non-actuated coordinate", ex))
         return sp.Matrix([_new_symbol(self.problem, _qname(s.name, "d"), _sub_tex(self.tex(s), "d")) for s in coords])
+
+    def _constant(self, key: str, xs: list[sp.Expr]) -> sp.Matrix:
+        """The column of ``xs`` (the ask's ``key``), which must be free of the coordinates and velocities."""
+        state = set(self.q + self.dq + self.ddq)
+        bad = sorted(set().union(*(sp.sympify(x).free_symbols for x in xs)) & state, key=str)
+        if bad:
+            raise UserError(f"{key} must be constant, free of the coordinates and velocities (it has "
+                            f"{', '.join(map(str, bad))})", self.place(key), "write numbers or parameters")
+        return sp.Matrix(xs)
+
+    def _positive(self, key: str, upper: Optional[float] = None) -> sp.Expr:
+        """The ask's scalar ``key``: a number (parameters with values allowed) > 0, and < ``upper``."""
+        x = sp.nsimplify(self.ctx.expr(key))
+        v = self._num(x)
+        if v is None or not v > 0 or (upper is not None and not v < upper):
+            what = "a positive number" if upper is None else f"in (0, {sp.nsimplify(upper)})"
+            raise UserError(f"{key} must be {what}, got {x}", self.place(key),
+                            "the contraction factor beta/(1 - beta) is < 1 only for 0 < beta < 1/2" if key == "beta"
+                            else "the required accuracy on ||e_i||, e.g. epsilon: 0.001")
+        return x
+
+    def _read_law(self) -> dict:
+        """The options of the laws but elastic (:meth:`_read_elastic`), as the laws use them: q_d (constant) and
+        the diagonal gains K_P, K_D (n each; pid also K_I); cartesian_pd: the task f(q) (m ≥ 1 components, of q
+        only), p_d (m, constant), K_P (m), K_D (n); iterative: β ∈ (0, ½), q₀, û₀ (n each, constant) and ε > 0."""
+        o, n, law = self.options, self.n, self.law
+        out: dict = {}
+        if law == "cartesian_pd":
+            f = _vec(self.problem, self.ctx, ("task",), "task")
+            if f.rows == 0:
+                raise UserError("task must list the task function's components", self.place("task"),
+                                "write e.g. task: [l1*cos(q1) + l2*cos(q1 + q2), l1*sin(q1) + l2*sin(q1 + q2)]")
+            vel = sorted(set().union(*(x.free_symbols for x in f)) & set(self.dq + self.ddq), key=str)
+            if vel:
+                raise UserError(f"task must be a function of the coordinates only (it has "
+                                f"{', '.join(map(str, vel))})", self.place("task"), "write p = f(q)")
+            m = f.rows
+            if o.pd is not None:
+                pd = self._constant("pd", _list(self.problem, self.ctx, "pd", m, "one per task component",
+                                                "[" + ", ".join(["0"] * m) + "]"))
+            else:
+                pd = sp.Matrix([_new_symbol(self.problem, f"pd{i + 1}", f"p_{{d,{i + 1}}}") for i in range(m)])
+            out.update(f=f, pd=pd, kp=_gains(self.problem, o, self.ctx, "kp", m, True))
+        else:
+            out.update(qd=self._desired(self.q), kp=_gains(self.problem, o, self.ctx, "kp", n, True))
+        out["kd"] = _gains(self.problem, o, self.ctx, "kd", n, False)
+        if law == "pid":
+            out["ki"] = _gains(self.problem, o, self.ctx, "ki", n, True)
+        if law == "iterative":
+            ex = "[" + ", ".join(["0"] * n) + "]"
+            out.update(beta=self._positive("beta", 0.5) if o.beta is not None else None,
+                       q0=self._constant("q0", _list(self.problem, self.ctx, "q0", n, "one per coordinate", ex))
+                       if o.q0 is not None else None,
+                       u0=self._constant("u0", _list(self.problem, self.ctx, "u0", n, "feedforward", ex))
+                       if o.u0 is not None else None,
+                       eps=self._positive("epsilon") if o.epsilon is not None else None)
+        return out
 
     # -- the laws
     def _joint(self) -> None:
         """pd_gravity, pd_constant, pd, saturated_pd, iterative: τ(q, q̇) and P_core (−∇P_core = τ(q, 0) + ...)."""
         n, law = self.n, self.law
         q, dq = sp.Matrix(self.q), sp.Matrix(self.dq)
-        self.qd = self._desired(self.q)
-        self.kp = _gains(self.problem, self.options, self.ctx, "kp", n, True)
-        self.kd = _gains(self.problem, self.options, self.ctx, "kd", n, False)
+        self.qd, self.kp, self.kd = self.read["qd"], self.read["kp"], self.read["kd"]
         KP, KD = sp.diag(*self.kp), sp.diag(*self.kd)
         e = self.qd - q
         self.e = e
@@ -599,10 +655,7 @@ class _Regulation:
     def _pid(self) -> None:
         n = self.n
         q, dq = sp.Matrix(self.q), sp.Matrix(self.dq)
-        self.qd = self._desired(self.q)
-        self.kp = _gains(self.problem, self.options, self.ctx, "kp", n, True)
-        self.kd = _gains(self.problem, self.options, self.ctx, "kd", n, False)
-        self.ki = _gains(self.problem, self.options, self.ctx, "ki", n, True)
+        self.qd, self.kp, self.kd, self.ki = self.read["qd"], self.read["kp"], self.read["kd"], self.read["ki"]
         KP, KD, KI = sp.diag(*self.kp), sp.diag(*self.kd), sp.diag(*self.ki)
         xi = sp.Matrix([_new_symbol(self.problem, f"xi{i + 1}", f"\\xi_{{{i + 1}}}") for i in range(n)])
         self.e = self.qd - q
@@ -619,16 +672,9 @@ class _Regulation:
                       forces=bool(self.options.external), uhat=None)
 
     def _cartesian(self) -> None:
-        n, dq = self.n, sp.Matrix(self.dq)
-        f = _vec(self.problem, self.ctx, ("task",), "task")
+        dq = sp.Matrix(self.dq)
+        f, pd, self.kp, self.kd = self.read["f"], self.read["pd"], self.read["kp"], self.read["kd"]
         m = f.rows
-        if self.options.pd is not None:
-            pd = sp.Matrix(_list(self.problem, self.ctx, "pd", m, "one per task component", "[" + ", ".join(
-                ["0"] * m) + "]"))
-        else:
-            pd = sp.Matrix([_new_symbol(self.problem, f"pd{i + 1}", f"p_{{d,{i + 1}}}") for i in range(m)])
-        self.kp = _gains(self.problem, self.options, self.ctx, "kp", m, True)
-        self.kd = _gains(self.problem, self.options, self.ctx, "kd", n, False)
         KP, KD = sp.diag(*self.kp), sp.diag(*self.kd)
         J = f.jacobian(self.q).applyfunc(tidy)
         ep = pd - f
@@ -1031,13 +1077,7 @@ class _Regulation:
         o = self.options
         b = self.alpha_info
         kmin = sp.Min(*self.kp) if len(self.kp) > 1 else self.kp[0]
-        beta_opt = None
-        if o.beta is not None:
-            beta_opt = sp.nsimplify(self.ctx.expr("beta"))
-            bn = self._num(beta_opt)
-            if bn is None or not 0 < bn < 0.5:
-                raise UserError(f"beta must be in (0, 1/2), got {beta_opt}", self.place("beta"),
-                                "the contraction factor beta/(1 - beta) is < 1 only for beta < 1/2")
+        beta_opt = self.read["beta"]
         alpha = b.alpha
         beta, rho = contraction(alpha, kmin, beta_opt)
         self.add("beta", beta, "scalar", label="\\beta")
@@ -1048,13 +1088,12 @@ class _Regulation:
             raise UserError(f"beta = {beta_opt} is too small: beta*K_P,m = {bn * kn:.6g} must exceed alpha = "
                             f"{an:.6g}", self.place("beta"), f"use beta > {an / kn:.6g}, or omit beta:")
         if o.q0 is not None:
-            q0 = sp.Matrix(_list(self.problem, self.ctx, "q0", self.n, "one per coordinate", "[0, 0]"))
+            q0 = self.read["q0"]
             e0 = self.qd - q0
             e0n = sp.sqrt(sum(x ** 2 for x in e0))
             g = self.g_plant
             gq0 = g.xreplace(dict(zip(self.q, q0)))
-            u0 = gq0 if o.u0 is None else sp.Matrix(_list(self.problem, self.ctx, "u0", self.n, "feedforward",
-                                                          "[0, 0]"))
+            u0 = gq0 if o.u0 is None else self.read["u0"]
             self.add("e0", tidy(e0n), "scalar", label="\\|e_0\\|")
             data.update(q0=q0, e0=e0n, u0=u0, u0_is_g=o.u0 is None or all(_zero(a - b2) for a, b2 in zip(u0, gq0)))
             if data["u0_is_g"]:
@@ -1064,10 +1103,8 @@ class _Regulation:
                 e1 = sp.sqrt(sum(x ** 2 for x in (gd - u0))) / (kmin - alpha)
             data["e1"] = e1
             if o.epsilon is not None:
-                eps = sp.nsimplify(self.ctx.expr("epsilon"))
+                eps = self.read["eps"]
                 en, rn, e1n = self._num(eps), self._num(rho), self._num(e1)
-                if en is None or en <= 0:
-                    raise UserError("epsilon must be a positive number", self.place("epsilon"))
                 data["eps"] = eps
                 if rn is not None and e1n is not None:
                     if not rn < 1:
