@@ -343,7 +343,8 @@ def largest_gains(expr: sp.Matrix, gains: list[sp.Symbol], bound: sp.Expr, value
 def validate_regulation(problem, options: RegulationAsk, ctx) -> None:  # type: ignore[no-untyped-def]
     """The options read and checked as :func:`solve_regulation` reads them first (:meth:`_Regulation.check`: assume,
     the law's options, ranges, external forces, the at: state and limits:; law: elastic's input map, springs, q_d
-    and gains), without deriving the model; the other laws' q_d and gains are read when solving."""
+    and gains; the other laws' q_d and gains, cartesian_pd's task and p_d, iterative's beta, q0, u0, epsilon),
+    without deriving the model."""
     _Regulation(problem, options, ctx, check_only=True).check()
 
 
