@@ -107,3 +107,64 @@ asks:
     msg = error_of(write, text.replace("kind: redundancy", "kind: dynamic_model").split("    task:")[0], solve=True)
     assert "no bodies and no model" in msg and "spec.yaml:5:" in msg
 
+
+
+def test_fast_yaml_reader_equals_the_round_trip_loader():
+    """Plain YAML is read by libyaml (ruamel.yaml.clib, about 6x faster); its values, their types and their
+    positions equal the round-trip loader's; anything else (a duplicate key, a tag, a merge key, a non-text key,
+    what libyaml cannot parse) is read by the round-trip loader, with its results and messages."""
+    from ruamel.yaml.main import CParser
+
+    from solver.spec import yamlpos
+    if CParser is None:
+        pytest.skip("ruamel.yaml.clib is not installed")
+    text = """# a comment
+id: 'quoted'
+title: "double \\u00e9"
+base: &b {a: 1, b: [x, 'y', 2.5e-3]}
+copy: *b
+when: 2020-01-02
+numbers: [0x1F, 0o17, -7, 1_000, .inf, -.5, 1e3, true, false, null, ~]
+clock: 12:30
+text: |
+  first line
+  second
+folded: >-
+  one
+  two
+nested:
+  - {kind: dynamic_model, plots: false}
+  -
+    kind: trajectory
+    values: {"a b": 3}
+"""
+    fast = yamlpos._load_fast(text, "f.yaml")
+    assert fast is not None
+    saved = yamlpos._load_fast
+    try:
+        yamlpos._load_fast = lambda t, f: None
+        rt = yamlpos.load_text(text, "f.yaml")
+        refused = {}
+        for bad in ("a: 1\na: 2\n", "a: !foo 1\n", "a: &x {b: 1}\nc: {<<: *x}\n", "1: a\n", "a: [1\n",
+                    "a: [12:30]\n"):   # (libyaml refuses ':' in a flow scalar, YAML 1.2 does not)
+            try:
+                refused[bad] = str(yamlpos.load_text(bad, "g.yaml").data)
+            except Exception as exc:  # noqa: BLE001  (the round-trip loader's message)
+                refused[bad] = f"{type(exc).__name__}: {exc}"
+    finally:
+        yamlpos._load_fast = saved
+    assert fast.data == rt.data and fast.positions == rt.positions and fast.lines == rt.lines
+
+    def leaves(x):  # noqa: ANN001, ANN202
+        if isinstance(x, dict):
+            return [y for v in x.values() for y in leaves(v)]
+        return [y for v in x for y in leaves(v)] if isinstance(x, list) else [x]
+    assert all(isinstance(a, type(b)) or isinstance(b, type(a)) for a, b in zip(leaves(fast.data), leaves(rt.data)))
+    assert fast.data["numbers"][:4] == [31, 15, -7, 1000] and fast.place(("nested", 1, "kind")).line == 18
+    for bad, expected in refused.items():   # the fast reader leaves them to the round-trip loader
+        assert yamlpos._load_fast(bad, "g.yaml") is None
+        try:
+            got = str(yamlpos.load_text(bad, "g.yaml").data)
+        except Exception as exc:  # noqa: BLE001
+            got = f"{type(exc).__name__}: {exc}"
+        assert got == expected
