@@ -62,6 +62,7 @@ class Curve:
     x: list[float]
     y: list[float]
     dashed: bool = False  # a reference or predicted value drawn dashed
+    filled: bool = False  # a closed polygon (x, y its corners) filled in grey under the lines: an obstacle
 
 
 @dataclass

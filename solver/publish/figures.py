@@ -59,7 +59,10 @@ def draw(fig: Figure, path: Path) -> None:
         if panel.categorical:
             _categorical(ax, panel.curves)
         for c in ([] if panel.categorical else panel.curves):
-            ax.plot(c.x, c.y, label=c.label, linewidth=1.6, linestyle="--" if c.dashed else "-")
+            if c.filled:
+                ax.fill(c.x, c.y, color="0.7", linewidth=0, zorder=1.8, label=c.label or None)
+            else:
+                ax.plot(c.x, c.y, label=c.label, linewidth=1.6, linestyle="--" if c.dashed else "-")
         for y, label in panel.hlines:
             ax.axhline(y, color="tab:red", linestyle="--", linewidth=1.0, label=label or None)
         for x, y, label in panel.markers:
@@ -73,7 +76,8 @@ def draw(fig: Figure, path: Path) -> None:
             ax.set_ylabel(panel.ylabel)
         if panel.x_is_angle and panel.curves:
             _angle_ticks(ax, panel.curves[0].x[0], panel.curves[0].x[-1])
-        ax.axhline(0, color="0.6", linewidth=0.8)
+        if not any(c.filled for c in panel.curves):  # y = 0 is no reference on a map
+            ax.axhline(0, color="0.6", linewidth=0.8)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8, loc="best")
     for ax in list(axes.flat)[n:]:
