@@ -8,7 +8,7 @@ import pytest
 import sympy as sp
 from conftest import PROBLEMS, error_found_without_solving
 
-from solver.planning.motion_planning import astar, dijkstra, field_zeros, grid_graph
+from solver.planning.motion_planning import astar, dijkstra, field_zeros, grid_graph, heuristic_check
 from solver.publish.render import render
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem, load_problem_text
@@ -94,6 +94,102 @@ def test_astar_spec_expansions_and_report():
 def test_astar_errors():
     with pytest.raises(UserError):
         solve_problem(load_problem_text(GRAPH.replace("target: D", "target: Z")))
+
+
+GRID = """
+id: t
+title: A* on a grid
+asks:
+  - kind: motion_planning
+    method: astar
+    grid: ["...G", ".#..", "S.#."]
+    connectivity: 8
+    heuristic: euclidean
+"""
+
+
+def test_astar_grid_figure_draws_the_occupied_cells():
+    """The search figure fills each '#' cell (a unit square at x = c, y = −r) under the path."""
+    sols = solve_problem(load_problem_text(GRID))
+    panel, = next(f for f in sols[0].figures if f.name == "search").panels
+    cells = sorted((min(c.x), max(c.x), min(c.y), max(c.y)) for c in panel.curves if c.filled)
+    assert cells == [(0.5, 1.5, -1.5, -0.5), (1.5, 2.5, -2.5, -1.5)]
+    assert [c.label for c in panel.curves if c.filled] == ["obstacle", ""]
+    assert not panel.curves[-1].filled and not panel.curves[-2].filled   # path and expansions drawn over them
+
+
+def test_astar_grid_diagonal_rule_and_corner_cutting():
+    """8-connected: diagonal √2, past an occupied corner unless corner_cutting: false; the report states the rule."""
+    nb, _, s, g = grid_graph(["S#", ".G"], 8)
+    assert dict(nb[s]) == {"(1,0)": 1.0, "(1,1)": pytest.approx(math.sqrt(2))}
+    nb, _, s, g = grid_graph(["S#", ".G"], 8, corner_cutting=False)
+    assert dict(nb[s]) == {"(1,0)": 1.0} and astar(nb, s, g, {k: 0.0 for k in nb})[1] == 2
+    nb, _, s, g = grid_graph(["S#", "#G"], 8, corner_cutting=False)
+    assert astar(nb, s, g, {k: 0.0 for k in nb})[0] is None
+    p = load_problem_text(GRID)
+    sols = solve_problem(p)
+    assert all_results(sols)["cost"].value == 1 + 2 * sp.sqrt(2)   # S, (2,1), (1,2), G: between two '#' twice
+    md = render(p, sols, "md")
+    assert "8-connected, cost 1 to a side cell and √2 to a diagonal one, corner cutting allowed" in md
+    p = load_problem_text(GRID.replace("connectivity: 8", "connectivity: 8\n    corner_cutting: false"))
+    sols = solve_problem(p)
+    assert all_results(sols)["cost"].value == 5   # up the left column, along the top row
+    assert "√2 to a diagonal one, no corner cutting" in render(p, sols, "md")
+    p = load_problem_text(GRID.replace("connectivity: 8", "connectivity: 4"))
+    assert "4-connected, cost 1 to a side cell, no diagonal moves" in render(p, solve_problem(p), "md")
+
+
+def test_heuristic_check_flags_an_overestimate_and_the_optimal_cost():
+    """Manhattan on an 8-connected grid overestimates diagonals: not admissible, and here A* returns 3 + √2 while
+    the optimum is 1 + 2√2; the report says both."""
+    p = load_problem_text(GRID.replace("euclidean", "manhattan"))
+    sols = solve_problem(p)
+    res = all_results(sols)
+    assert res["admissible"].value is False and res["consistent"].value is False
+    assert res["cost"].value == 3 + sp.sqrt(2)
+    d = sols[0].steps[0].data
+    assert d["optimal_cost"] == pytest.approx(1 + 2 * math.sqrt(2)) and d["optimal"] is False
+    # the worst node (h − h* = 4 − 2√2 at S too; the one nearer the goal named)
+    assert d["over"] == ("(2,1)", 4.0, pytest.approx(2 * math.sqrt(2)))
+    md = render(p, sols, "md")
+    assert "**not admissible** ($h = 4 > h^* = 2.828$ at (2,1))" in md
+    assert "the path found is **not optimal**: the optimal cost is **3.82843**" in md
+    # Euclidean on the same grid: admissible and consistent, optimal
+    sols = solve_problem(load_problem_text(GRID))
+    res = all_results(sols)
+    assert res["admissible"].value is True and res["consistent"].value is True
+    assert "admissible ($h \\le h^*$ at every node) and consistent" in render(load_problem_text(GRID), sols, "md")
+
+
+def test_heuristic_check_admissible_but_inconsistent():
+    """h ≤ h* everywhere but h(B) = 3 > c(B, A) + h(A) = 2: A* (no reopening) closes A first with g = 3 and
+    returns S-A-G (5) instead of S-B-A-G (4)."""
+    nb = {"S": [("A", 3.0), ("B", 1.0)], "A": [("S", 3.0), ("B", 1.0), ("G", 2.0)], "B": [("S", 1.0), ("A", 1.0)],
+          "G": [("A", 2.0)]}
+    h = {"S": 0.0, "A": 1.0, "B": 3.0, "G": 0.0}
+    chk = heuristic_check(nb, "G", h)
+    assert chk["hstar"] == {"G": 0.0, "A": 2.0, "B": 3.0, "S": 4.0}
+    assert chk["admissible"] and not chk["consistent"] and chk["edge"] == ("B", "S", 1.0, 3.0, 0.0)
+    assert astar(nb, "S", "G", h)[:2] == (["S", "A", "G"], 5.0)
+    p = load_problem_text("""
+id: t
+title: A*
+asks:
+  - kind: motion_planning
+    method: astar
+    graph:
+      nodes: {S: null, A: null, B: null, G: null}
+      edges: [[S, A, 3], [S, B, 1], [A, B, 1], [A, G, 2]]
+    start: S
+    target: G
+    heuristic: {S: 0, A: 1, B: 3, G: 0}
+""")
+    sols = solve_problem(p)
+    res = all_results(sols)
+    assert res["admissible"].value is True and res["consistent"].value is False and res["cost"].value == 5
+    md = render(p, sols, "md")
+    assert "admissible ($h \\le h^*$ at every node) and **not consistent** ($h = 3$ at B $> c + h = 1 + 0$ at S)" in md
+    assert "the optimal cost is **4**" in md
 
 
 POT = """

@@ -7,7 +7,11 @@ Potential fields on the robot's coordinates q (or a point x):
 The equilibria (with numbers) are the zeros of the field −∇U (grid search over the given range, then refinement).
 
 Graph search: A* on a weighted graph (nodes with positions for the Euclidean heuristic, or given heuristic values)
-or on an occupancy grid (4- or 8-connected); every expansion is recorded (node, g, f, the open list after it).
+or on an occupancy grid (4-connected, or 8-connected with diagonal cost √2 and, unless corner_cutting: false, a
+diagonal allowed past an occupied cell at its corner); every expansion is recorded (node, g, f, the open list after
+it). A closed node is never reopened, so the path is optimal when h is consistent; h is checked against the exact
+cost-to-go h* (Dijkstra from the goal): admissible (h ≤ h*), consistent (h(n) ≤ c(n, m) + h(m)), and the optimal
+cost compared with the path's.
 """
 from __future__ import annotations
 
@@ -66,6 +70,8 @@ class MotionPlanningAsk(Strict):
     grid: Optional[list[str]] = Field(None, description="astar: occupancy grid rows, '.' free, '#' occupied, "
                                                         "S start, G goal (row 0 on top)")
     connectivity: Literal[4, 8] = Field(4, description="astar on a grid: 4 or 8 neighbours (diagonal √2)")
+    corner_cutting: bool = Field(True, description="astar on an 8-connected grid: a diagonal move may pass an "
+                                                   "occupied cell at its corner (false: both cells beside it free)")
     start: Optional[str] = Field(None, description="astar on a graph: start node")
     target: Optional[str] = Field(None, description="astar on a graph: goal node")
     heuristic: Union[Literal["euclidean", "manhattan", "zero"], dict[str, float]] = Field(
@@ -276,8 +282,33 @@ def dijkstra(neighbours: dict[str, list[tuple[str, float]]], start: str) -> dict
     return dist
 
 
-def grid_graph(rows: list[str], connectivity: int) -> tuple[dict, dict, str, str]:
-    """Neighbours, positions (x = column, y = −row), start and goal of an occupancy grid."""
+def heuristic_check(neighbours: dict[str, list[tuple[str, float]]], goal: str,
+                    h: dict[str, float]) -> dict[str, Any]:
+    """h against the exact cost-to-go h* (Dijkstra from the goal; the graphs here are undirected): admissible when
+    h(n) ≤ h*(n) wherever the goal is reachable, consistent when h(x) ≤ w + h(y) on every edge (x, y, w). Returns
+    {hstar, admissible, consistent, over: (n, h, h*) of the largest h − h* > 0 or None, edge: (x, y, w, h(x),
+    h(y)) of the largest h(x) − w − h(y) > 0 or None; among equal ones the first, nodes in Dijkstra's order from
+    the goal, edges in the graph's}."""
+    hstar = dijkstra(neighbours, goal)
+    tol = 1e-9
+    over, worst = None, 0.0
+    for n, hs in hstar.items():
+        ex = h[n] - hs
+        if ex > tol * (1 + abs(hs)) and ex > worst + tol:
+            over, worst = (n, h[n], hs), ex
+    edge, worst = None, 0.0
+    for x, ys in neighbours.items():
+        for y, w in ys:
+            ex = h[x] - w - h[y]
+            if ex > tol * (1 + abs(h[x])) and ex > worst + tol:
+                edge, worst = (x, y, w, h[x], h[y]), ex
+    return {"hstar": hstar, "admissible": over is None, "consistent": edge is None, "over": over, "edge": edge}
+
+
+def grid_graph(rows: list[str], connectivity: int, corner_cutting: bool = True) -> tuple[dict, dict, str, str]:
+    """Neighbours, positions (x = column, y = −row), start and goal of an occupancy grid: moves of cost 1 to the 4
+    side cells, with connectivity 8 also of cost √2 to the diagonal ones; without corner_cutting a diagonal move
+    needs both cells beside it (sharing a side with the start and the end cell) free."""
     pos: dict[str, tuple[float, float]] = {}
     start = goal = ""
     for r, line in enumerate(rows):
@@ -293,8 +324,11 @@ def grid_graph(rows: list[str], connectivity: int) -> tuple[dict, dict, str, str
         r, c = (int(t) for t in name[1:-1].split(","))
         for dr, dc in steps:
             other = f"({r + dr},{c + dc})"
-            if other in pos:
-                nb[name].append((other, math.hypot(dr, dc)))
+            if other not in pos:
+                continue
+            if dr and dc and not corner_cutting and (f"({r + dr},{c})" not in pos or f"({r},{c + dc})" not in pos):
+                continue
+            nb[name].append((other, math.hypot(dr, dc)))
     return nb, pos, start, goal
 
 
@@ -302,7 +336,7 @@ def _astar_inputs(problem, options: MotionPlanningAsk, ctx) -> tuple:  # type: i
     """The graph (neighbours with weights), the node positions, start, goal and the heuristic by node."""
     place = problem.located.place(ctx.path + ("method",))
     if options.grid is not None:
-        nb, pos, start, goal = grid_graph(options.grid, options.connectivity)
+        nb, pos, start, goal = grid_graph(options.grid, options.connectivity, options.corner_cutting)
         if not start or not goal:
             raise UserError("the grid needs one S (start) and one G (goal)", place)
     elif options.graph is not None:
@@ -348,6 +382,8 @@ def _solve_astar(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -
     nb, pos, start, goal, h = _astar_inputs(problem, options, ctx)
     hs = options.heuristic
     path, cost, steps = astar(nb, start, goal, h)
+    chk = heuristic_check(nb, goal, h)
+    best = chk["hstar"].get(start, math.inf)   # the optimal cost
     if path is None:
         add("path_found", False, "bool", label="\\text{path found}")
     else:
@@ -356,16 +392,28 @@ def _solve_astar(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -
             cost - round(cost)) > 1e-12 else sp.Integer(round(cost)), "number", label="L")
         add("path_length", sp.Integer(len(path)), "number", label="\\#\\text{nodes}")
     add("expansions", sp.Integer(len(steps)), "number", label="\\#\\text{expansions}")
+    add("admissible", chk["admissible"], "bool", label="h \\le h^*")
+    add("consistent", chk["consistent"], "bool", label="\\text{consistent}")
+    moves = None if options.grid is None else {"connectivity": options.connectivity,
+                                               "corner_cutting": options.corner_cutting}
     sol.step("astar", path=path, cost=cost, steps=steps, start=start, goal=goal, heuristic=str(hs)
-             if not isinstance(hs, dict) else "given")
+             if not isinstance(hs, dict) else "given", moves=moves, admissible=chk["admissible"],
+             consistent=chk["consistent"], over=chk["over"], edge=chk["edge"], optimal_cost=best,
+             optimal=path is not None and cost <= best + 1e-9 * (1 + best))
     if pos and path is not None:
+        blocked = [(float(c), float(-r)) for r, line in enumerate(options.grid or []) for c, ch in enumerate(line)
+                   if ch == "#"]
+
         def panels() -> list[Panel]:
-            curves = [Curve("path", [pos[k][0] for k in path], [pos[k][1] for k in path])]
+            cells = [Curve("obstacle" if i == 0 else "", [x - .5, x + .5, x + .5, x - .5],
+                           [y - .5, y - .5, y + .5, y + .5], filled=True) for i, (x, y) in enumerate(blocked)]
+            curves = cells + [Curve("path", [pos[k][0] for k in path], [pos[k][1] for k in path])]
             seen = [s["node"] for s in steps if s["node"] in pos]
             curves.append(Curve("expanded", [pos[k][0] for k in seen], [pos[k][1] for k in seen], dashed=True))
             return [Panel("$x$", "$y$", curves, markers=[(*pos[start], "start"), (*pos[goal], "goal")],
                           equal_axes=True)]
-        sol.figures.append(Figure("search", "A*: the path found and the expanded nodes in order.", panels))
+        sol.figures.append(Figure("search", "A*: the path found and the expanded nodes in order"
+                                  + (", the occupied cells in grey." if blocked else "."), panels))
 
 
 def validate_motion_planning(problem, options: MotionPlanningAsk, ctx) -> None:  # type: ignore[no-untyped-def]
@@ -381,7 +429,7 @@ def validate_motion_planning(problem, options: MotionPlanningAsk, ctx) -> None: 
           validate=validate_motion_planning)
 def solve_motion_planning(problem, options: MotionPlanningAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
     """Results: potential: U_att, U_rep<i>, grad_rep<i>, u, V, V_dot, equilibria_at (with range: and numbers);
-    astar: path_found, cost, path_length, expansions."""
+    astar: path_found, cost, path_length, expansions, admissible, consistent."""
     sol = Solution("motion_planning", title=options.title or ("Artificial potential fields"
                                                               if options.method == "potential" else "A* search"))
 
