@@ -117,3 +117,24 @@ def test_steps_refer_to_results_by_value_not_identity():
     s.step("use", M=sp.Matrix([[sp.cos(q), 1], [0, sp.sin(q)]]), w=2 + sp.cos(q), other=sp.sin(q) + 2)
     data = json.loads(render(p, [s], "json"))["steps"][0]["data"]
     assert data["M"] == {"result": "M"} and data["w"] == {"result": "w"} and "other" not in data
+
+
+def test_json_is_strict_json_with_infinite_values():
+    """±∞ and NaN are no JSON numbers (json.dumps wrote Infinity, which strict readers refuse: 2021-09-10-ex1's
+    λ_i,1): they are written as the strings "inf", "-inf", "nan", which float() reads."""
+    import math
+
+    import sympy as sp
+
+    from solver.results import Solution
+    p, sols = _solved()
+    extra = Solution("extra", title="extra")
+    extra.add("unbounded", sp.Matrix([sp.Rational(1, 2), sp.oo, -sp.oo]), "vector")
+    extra.step("s", bound=float("inf"), gap=float("nan"))
+
+    def refuse(c):  # noqa: ANN001, ANN202
+        raise ValueError(c)
+    data = json.loads(render(p, sols + [extra], "json"), parse_constant=refuse)
+    assert data["results"]["unbounded"]["value"] == [0.5, "inf", "-inf"]
+    assert [float(x) for x in data["results"]["unbounded"]["value"][1:]] == [math.inf, -math.inf]
+    assert data["steps"][-1]["data"] == {"bound": "inf", "gap": "nan"}

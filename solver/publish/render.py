@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import re
 from pathlib import Path
 from typing import Any, Callable
@@ -788,7 +789,11 @@ def render(problem: Problem, solutions: list[Solution], fmt: str, fragment: bool
     (per-body quantities) and the steps' expressions."""
     with without_units():  # results computed on demand by the templates may simplify
         if fmt == "json":
-            return json.dumps(to_json(problem, solutions, details), indent=2, ensure_ascii=False) + "\n"
+            data = to_json(problem, solutions, details)
+            try:
+                return json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+            except ValueError:  # ±∞, NaN: strings "inf", "-inf", "nan" (JSON has no such numbers)
+                return json.dumps(_finite(data), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
         env = _env(fmt, template_dir, problem.latex_names, ranks(problem))
         page = env.get_template(f"page.{fmt}.j2")
         return page.render(problem=problem, solutions=solutions, fragment=fragment, assets=assets or {},
@@ -857,6 +862,17 @@ def _fast_str(e: Any) -> str:
     if isinstance(e, sp.Function):
         return f"{type(e).__name__}({', '.join(_fast_str(a) for a in e.args)})"
     return str(e)
+
+
+def _finite(obj: Any) -> Any:
+    """JSON data with every non-finite float written as the string "inf", "-inf" or "nan" (float() reads them)."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return "nan" if obj != obj else ("inf" if obj > 0 else "-inf")
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
 
 
 def _numeric(value: Any) -> Any:
