@@ -115,7 +115,11 @@ def test_astar_grid_figure_draws_the_occupied_cells():
     cells = sorted((min(c.x), max(c.x), min(c.y), max(c.y)) for c in panel.curves if c.filled)
     assert cells == [(0.5, 1.5, -1.5, -0.5), (1.5, 2.5, -2.5, -1.5)]
     assert [c.label for c in panel.curves if c.filled] == ["obstacle", ""]
-    assert not panel.curves[-1].filled and not panel.curves[-2].filled   # path and expansions drawn over them
+    assert panel.curves[-1].label == "path" and not panel.curves[-1].filled   # drawn over them
+    steps = sols[0].steps[-1].data["steps"]   # the expanded nodes numbered with their step of the table
+    numbered = {label: (x, y) for x, y, label in panel.markers if label.isdigit()}
+    assert numbered and all(steps[int(k) - 1]["node"] == f"({-int(y)},{int(x)})" for k, (x, y) in numbered.items())
+    assert {label for *_, label in panel.markers} >= {"start", "goal"}
 
 
 def test_astar_grid_diagonal_rule_and_corner_cutting():

@@ -408,11 +408,11 @@ def _solve_astar(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -
             cells = [Curve("obstacle" if i == 0 else "", [x - .5, x + .5, x + .5, x - .5],
                            [y - .5, y - .5, y + .5, y + .5], filled=True) for i, (x, y) in enumerate(blocked)]
             curves = cells + [Curve("path", [pos[k][0] for k in path], [pos[k][1] for k in path])]
-            seen = [s["node"] for s in steps if s["node"] in pos]
-            curves.append(Curve("expanded", [pos[k][0] for k in seen], [pos[k][1] for k in seen], dashed=True))
-            return [Panel("$x$", "$y$", curves, markers=[(*pos[start], "start"), (*pos[goal], "goal")],
-                          equal_axes=True)]
-        sol.figures.append(Figure("search", "A*: the path found and the expanded nodes in order"
+            order = [(i, s["node"]) for i, s in enumerate(steps, 1) if s["node"] in pos and s["node"] not in
+                     (start, goal)]   # each expanded node numbered with its step of the table
+            marks = [(*pos[start], "start"), (*pos[goal], "goal")] + [(*pos[k], str(i)) for i, k in order]
+            return [Panel("$x$", "$y$", curves, markers=marks, equal_axes=True)]
+        sol.figures.append(Figure("search", "A*: the path found and the expanded nodes, numbered with their step"
                                   + (", the occupied cells in grey." if blocked else "."), panels))
 
 
