@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import random
 
+import pytest
 import sympy as sp
 
 from solver.math.simplify import _factor_rational, _sum_denominator, factor_within, tidy
@@ -277,3 +278,19 @@ def test_tidy_keeps_a_float_without_a_short_fraction():
     assert tidy(sp.Float(0.5)) == sp.Rational(1, 2) and tidy(sp.Float(0.125)) == sp.Rational(1, 8)
     x = sp.Float("0.49266808716139", 15)
     assert tidy(x) == x and tidy(x).is_Float
+
+
+def test_matmul_builds_the_entries_of_sympys_product():
+    """matmul (no checks for infinities, which query the assumptions of every entry) builds the same expressions as
+    Matrix.__mul__: zero entries skipped, numbers distributed over sums as sympy's Mul does, rational matrices."""
+    from solver.math.simplify import matmul
+    x, y, z = sp.symbols("x y z")
+    A = sp.Matrix([[1, x, 0], [sp.Rational(1, 2), 2, y + z]])
+    B = sp.Matrix([[x + 1, 2], [0, z / (x + y)], [3 * (x - y), 0]])
+    cases = [(A, B), (sp.eye(2), sp.Matrix([x + y, 2 * (x + 1)])), (sp.Matrix([[1, 2], [3, 4]]) / 3, sp.eye(2) / 2),
+             (sp.zeros(2, 3), B), (sp.Matrix([[x, -x]]), sp.Matrix([1, 1])), (sp.zeros(2, 0), sp.zeros(0, 3))]
+    for M, N in cases:
+        P = matmul(M, N)
+        assert P.shape == (M * N).shape and sp.srepr(P) == sp.srepr(M * N)
+    with pytest.raises(sp.ShapeError):
+        matmul(A, A)

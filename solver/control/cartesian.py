@@ -33,7 +33,7 @@ from solver.dynamics.model import derive, require_model
 from solver.kinematics.methods import NAMED_H, damping_matrix, named_objective
 from solver.math.budget import BudgetExceeded, cpu_budget
 from solver.math.fourier import NotTrigPolynomial, TrigPoly
-from solver.math.simplify import expand_polynomial, factor_within, tidy
+from solver.math.simplify import expand_polynomial, factor_within, matmul, tidy
 from solver.math.trigpoly import TrigAlgebra
 from solver.results import Solution
 from solver.spec.expr import shape_of
@@ -275,7 +275,7 @@ def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: 
     Jinv = None
     if square:
         Jinv = (J.adjugate() / detJ).applyfunc(tidy)
-        a = (Jinv * (a_r - Jdq)).applyfunc(tidy)
+        a = matmul(Jinv, a_r - Jdq).applyfunc(tidy)
     else:
         try:
             with cpu_budget(PINV_SECONDS):
@@ -324,19 +324,19 @@ def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: 
         if a0 is not None:
             sol.add("a0", a0, "vector", label="a_0")
             sol.add("a_null", ps["a_null"], "vector", label="(I - J^{\\#}J)a_0")
-            null_ok = _vanishes(list(J * ps["a_null"]))
+            null_ok = _vanishes(list(matmul(J, ps["a_null"])))
             sol.add("null_check", bool(null_ok), "bool", label="J(I - J^{\\#}J)a_0 = 0")
     elif not square and a0 is not None:
         sol.add("a0", a0, "vector", label="a_0")
     if a is not None:
-        tau = dm.B * a + nvec
-        u = (Ginv * tau) if Ginv is not None else tau
+        tau = matmul(dm.B, a) + nvec
+        u = matmul(Ginv, tau) if Ginv is not None else tau
         u = u.applyfunc(tidy) if square else u
         sol.add("a", a, "vector", label="a")
         sol.add("u", u, "vector", label="u")
         sol.add("u_a", u_a, "vector", label="u(a)")
         # q̈ = B⁻¹(G u − n): with u = B a + n (m < n, not rewritten) that is a itself, checked without the model
-        ok = _check(dm.B, G * u - nvec, J, Jdq, a_r) if square else _check(None, a, J, Jdq, a_r)
+        ok = _check(dm.B, matmul(G, u) - nvec, J, Jdq, a_r) if square else _check(None, a, J, Jdq, a_r)
         sol.add("closed_loop", closed.applyfunc(expand_polynomial), "vector",
                 label="\\ddot e_t + K_D\\dot e_t + K_P e_t" if R is not None else "\\ddot e_r + K_D\\dot e_r + K_P e_r")
         sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")

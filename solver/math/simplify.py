@@ -792,3 +792,14 @@ def exact_det(M: sp.Matrix) -> sp.Expr:
     if dM is None:
         return M.det()
     return dM.domain.to_sympy(dM.det())
+
+
+def matmul(A: sp.MatrixBase, B: sp.MatrixBase) -> sp.Matrix:
+    """A·B with the entries sympy's product builds, Σ_k A_ik B_kj as one Add over the non-zero pairs in order of k,
+    without its checks for infinities (0·B_kj and 0·A_ik for every entry), which query the assumptions of every
+    entry: seconds on large rational entries that are then never asked again."""
+    if A.cols != B.rows:
+        raise sp.ShapeError(f"Matrix size mismatch: {A.shape} * {B.shape}")
+    a = [[x for x in A.row(i)] for i in range(A.rows)]
+    b = [[B[k, j] for k in range(B.rows)] for j in range(B.cols)]
+    return sp.Matrix(A.rows, B.cols, [sp.Add(*[x * y for x, y in zip(row, col) if x and y]) for row in a for col in b])
