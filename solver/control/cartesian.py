@@ -71,7 +71,9 @@ def task_acceleration(f: sp.Matrix, J: sp.Matrix, dq: sp.Matrix, KP: sp.Matrix, 
 def pinv_law(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix | None) -> dict[str, Any]:
     """J^# = Jᵀ(JJᵀ)⁻¹ = Jᵀ adj(JJᵀ)/D = N/D, D = det(JJᵀ), P = I − J^# J = (D I − N J)/D and
     a = J^#(a_r − J̇ q̇) + P a_0, every entry a numerator over D. Numerators and D are kept in the canonical
-    trigonometric form (fast; the factoring the redundancy ask applies for display is too slow for an n×n P)."""
+    trigonometric form (fast; the factoring the redundancy ask applies for display is too slow for an n×n P).
+    "ok" (J a + J̇ q̇ = a_r and J P a_0 = 0) and "null_ok" (J P a_0 = 0, with a_0) are decided exactly there; None
+    off the algebra (the caller checks the law at random points)."""
     try:
         return _pinv_law_canonical(J, Jdq, ar, a0)
     except NotTrigPolynomial:  # (radicals, parameters in denominators, floats: sympy expressions, tidied)
@@ -93,7 +95,8 @@ def _pinv_law_tidied(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix 
         a_null = num_null.applyfunc(lambda x: x / D)
         num = num_ps + num_null
     return {"J_pinv": N.applyfunc(lambda x: x / D), "det": D, "P": PD.applyfunc(lambda x: x / D),
-            "a_ps": num_ps.applyfunc(lambda x: x / D), "a_null": a_null, "a": num.applyfunc(lambda x: x / D)}
+            "a_ps": num_ps.applyfunc(lambda x: x / D), "a_null": a_null, "a": num.applyfunc(lambda x: x / D),
+            "ok": None, "null_ok": None}
 
 
 def _pinv_law_canonical(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matrix | None) -> dict[str, Any]:
@@ -118,12 +121,20 @@ def _pinv_law_canonical(J: sp.Matrix, Jdq: sp.Matrix, ar: sp.Matrix, a0: sp.Matr
 
     num = ps = printed(num_ps)
     a_null = None
+    JPa0: list[list[TrigPoly]] = [[] for _ in range(J.rows)]
     if a0 is not None:  # (the two numerators added as printed, not in one canonical form: as pinv_law does)
-        num_null = printed(alg.matmul(PD, alg.matrix(a0)))
+        null = alg.matmul(PD, alg.matrix(a0))
+        num_null = printed(null)
         a_null = over(num_null)
         num = ps + num_null
+        JPa0 = alg.matmul(Jt, null)
+    # exact checks (canonical forms: zero iff the function is): J (I − J^# J) a_0 = 0, and J a + J̇ q̇ = a_r, i.e.
+    # J num_ps + D (J̇ q̇ − a_r) = 0 and J P_D a_0 = 0
+    Jps, rest = alg.matmul(Jt, num_ps), alg.matrix(Jdq - ar)
+    ok = all(not alg.add(Jps[i][0], alg.mul(D, rest[i][0])) for i in range(J.rows))
+    null_ok = all(not x for row in JPa0 for x in row)
     return {"J_pinv": over(printed(N)), "det": De, "P": over(printed(PD)), "a_ps": over(ps), "a_null": a_null,
-            "a": over(num)}
+            "a": over(num), "ok": ok and null_ok, "null_ok": null_ok if a0 is not None else None}
 
 
 class _TaskInputs(AskReader):
@@ -324,7 +335,7 @@ def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: 
         if a0 is not None:
             sol.add("a0", a0, "vector", label="a_0")
             sol.add("a_null", ps["a_null"], "vector", label="(I - J^{\\#}J)a_0")
-            null_ok = _vanishes(list(matmul(J, ps["a_null"])))
+            null_ok = ps["null_ok"] if ps.get("null_ok") is not None else _vanishes(list(matmul(J, ps["a_null"])))
             sol.add("null_check", bool(null_ok), "bool", label="J(I - J^{\\#}J)a_0 = 0")
     elif not square and a0 is not None:
         sol.add("a0", a0, "vector", label="a_0")
@@ -336,7 +347,10 @@ def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: 
         sol.add("u", u, "vector", label="u")
         sol.add("u_a", u_a, "vector", label="u(a)")
         # q̈ = B⁻¹(G u − n): with u = B a + n (m < n, not rewritten) that is a itself, checked without the model
-        ok = _check(dm.B, matmul(G, u) - nvec, J, Jdq, a_r) if square else _check(None, a, J, Jdq, a_r)
+        if square:
+            ok = _check(dm.B, matmul(G, u) - nvec, J, Jdq, a_r)
+        else:  # (exact in the canonical algebra when the pseudoinverse was computed there)
+            ok = ps["ok"] if ps is not None and ps.get("ok") is not None else _check(None, a, J, Jdq, a_r)
         sol.add("closed_loop", closed.applyfunc(expand_polynomial), "vector",
                 label="\\ddot e_t + K_D\\dot e_t + K_P e_t" if R is not None else "\\ddot e_r + K_D\\dot e_r + K_P e_r")
         sol.add("closed_loop_check", bool(ok), "bool", label="\\text{closed loop verified}")
