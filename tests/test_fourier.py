@@ -257,5 +257,12 @@ def test_product_form_not_printed_when_it_cannot_be_shorter(monkeypatch) -> None
     out = S.fourier_expr(coeffs, [q1, q2])
     assert calls == [] and out.has(sp.cos(5 * q1 - q2)) and same_function(out, long)
     assert S.count_ops(product_form(coeffs, [q1, q2])) >= S.count_ops(out)
+    # each symbol of a coefficient counts at least one operation in the product form (a (b + c) cos 2q₁ + ...: the
+    # Fourier form counts 11, the product form 17, and the bound, 13 with the symbols, 9 without them, decides)
+    c, d = sp.symbols("c d", real=True)
+    two = a * (b + c) * sp.cos(2 * q1) + a * (c + d) * sp.sin(2 * q1)
+    coeffs = fourier_coefficients(two, [q1])
+    assert S.count_ops(S.fourier_expr(coeffs, [q1])) == 11 and calls == []
+    assert S.count_ops(product_form(coeffs, [q1])) == 17
     short = (a - b) * sp.sin(2 * q2) / 2
     assert S.fourier_expr(fourier_coefficients(short, [q2]), [q2]).has(sp.sin(q2) * sp.cos(q2)) and len(calls) == 1

@@ -428,13 +428,15 @@ def product_groups(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]
 def product_cost_bound(groups: dict[tuple[int, ...], PolyElement]) -> int:
     """A lower bound of count_ops of the product form of ``groups``, without printing it: one +/- between terms,
     and per term c·Π fᵉ (f = cos/sin of one angle) the count of Π fᵉ (one per sin/cos, per power, per product)
-    plus one for a coefficient other than ±1 (a product, a quotient or a minus sign), whatever form the coefficient
-    takes; nothing for the constant term."""
+    plus, whatever form the coefficient c takes, one for c other than ±1 (a product, a quotient or a minus sign)
+    and at least one per symbol of c (its leaves joined by one +, * or ^ each, and joined to Π fᵉ: k leaves, k
+    operations); nothing for the constant term (−(a + b) counts a single operation)."""
     bound = len(groups) - 1
     for key, g in groups.items():
         factors = sum(1 for e in key if e)
         if factors:  # (the constant term may count nothing: 3)
-            bound += 2 * factors - 1 + sum(1 for e in key if e > 1) + (not (g.is_ground and abs(g.LC) == 1))
+            used = sum(1 for d in g.degrees() if d > 0)
+            bound += 2 * factors - 1 + sum(1 for e in key if e > 1) + max(used, not (g.is_ground and abs(g.LC) == 1))
     return bound
 
 
