@@ -377,6 +377,20 @@ def test_kalman_rank_at_random_points_finds_a_rank_deficiency():
     assert kalman_rank(A, sp.Matrix([0, 0, 1 / m, 0]).row_join(sp.Matrix([0, 0, 0, 1]))) == 4
 
 
+def test_exact_controllability_is_sympys_kalman_matrix():
+    """[B, AB, A²B, A³B] over the field of rational functions (rank and det exact, without converting the printed
+    matrix) equals the sympy product, rank and det; None off the rational functions (√2: sympy's rank)."""
+    from solver.control.linearization import controllability, exact_controllability
+    m, k, b = sp.symbols("m k b", positive=True)
+    A = sp.Matrix([[0, 0, 1, 0], [0, 0, 0, 1], [-2 * k / m, k / m, -b / m, 0], [k / m, -k / m, 0, 0]])
+    for Bl, rank in ((sp.Matrix([0, 0, 1 / m, 0]), 4), (sp.Matrix([0, 0, 1 / m, 1 / m]) * 0, 0)):
+        C, E = controllability(A, Bl), exact_controllability(A, Bl)
+        assert E.to_Matrix().applyfunc(sp.cancel) == C.applyfunc(sp.cancel)
+        assert E.rank() == C.rank(simplify=True) == rank
+        assert sp.cancel(E.domain.to_sympy(E.det()) - C.det()) == 0
+    assert exact_controllability(sp.Matrix([[0, 1], [sp.sqrt(2), 0]]), sp.Matrix([0, 1])) is None
+
+
 def test_linearization_not_controllable_and_not_an_equilibrium():
     # two uncoupled masses, one actuated: the other cannot be reached
     text = """

@@ -10,12 +10,13 @@ Controllable iff rank [B_l, A B_l, ..., A^{2n−1} B_l] = 2n (Kalman).
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import sympy as sp
 
 from solver.control.laws import ControlLawAsk, _zero
 from solver.dynamics.model import derive, require_model
-from solver.math.simplify import exact_det, factor_within, tidy
+from solver.math.simplify import exact_det, factor_within, matmul, rational_matrix, tidy
 from solver.results import Solution
 from solver.spec.errors import UserError
 
@@ -29,10 +30,10 @@ def linearize(B: sp.Matrix, g: sp.Matrix, G: sp.Matrix, Fv: sp.Matrix, q: list, 
     Bi = (Be.adjugate() / factor_within(Be.det())).applyfunc(sp.simplify)
     A = sp.zeros(2 * n, 2 * n)
     A[:n, n:] = sp.eye(n)
-    A[n:, :n] = (-Bi * Ke).applyfunc(tidy)
-    A[n:, n:] = (-Bi * Fv.xreplace(at)).applyfunc(tidy)
+    A[n:, :n] = matmul(-Bi, Ke).applyfunc(tidy)
+    A[n:, n:] = matmul(-Bi, Fv.xreplace(at)).applyfunc(tidy)
     Bl = sp.zeros(2 * n, G.cols)
-    Bl[n:, :] = (Bi * G.xreplace(at)).applyfunc(tidy)
+    Bl[n:, :] = matmul(Bi, G.xreplace(at)).applyfunc(tidy)
     return A, Bl, Ke
 
 
@@ -105,8 +106,22 @@ def controllability(A: sp.Matrix, Bl: sp.Matrix) -> sp.Matrix:
     blocks, P = [], Bl
     for _ in range(A.rows):
         blocks.append(P)
-        P = (A * P).applyfunc(tidy)
+        P = matmul(A, P).applyfunc(tidy)
     return sp.Matrix.hstack(*blocks)
+
+
+def exact_controllability(A: sp.Matrix, Bl: sp.Matrix) -> Any:
+    """:func:`controllability` as a DomainMatrix over the field of rational functions of the entries of A and B_l
+    (:func:`solver.math.simplify.rational_matrix`), whose rank and det are exact; None when an entry is not such a
+    function (a float, √2 or cos θ: the caller uses sympy's rank and det)."""
+    fA, fB = rational_matrix(A), rational_matrix(Bl)
+    if fA is None or fB is None:
+        return None
+    fA, fB = fA.unify(fB)
+    blocks = [fB]
+    for _ in range(A.rows - 1):
+        blocks.append(fA * blocks[-1])
+    return blocks[0].hstack(*blocks[1:])
 
 
 def kalman_rank(A: sp.Matrix, Bl: sp.Matrix, trials: int = 3) -> int:
@@ -127,6 +142,16 @@ def kalman_rank(A: sp.Matrix, Bl: sp.Matrix, trials: int = 3) -> int:
         if best == A.rows or trials == 0:
             break
     return best
+
+
+def _factored_det(M: sp.Matrix, exact: Any = None) -> sp.Expr:
+    """det M factored: over the field of rational functions of its entries when they are such (``exact``: M there,
+    when already converted; the determinant is then reduced, and factoring it is canonical), else M.det()
+    simplified and factored."""
+    exact = exact if exact is not None else rational_matrix(M)
+    if exact is None:
+        return factor_within(sp.simplify(M.det()))
+    return factor_within(exact.domain.to_sympy(exact.det()))
 
 
 def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # type: ignore[no-untyped-def]
@@ -163,11 +188,12 @@ def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # ty
     Be = Bm.xreplace(at).applyfunc(tidy)
     if n <= 2 or not (A.free_symbols | Bl.free_symbols):
         C = controllability(A, Bl)
-        rank = C.rank(simplify=True)
+        exact = exact_controllability(A, Bl)
+        rank = exact.rank() if exact is not None else C.rank(simplify=True)
         if A.has(sp.Float):   # division-free (Berkowitz) and expanded: float coefficients neither cancel nor factor
             cp = sp.Add(*(lam ** k * tidy(c) for (k,), c in A.charpoly(lam).terms()))   # (1.0000000000000002 -> 1)
         else:
-            cp = factor_within(sp.simplify(exact_det(lam * sp.eye(2 * n) - A)))
+            cp = _factored_det(lam * sp.eye(2 * n) - A)
     else:  # the powers of A are rational functions that grow without bound: rank at random points, and
         C = None  # det(sI − A) = det(B_e s² + F_v s + K_e) / det B_e, an n×n polynomial determinant
         rank = kalman_rank(A, Bl)
@@ -187,7 +213,7 @@ def solve_linearization(problem, options: ControlLawAsk, ctx) -> Solution:  # ty
     sol.add("controllable", bool(rank == 2 * n), "bool", label="\\text{controllable}")
     detc = None
     if m == 1 and C is not None:
-        detc = factor_within(sp.simplify(exact_det(C)))
+        detc = _factored_det(C, exact)
         sol.add("det_ctrb", detc, "scalar", label="\\det\\mathcal{C}")
     sol.add("char_poly", cp, "scalar", label="\\det(sI - A)")
     sol.step("model", B=dm.B, c=dm.c, g=dm.g, Fv=dm.Fv, G=dm.G, n=n, friction=dm.Fv is not None)
