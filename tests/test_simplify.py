@@ -294,3 +294,28 @@ def test_matmul_builds_the_entries_of_sympys_product():
         assert P.shape == (M * N).shape and sp.srepr(P) == sp.srepr(M * N)
     with pytest.raises(sp.ShapeError):
         matmul(A, A)
+
+
+def test_together_memoized_is_sympys_together():
+    """simplify.together (each subexpression's result memoized) builds what sp.together builds: random sums,
+    products, powers and quotients of symbols, numbers and sines, including the same fraction in several terms."""
+    from solver.math.simplify import together
+    x, y, z, q = sp.symbols("x y z q")
+    rng = random.Random(3)
+    atoms = [x, y, z, sp.Rational(1, 2), sp.Integer(3), sp.sin(q), sp.cos(q + x)]
+
+    def rnd(depth: int) -> sp.Expr:
+        if depth == 0 or rng.random() < 0.25:
+            return rng.choice(atoms)
+        r = rng.random()
+        if r < 0.35:
+            return rnd(depth - 1) + rnd(depth - 1)
+        if r < 0.7:
+            return rnd(depth - 1) * rnd(depth - 1)
+        if r < 0.85:
+            return rnd(depth - 1) / (rnd(depth - 1) + 1)
+        return rnd(depth - 1) ** rng.choice([2, -1, -2])
+    shared = (x / 2 + y / 3) / (x * z + z)
+    cases = [sp.sympify(rnd(4)) for _ in range(30)] + [x * shared + y * shared + 1, (x + shared) ** 2 / y]
+    for e in cases:
+        assert sp.srepr(together(e)) == sp.srepr(sp.together(e)), e

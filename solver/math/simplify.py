@@ -511,6 +511,20 @@ MAX_DENOMINATOR = 10**4   # a float that is p/q with a larger q prints as the fl
 
 
 @lru_cache(maxsize=20000)
+def together(expr: sp.Expr) -> sp.Expr:
+    """``sp.together(expr)`` (deep=False), step by step as sympy takes it (each sum's terms put together, then over
+    a common denominator by gcd_terms), with each subexpression's result memoized: the entries of a law B a + n
+    share the numerators of a, which sympy's together would take apart once per entry."""
+    if expr.is_Atom or expr.is_Function:
+        return expr
+    if expr.is_Add:
+        return sp.gcd_terms([together(a) for a in expr.args], fraction=True)
+    if expr.is_Pow:
+        return expr.func(together(expr.base), expr.exp)
+    return expr.func(*[together(a) for a in expr.args])
+
+
+@lru_cache(maxsize=20000)
 def tidy(expr: sp.Expr) -> sp.Expr:
     """Simplify ``expr`` to the compact form a teacher prints (canonical for trigonometric polynomials)."""
     expr = sp.sympify(expr)
@@ -529,7 +543,7 @@ def tidy(expr: sp.Expr) -> sp.Expr:
         return _fourier(expr)
     except NotTrigPolynomial:
         pass
-    num, den = sp.fraction(sp.together(expr))
+    num, den = sp.fraction(together(expr))
     if den != 1:
         try:
             n, d = _fourier(num), _fourier(den)
