@@ -310,8 +310,14 @@ def solve_cartesian(problem, options: ControlLawAsk, ctx) -> Solution:  # type: 
     sol.add("Jdot_dq", Jdq, "vector", label="\\dot J(q)\\dot q")
     if R is not None:
         e_t = (R.T * (rd - f)).applyfunc(sp.expand)
-        KPb = (R * KP * R.T).applyfunc(lambda x: sp.trigsimp(sp.expand(x)))
-        KDb = (R * KD * R.T).applyfunc(lambda x: sp.trigsimp(sp.expand(x)))
+        simplified: dict[sp.Expr, sp.Expr] = {}   # (R K Rᵀ is symmetric: each pair of entries simplified once)
+
+        def trigsimp(x: sp.Expr) -> sp.Expr:
+            x = sp.expand(x)
+            if x not in simplified:
+                simplified[x] = sp.trigsimp(x)
+            return simplified[x]
+        KPb, KDb = (R * KP * R.T).applyfunc(trigsimp), (R * KD * R.T).applyfunc(trigsimp)
         iso = all(_zero(x) for x in list(KPb - KP) + list(KDb - KD))
         sol.add("R_frame", R, "matrix", label="R")
         sol.add("e_t", e_t, "vector", label="e_t = R^T(r_d - r)")
