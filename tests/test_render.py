@@ -321,3 +321,32 @@ def test_tree_size_counts_as_preorder_traversal():
     big = sp.Mul(*[shared + k for k in range(120)], evaluate=False)
     assert tree_size(big) == sum(1 for _ in sp.preorder_traversal(big)) > LARGE_TEXT
     assert is_large(big, LARGE_TEXT) and not is_large(shared, LARGE_TEXT) and not is_large("text")
+
+
+def test_long_expressions_print_each_shared_subexpression_once(monkeypatch):
+    """The direct printers of long expressions (JSON text and LaTeX) print a subexpression shared by several
+    results once (u = B a shares the numerators of a), to the same text; not with floats (equal values may print
+    with other precisions)."""
+    import solver.publish.render as R
+    q1, q2, m1, m2, c = sp.symbols("q1 q2 m1 m2 c")
+    num = sp.Add(*[(k + 1) * sp.cos(k * q1 - q2) * q2 ** k / 3 - sp.sin(q1 + k * q2) for k in range(25)])
+    den = 1 + sp.cos(q2) ** 2
+    a = num / den
+    u1, u2 = m1 * a + c, m2 * a - c
+    latex = R.Latex({})
+    memo_text: dict = {}
+    texts = [R._fast_str(e, memo_text) for e in (a, u1, u2)]
+    assert texts == [R._fast_str(e) for e in (a, u1, u2)]
+    assert parse_expr(texts[1], local_dict={s.name: s for s in (q1, q2, m1, m2, c)}) == u1
+    tex = [latex.fast(e, latex._fast_memo) for e in (a, u1, u2)]
+    assert tex == [latex.fast(e) for e in (a, u1, u2)]
+    printed: list = []
+    text_of, tex_of = R._fast_text, R.Latex._fast
+    monkeypatch.setattr(R, "_fast_text", lambda e, memo: printed.append(e) or text_of(e, memo))
+    monkeypatch.setattr(R.Latex, "_fast", lambda self, e, memo: printed.append(e) or tex_of(self, e, memo))
+    u3 = m1 * m2 * a
+    R._fast_str(u3, memo_text), latex.fast(u3, latex._fast_memo)
+    assert num not in printed and den ** -1 not in printed and u3 in printed
+    printed.clear()
+    R._fast_str(u3)   # (without a memo: everything again)
+    assert num in printed

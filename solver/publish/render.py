@@ -146,10 +146,20 @@ class Latex:
         self._symbols: dict[sp.Symbol, str] = {}
         self.width = width  # reports: a matrix wider than this many characters gets its long entries broken
         self._printed: dict[sp.Basic, str] = {}  # (the report prints an entry again to measure and to break it)
+        self._fast_memo: dict[sp.Basic, str] = {}  # compound subexpressions of long expressions, printed by fast
 
-    def fast(self, e: sp.Expr) -> str:
+    def fast(self, e: sp.Expr, memo: dict | None = None) -> str:
         """LaTeX of a long polynomial-like expression (sums, products, powers, sin/cos, numbers, symbols) printed
-        directly, terms in stored order."""
+        directly, terms in stored order; with ``memo`` (an expression without floats) each compound subexpression
+        once (the entries of B a share the numerators of a)."""
+        if memo is None or e.is_Atom:
+            return self._fast(e, memo)
+        hit = memo.get(e)
+        if hit is None:
+            hit = memo[e] = self._fast(e, memo)
+        return hit
+
+    def _fast(self, e: sp.Expr, memo: dict | None) -> str:
         if e.is_Symbol:
             if e not in self._symbols:
                 self._symbols[e] = self.printer.doprint(e)
@@ -162,7 +172,7 @@ class Latex:
             out = ""
             for k, a in enumerate(e.args):
                 neg = a.could_extract_minus_sign()
-                body = self.fast(-a if neg else a)
+                body = self.fast(-a if neg else a, memo)
                 out += ("- " if neg else "") + body if k == 0 else (" - " if neg else " + ") + body
             return out
         if e.is_Mul:
@@ -170,7 +180,7 @@ class Latex:
             factors = sp.Mul.make_args(rest)
             parts = []
             for f in factors:
-                s = self.fast(f)
+                s = self.fast(f, memo)
                 parts.append(f"\\left({s}\\right)" if f.is_Add else s)
             body = " ".join(parts)
             if coeff == 1:
@@ -179,14 +189,14 @@ class Latex:
                 return "- " + body
             if coeff.is_Rational and coeff.q != 1:
                 return f"{'-' if coeff < 0 else ''}\\frac{{{abs(coeff.p)}}}{{{coeff.q}}} {body}"
-            return f"{self.fast(coeff)} {body}"
+            return f"{self.fast(coeff, memo)} {body}"
         if e.is_Pow and e.exp.is_Integer and e.exp > 0:
-            base = self.fast(e.base)
+            base = self.fast(e.base, memo)
             if not (e.base.is_Symbol or e.base.is_Integer and e.base > 0):
                 base = f"\\left({base}\\right)"
             return f"{base}^{{{e.exp}}}"
         if isinstance(e, (sp.sin, sp.cos)):
-            return f"\\{type(e).__name__}{{\\left({self.fast(e.args[0])}\\right)}}"
+            return f"\\{type(e).__name__}{{\\left({self.fast(e.args[0], memo)}\\right)}}"
         return self.printer.doprint(e)
 
     def __call__(self, value: Any) -> str:
@@ -212,10 +222,11 @@ class Latex:
     def _expr(self, value: sp.Basic) -> str:
         if value.is_Float:
             return number(value)
-        if value.atoms(sp.Float):
-            value = value.xreplace({f: sp.Float(f, 4) for f in value.atoms(sp.Float)})
+        floats = value.atoms(sp.Float)
+        if floats:
+            value = value.xreplace({f: sp.Float(f, 4) for f in floats})
         if is_large(value):  # terms as stored, by a direct printer: sympy's costs minutes on such sums
-            return self.fast(value)
+            return self.fast(value, None if floats else self._fast_memo)
         return self.printer.doprint(value)
 
     def _fit(self, M: sp.MatrixBase, cells: list[list[str]], width: int) -> list[list[str]]:
@@ -823,15 +834,30 @@ def _expr_str(value: Any) -> str:
         rows = ", ".join("[" + ", ".join(_expr_str(x) for x in value.row(i)) + "]" for i in range(value.rows))
         return f"Matrix([{rows}])"
     if is_large(value, LARGE_TEXT):
-        return _fast_str(value)
+        return _fast_str(value, None if value.has(sp.Float) else _FAST_TEXT)
     if isinstance(value, sp.Basic):
         return _STR.doprint(value)
     return str(value)
 
 
-def _fast_str(e: Any) -> str:
+_FAST_TEXT: dict[sp.Basic, str] = {}  # compound subexpression -> its _fast_str (expressions without floats)
+
+
+def _fast_str(e: Any, memo: dict | None = None) -> str:
     """sympy-readable text of a long expression printed directly (terms in stored order): parse_expr reads it
-    back to the same expression."""
+    back to the same expression. With ``memo`` (an expression without floats, whose equal values may print with
+    other precisions) each compound subexpression is printed once: the entries of B a share the numerators of a."""
+    if memo is None or e.is_Atom:
+        return _fast_text(e, memo)
+    hit = memo.get(e)
+    if hit is None:
+        if len(memo) > 200_000:
+            memo.clear()
+        hit = memo[e] = _fast_text(e, memo)
+    return hit
+
+
+def _fast_text(e: Any, memo: dict | None) -> str:
     if e.is_Symbol or e.is_Integer:
         return str(e)
     if e.is_Rational:
@@ -840,27 +866,27 @@ def _fast_str(e: Any) -> str:
         out = ""
         for k, a in enumerate(e.args):
             neg = a.could_extract_minus_sign()
-            body = _fast_str(-a if neg else a)
+            body = _fast_str(-a if neg else a, memo)
             out += ("-" if neg else "") + body if k == 0 else (" - " if neg else " + ") + body
         return out
     if e.is_Mul:
         coeff, rest = e.as_coeff_Mul()
-        parts = [f"({_fast_str(f)})" if f.is_Add else _fast_str(f) for f in sp.Mul.make_args(rest)]
+        parts = [f"({_fast_str(f, memo)})" if f.is_Add else _fast_str(f, memo) for f in sp.Mul.make_args(rest)]
         body = "*".join(parts)
         if coeff == 1:
             return body
         if coeff == -1:
             return "-" + body
-        return f"{_fast_str(coeff)}*{body}"
+        return f"{_fast_str(coeff, memo)}*{body}"
     if e.is_Pow:
-        base, ex = _fast_str(e.base), _fast_str(e.exp)
+        base, ex = _fast_str(e.base, memo), _fast_str(e.exp, memo)
         if not (e.base.is_Symbol or (e.base.is_Integer and e.base > 0)):
             base = f"({base})"
         if not (e.exp.is_Integer and e.exp > 0):
             ex = f"({ex})"
         return f"{base}**{ex}"
     if isinstance(e, sp.Function):
-        return f"{type(e).__name__}({', '.join(_fast_str(a) for a in e.args)})"
+        return f"{type(e).__name__}({', '.join(_fast_str(a, memo) for a in e.args)})"
     return str(e)
 
 
