@@ -319,3 +319,32 @@ def test_together_memoized_is_sympys_together():
     cases = [sp.sympify(rnd(4)) for _ in range(30)] + [x * shared + y * shared + 1, (x + shared) ** 2 / y]
     for e in cases:
         assert sp.srepr(together(e)) == sp.srepr(sp.together(e)), e
+
+
+def test_ring_reader_is_sympys_conversion():
+    """ring_fraction's one-walk generators are _generators wherever _over_QQ holds (None elsewhere), and its
+    reading of a polynomial (monomials as terms, sums gathered at once) is sympy's R(e); n / Π bᵏ of a fraction
+    has its value at a rational point (sin q a generator there like any symbol)."""
+    from sympy.polys.rings import ring
+
+    from solver.math.simplify import _fraction, _generators, _over_QQ, _ring_generators
+    q = sp.Symbol("q")
+    rng = random.Random(7)
+    cases = [_poly(rng, rng.randint(1, 6)) for _ in range(12)] + [_rational(rng) for _ in range(6)]
+    cases += [x * sp.sin(q) ** 2 - q * sp.cos(q) / 3, sp.sin(q) * (a + b) ** 2, sp.sqrt(a) + b, sp.Float(0.5) * a,
+              sp.pi * a, sp.exp(a) + 1, sp.sin(2 * q) + a, sp.Integer(3)]
+    for e in cases:
+        gens = _ring_generators(e)
+        assert gens == (_generators(e) if _over_QQ(e) and not e.has(sp.pi, sp.sin(2 * q)) else None), e
+        if gens is None:
+            continue
+        R = ring(tuple(gens), sp.QQ)[0]
+        n, dens = _fraction(e, R)
+        d = R.one
+        for base, k in dens.items():
+            d *= base ** k
+        if not dens:
+            assert n == R(e), e
+        point = {g: sp.Rational(3 + 2 * i, 7 + i) for i, g in enumerate(R.symbols)}
+        values = [point[g] for g in R.symbols]
+        assert sp.Rational(n(*values)) / sp.Rational(d(*values)) == e.xreplace(point), e

@@ -250,37 +250,58 @@ class _NotRational(Exception):
     pass
 
 
-def _fraction(e: sp.Expr, R) -> tuple:  # type: ignore[no-untyped-def]
+def _fraction(e: sp.Expr, R, index: dict | None = None) -> tuple:  # type: ignore[no-untyped-def]
     """e = n / Π bᵏ in the polynomial ring R: (n, {b: k}) with each b monic, never multiplied out (a denominator
-    (q1² + d²)³ stays the cube of its base, whose factors are found on the base alone)."""
+    (q1² + d²)³ stays the cube of its base, whose factors are found on the base alone). ``index``: {generator of R as
+    an expression: its position} (built from R when not given). Monomials are read into their term directly and
+    the terms of a sum gathered in one dictionary (converting each symbol through R(e) and adding the terms one by
+    one, each sum a copy of the last, cost more than the rest)."""
+    if index is None:
+        index = {x: i for i, x in enumerate(R.symbols)}
+    return _read_fraction(e, R, index, R.domain)
+
+
+def _read_fraction(e: sp.Expr, R, index: dict, QQ) -> tuple:  # type: ignore[no-untyped-def]
     if e.is_Rational:
-        return R(e), {}
+        return R.ground_new(QQ(e.p, e.q)), {}
     if e.is_Symbol or isinstance(e, (sp.sin, sp.cos)):  # a generator of R (raises if it is not one)
-        return R(e), {}
+        i = index.get(e)
+        if i is None:
+            raise ValueError(e)
+        return R.gens[i], {}
     if e.is_Add:
-        parts = [_fraction(a, R) for a in e.args]
+        parts = [_read_fraction(a, R, index, QQ) for a in e.args]
         common: dict = {}
         for _, d in parts:
             for b, k in d.items():
                 common[b] = max(common.get(b, 0), k)
-        n = R.zero
+        acc: dict = {}
+        zero = QQ.zero
         for ni, di in parts:
             for b, k in common.items():
                 if k > di.get(b, 0):
                     ni = ni * b ** (k - di.get(b, 0))
-            n += ni
+            for m, c in ni.items():
+                acc[m] = acc.get(m, zero) + c
+        n = R.zero
+        for m, c in acc.items():
+            if c:
+                n[m] = c
         return n, common
     if e.is_Mul:
+        mono = _monomial(e, R, index, QQ)
+        if mono is not None:
+            return mono, {}
         n, d = R.one, {}
         for a in e.args:
-            na, da = _fraction(a, R)
+            na, da = _read_fraction(a, R, index, QQ)
             n *= na
             for b, k in da.items():
                 d[b] = d.get(b, 0) + k
         return n, d
     if e.is_Pow and e.exp.is_Integer:
         k = int(e.exp)
-        nb, db = _fraction(e.base, R)
+        nb, db = _read_fraction(e.base, R, index, QQ)
         if k >= 0:
             return nb ** k, {b: j * k for b, j in db.items()}
         if not nb:
@@ -293,6 +314,53 @@ def _fraction(e: sp.Expr, R) -> tuple:  # type: ignore[no-untyped-def]
         lc = nb.LC
         return num.quo_ground(lc ** -k), {nb.quo_ground(lc): -k}
     raise _NotRational
+
+
+def _monomial(e: sp.Expr, R, index: dict, QQ):  # type: ignore[no-untyped-def]
+    """The term of R a product of a rational and natural powers of generators is; None for any other product."""
+    exps = [0] * R.ngens
+    c = QQ.one
+    for a in e.args:
+        if a.is_Rational:
+            c *= QQ(a.p, a.q)
+            continue
+        b, k = (a.base, a.exp) if a.is_Pow else (a, sp.S.One)
+        i = index.get(b)
+        if i is None or not (k.is_Integer and k > 0):
+            return None
+        exps[i] += int(k)
+    return R.term_new(tuple(exps), c)
+
+
+def _ring_generators(x: sp.Expr) -> list[sp.Expr] | None:
+    """:func:`_generators` of x (in sympy's order) when x is built of rationals, symbols, sin/cos of symbols, sums,
+    products and integer powers only, in one walk of its tree; None for anything else (floats, other numbers and
+    functions, radicals: nothing :func:`_fraction` reads) and for an x without symbols."""
+    from sympy.polys.polyutils import _sort_gens
+    bare: set = set()
+    trig: set = set()
+    seen: set = set()
+    stack = [x]
+    while stack:
+        e = stack.pop()
+        if e.is_Symbol:
+            bare.add(e)
+        elif e.is_Rational:
+            continue
+        elif isinstance(e, (sp.sin, sp.cos)):
+            if not e.args[0].is_Symbol:
+                return None
+            trig.add(e)
+        elif e.is_Add or e.is_Mul or (e.is_Pow and e.exp.is_Integer):
+            if e in seen:
+                continue
+            seen.add(e)
+            stack.extend(e.args)
+        else:
+            return None
+    if not bare and not trig:
+        return None
+    return _sort_gens(list(bare | trig))
 
 
 def _over_QQ(x: sp.Expr) -> bool:
@@ -673,11 +741,12 @@ def ring_fraction(expr: sp.Expr) -> tuple | None:
     (:func:`_fraction`: read from the tree, nothing multiplied out but n); None for anything that is not a rational
     function over QQ of its symbols and sines and cosines."""
     from sympy.polys.rings import ring
-    if not _over_QQ(expr):
+    gens = _ring_generators(expr)
+    if gens is None:
         return None
-    R = ring(tuple(_generators(expr)), sp.QQ)[0]
+    R = ring(tuple(gens), sp.QQ)[0]
     try:
-        return _fraction(expr, R)
+        return _fraction(expr, R, {x: i for i, x in enumerate(gens)})
     except (_NotRational, ZeroDivisionError, sp.PolynomialError, TypeError, ValueError, RecursionError):
         return None
 
