@@ -427,13 +427,12 @@ def _same_polynomial(a: sp.Expr, b: sp.Expr) -> bool:
     if a == b:
         return True
     syms = sorted(a.free_symbols | b.free_symbols, key=lambda x: x.name)
-    point = {x: sp.Rational(97 + 31 * k, 89 + 7 * k) for k, x in enumerate(syms)}
-    try:
-        va, vb = a.xreplace(point), b.xreplace(point)
-    except (ZeroDivisionError, TypeError):
-        va = vb = None
-    if va is not None and va.is_Rational and vb.is_Rational and va != vb:
-        return False
+    at = RationalPoint({x: Fraction(97 + 31 * k, 89 + 7 * k) for k, x in enumerate(syms)}, {})
+    try:  # (in Fractions, read from the trees: substituting and re-evaluating the expressions costs more)
+        if at.value(a) != at.value(b):
+            return False
+    except (NotRational, ZeroDivisionError):
+        pass
     return sp.expand(a - b) == 0
 
 
