@@ -623,12 +623,27 @@ def tidy(expr: sp.Expr) -> sp.Expr:
     radical = _tidy_radicals(expr)
     if radical is not None:
         return radical
+    if _proved_zero(expr):  # sin(2 asin x) - 2x√(1 - x²): a small part of simplify's cost
+        return sp.Integer(0)
     try:
         return sp.trigsimp(sp.simplify(expr))
     except BudgetExceeded:  # a caller's CPU budget ran out: let it know
         raise
     except Exception:  # pragma: no cover - sympy internals
         return expr
+
+
+def _proved_zero(expr: sp.Expr) -> bool:
+    """Whether :func:`_algebraic_zero` proves an expression outside the canonical forms (radicals, other
+    functions) zero; False when it does not decide."""
+    if _canonical_coefficients(expr):
+        return False
+    try:
+        return bool(_algebraic_zero(expr))
+    except BudgetExceeded:
+        raise
+    except Exception:  # pragma: no cover - sympy internals
+        return False
 
 
 def _tidy_radicals(expr: sp.Expr) -> sp.Expr | None:
