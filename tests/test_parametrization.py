@@ -358,3 +358,18 @@ def test_2010_09_15_printed_a4_cannot_express_the_model():
     text = (PROBLEMS / "2010-09-15-ex1.yaml").read_text().replace("      - m3*dc2*dc3\n", "      - m2*dc2*dc3\n")
     with pytest.raises(UserError, match="cannot express the model"):
         solve_problem(load_problem_text(text))
+
+
+def test_readable_is_memoized_on_its_arguments():
+    """readable is computed once per (entry, state, rates): a repeated entry (Y's entries recur in the rows and
+    groups of the explanation) is the cached result, equal to a fresh computation; the set and list given in
+    another order or as other containers hit the same entry."""
+    from solver.dynamics.parametrization import _readable, readable
+    q1, q2, dq1, ddq1, a = sp.symbols("q1 q2 dq1 ddq1 a")
+    e = a * ddq1 * sp.cos(q2) ** 2 + a * dq1**2 * sp.sin(q2) * sp.cos(q2)
+    _readable.cache_clear()
+    first = readable(e, {q1, q2, dq1, ddq1}, [ddq1, dq1])
+    again = readable(e, {ddq1, dq1, q2, q1}, (ddq1, dq1))
+    assert again is first and _readable.cache_info().hits == 1
+    _readable.cache_clear()
+    assert readable(e, {q1, q2, dq1, ddq1}, [ddq1, dq1]) == first

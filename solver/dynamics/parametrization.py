@@ -32,6 +32,7 @@ from __future__ import annotations
 import random
 from dataclasses import dataclass, field
 from fractions import Fraction
+from functools import lru_cache
 from typing import Any, Literal, Optional, Union
 
 import mpmath
@@ -309,13 +310,19 @@ def _group_by_state(e: sp.Expr, rate: list[sp.Symbol]) -> sp.Expr:
 
 
 def readable(e: sp.Expr, state: set, rate: list[sp.Symbol]) -> sp.Expr:
-    """The shortest of: the canonical Fourier form (tidy: c_12, sin 2q), the product forms with sin² or cos²."""
+    """The shortest of: the canonical Fourier form (tidy: c_12, sin 2q), the product forms with sin² or cos².
+    Memoized: Y's entries recur in the explanation's rows, groups and in the other asks of a problem."""
+    return _readable(sp.sympify(e), frozenset(state), tuple(rate))
+
+
+@lru_cache(maxsize=2048)
+def _readable(e: sp.Expr, state: frozenset, rate: tuple) -> sp.Expr:
     t = tidy(e)
     if not t.free_symbols & state or not t.atoms(sp.sin, sp.cos):
         return t
     best, ops = t, count_ops(t)
     for square in ("cos", "sin"):
-        c = _group_by_state(canonical(e, state, square), rate)
+        c = _group_by_state(canonical(e, set(state), square), list(rate))
         n = count_ops(c)
         if n < ops:
             best, ops = c, n
