@@ -792,3 +792,25 @@ def test_classify_semisimple_roots_on_the_imaginary_axis():
 def test_check_finds_bad_contacts_without_solving(body, words):
     """The law's options and the contact are read by the kind's validate hook (`check`) as by solving."""
     assert words in error_found_without_solving(MASS + body)
+
+
+def test_plant_and_frac_terms_are_memoized_copies():
+    """The plant P(s), A(s), N(s), Q(s)/U(s) of one model is computed once per process (the asks of a problem
+    share it) and equals the direct computation; each caller gets its own matrices and term lists."""
+    from types import SimpleNamespace
+
+    from solver.interaction.force import _frac_terms, _plant, _plant_of, frac_terms
+    m, k, x, dx, ddx, u, s = sp.symbols("m k x dx ddx u s")
+    S = SimpleNamespace(q=sp.Matrix([x]), dq=sp.Matrix([dx]), ddq=sp.Matrix([ddx]), u=sp.Matrix([u]), s=s)
+    model = sp.Matrix([m * ddx + k * x - u])
+    _plant_of.cache_clear()
+    first = _plant(S, model, k * x)
+    first["tf_q"][0, 0] = 0                       # a caller changing its copy
+    again = _plant(S, model, k * x)
+    assert _plant_of.cache_info().hits == 1 and again["tf_q"][0, 0] == 1 / (m * s**2 + k)
+    loop = lti.linear_loop(model, [x], [dx], [ddx])
+    assert again["den"] == lti.char_poly(loop, s) and again["P"] == lti.transfer(loop, sp.Matrix([k * x]), {u: 0}, s)[0]
+    _frac_terms.cache_clear()
+    terms = frac_terms(again["P"], s)
+    terms[0].append(0)
+    assert frac_terms(again["P"], s) == ([k], [m * sp.Symbol("zzs") ** 2, k]) and _frac_terms.cache_info().hits == 1

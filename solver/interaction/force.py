@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any, Literal, Optional, Union
 
 import numpy as np
@@ -199,7 +200,14 @@ S_SHOW = sp.Symbol("zzs")  # the Laplace variable in printed polynomials: its na
 
 
 def frac_terms(e: sp.Expr, s: sp.Symbol) -> tuple[list[sp.Expr], list[sp.Expr]]:
-    """Numerator and denominator of a rational function of s as lists of terms c_k s^k, highest power first."""
+    """Numerator and denominator of a rational function of s as lists of terms c_k s^k, highest power first.
+    Memoized (the plant's P, A(s), N(s) recur in each ask of a problem)."""
+    num, den = _frac_terms(sp.sympify(e), s)
+    return list(num), list(den)
+
+
+@lru_cache(maxsize=512)
+def _frac_terms(e: sp.Expr, s: sp.Symbol) -> tuple[tuple[sp.Expr, ...], tuple[sp.Expr, ...]]:
     num, den = sp.fraction(sp.together(e))
 
     def terms(p: sp.Expr) -> list[sp.Expr]:
@@ -213,7 +221,7 @@ def frac_terms(e: sp.Expr, s: sp.Symbol) -> tuple[list[sp.Expr], list[sp.Expr]]:
             out.append(c * S_SHOW**k)
         return out
 
-    return terms(num), terms(den)
+    return tuple(terms(num)), tuple(terms(den))
 
 
 def nice(e: sp.Expr, state: list[sp.Symbol] | None = None) -> sp.Expr:
@@ -984,15 +992,23 @@ def _is_linear(S: Setup) -> bool:
 
 
 def _plant(S: Setup, model: sp.Matrix, Fc: sp.Expr) -> dict[str, Any]:
-    """Open loop: P(s) = F_c(s)/U(s) = N(s)/A(s), A(s) = det(B s² + D s + K), and Q(s)/U(s)."""
-    loop = lti.linear_loop(model, list(S.q), list(S.dq), list(S.ddq))
-    u = S.u[0]
-    den = lti.char_poly(loop, S.s)
-    tf_q = lti.transfer(loop, S.q, {u: 0}, S.s)
-    P = lti.transfer(loop, sp.Matrix([Fc]), {u: 0}, S.s)[0]
-    num = lti.collect_s(sp.cancel(P * den), S.s)
-    tf_num = tf_q.applyfunc(lambda e: lti.collect_s(sp.cancel(e * den), S.s))
-    return {"P": P, "den": den, "num": num, "tf_q": tf_q, "A": loop.A(S.s), "tf_num": tf_num}
+    """Open loop: P(s) = F_c(s)/U(s) = N(s)/A(s), A(s) = det(B s² + D s + K), and Q(s)/U(s). Memoized on the
+    model and the contact force (the asks of a problem with one plant: P, force, force + integral)."""
+    out = _plant_of(sp.ImmutableMatrix(model), sp.sympify(Fc), tuple(S.q), tuple(S.dq), tuple(S.ddq), S.u[0], S.s)
+    return {k: (v.as_mutable() if isinstance(v, sp.MatrixBase) else v) for k, v in out.items()}
+
+
+@lru_cache(maxsize=32)
+def _plant_of(model: sp.ImmutableMatrix, Fc: sp.Expr, q: tuple, dq: tuple, ddq: tuple, u: sp.Symbol,
+              s: sp.Symbol) -> dict[str, Any]:
+    loop = lti.linear_loop(sp.Matrix(model), list(q), list(dq), list(ddq))
+    den = lti.char_poly(loop, s)
+    tf_q = lti.transfer(loop, sp.Matrix(q), {u: 0}, s)
+    P = lti.transfer(loop, sp.Matrix([Fc]), {u: 0}, s)[0]
+    num = lti.collect_s(sp.cancel(P * den), s)
+    tf_num = tf_q.applyfunc(lambda e: lti.collect_s(sp.cancel(e * den), s))
+    return {"P": P, "den": den, "num": num, "tf_q": sp.ImmutableMatrix(tf_q), "A": sp.ImmutableMatrix(loop.A(s)),
+            "tf_num": sp.ImmutableMatrix(tf_num)}
 
 
 def _omega_zeta(Md: sp.Matrix, Dd: sp.Matrix, Kd: sp.Matrix) -> tuple[Any, Any] | None:

@@ -27,7 +27,7 @@ from solver.math.fourier import factor_list_expr
 from solver.math.numeric import evaluate_np
 from solver.math.opcount import count_ops
 from solver.math.search import lp_max
-from solver.math.simplify import factor_within, tidy
+from solver.math.simplify import factor_within, tidy, zero_or_simplified
 
 S = sp.Symbol("s")  # the Laplace variable (the problem's own `s` replaces it when declared)
 MAX_SYMBOLIC_DEGREE = 6  # Routh tables and closed-form poles are symbolic up to this degree
@@ -73,7 +73,7 @@ def linear_loop(residual: sp.Matrix, x: list, dx: list, ddx: list) -> LinearLoop
 
 def equilibrium(loop: LinearLoop) -> sp.Matrix | None:
     """x̄ with A0 x̄ + r0 = 0 (ẍ = ẋ = 0); None when A0 is singular (no isolated equilibrium)."""
-    if loop.A0.shape[0] != loop.A0.shape[1] or sp.simplify(loop.A0.det()) == 0:
+    if loop.A0.shape[0] != loop.A0.shape[1] or zero_or_simplified(loop.A0.det()):
         return None
     return loop.A0.LUsolve(-loop.r0).applyfunc(lambda e: factor_within(sp.cancel(e)))
 
@@ -82,7 +82,7 @@ def steady_velocity(loop: LinearLoop) -> sp.Matrix | None:
     """The constant velocity v̄ of a steady motion x(t) = x₀ + v̄ t (ẍ = 0) when positions do not fully act:
     A0 v̄ = 0 and A1 v̄ + A0 x₀ + r0 = 0; None when A0 is invertible (an equilibrium instead) or v̄ is not unique."""
     n = loop.A0.rows
-    if n != loop.A0.cols or sp.simplify(loop.A0.det()) != 0:
+    if n != loop.A0.cols or not zero_or_simplified(loop.A0.det()):
         return None
     v = sp.symbols(f"_v0:{n}")
     x0 = sp.symbols(f"_x0:{n}")
@@ -95,7 +95,7 @@ def steady_velocity(loop: LinearLoop) -> sp.Matrix | None:
     vel = sp.Matrix(sol[:n])
     if vel.free_symbols & (set(v) | set(x0)):
         return None
-    if all(sp.simplify(e) == 0 for e in vel):
+    if all(zero_or_simplified(e) for e in vel):
         return None  # at rest: no steady motion
     return vel.applyfunc(lambda e: factor_within(sp.cancel(e)))
 
