@@ -472,15 +472,26 @@ def _term_fraction(t: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
         return n, fd
     try:
         R = ring(tuple(_generators(t)), sp.QQ)[0]
-        N, left, cancelled = R(n), [], False
+        index = {x: i for i, x in enumerate(R.symbols)}
+        N, left, cancelled = _polynomial(n, R, index), [], False
         for g, k in powers:
-            G = R(g)
+            G = _polynomial(g, R, index)
             N, j = divide_power(N, G, k) if not G.is_ground else (N, 0)
             left.append(g ** (k - j))
             cancelled = cancelled or j > 0
     except (sp.PolynomialError, TypeError, ValueError, ZeroDivisionError):
         return sp.fraction(factor_within(t))
     return (N.as_expr() / c, sp.Mul(*left)) if cancelled else (n, fd)
+
+
+def _polynomial(e: sp.Expr, R, index: dict):  # type: ignore[no-untyped-def]
+    """R(e) for a polynomial e over R's generators, read as :func:`_fraction` reads it (R(e) itself, with its
+    errors, for anything else)."""
+    try:
+        n, dens = _fraction(e, R, index)
+    except (_NotRational, ValueError, ZeroDivisionError):
+        return R(e)
+    return n if not dens else R(e)
 
 
 def divide_power(p: Any, g: Any, k: int) -> tuple[Any, int]:
