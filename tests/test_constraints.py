@@ -639,6 +639,40 @@ def test_divisibility_precheck_never_refuses_a_factor(f):
     assert _divide_out(sp.expand(fe * (l1 + q2) + r), fe, 1)[1] == 0
 
 
+def test_zero_point_skips_only_symbols_it_cannot_solve_for():
+    """_zero_point tries ∂f/∂s only for the symbols f is linear in (by its ring degree): the same point as trying
+    every symbol in turn (sympy's diff of each, the definition), for factors linear in none, some or all of them."""
+    import random
+
+    from solver.interaction.constraints import _NoValue, _value, _zero_point
+    L, xA, xB, yA, k, q1, q2 = sp.symbols("L xA xB yA k q1 q2", real=True)
+
+    def every_symbol(f: sp.Expr) -> dict | None:
+        rng, g = random.Random(3), f
+        if isinstance(f, (sp.sin, sp.cos)):
+            g = f.args[0] - (0 if isinstance(f, sp.sin) else sp.pi / 2)
+        for s in sorted(g.free_symbols, key=lambda x: x.name):
+            g1 = sp.diff(g, s)
+            if g1.has(s):
+                continue
+            point = {x: rng.uniform(0.3, 1.7) for x in sorted(g.free_symbols - {s}, key=lambda x: x.name)}
+            try:
+                den = _value(g1, point)
+                if abs(den) < 1e-6:
+                    continue
+                point[s] = -_value(g.xreplace({s: sp.S.Zero}), point) / den
+            except _NoValue:
+                return None
+            return point
+        return None
+
+    for f in (L**2 * xA**2 * sp.cos(q2)**2 - 2 * L**2 * xA * xB * sp.sin(q2) * sp.cos(q2) + yA**2,
+              L**2 * (xA - xB) ** 2 + k * yA**2 * sp.cos(q2) + yA**3, xA * sp.cos(q2) - xB * sp.sin(q2),
+              L * sp.cos(q1) + xA * sp.cos(q1 + q2) - k, sp.sin(q1 + 2 * q2), sp.cos(q1), sp.sqrt(xA**2 + yA**2) - k,
+              (xA + 1) * (xA - 1) - xA**2 + k * xB):
+        assert _zero_point(f, random.Random(3)) == every_symbol(f), f
+
+
 def test_exact_division_in_the_sparse_ring_equals_sympys_div():
     """_exact_division (sparse ring, over QQ) gives sp.div's quotients and exponents: factors with a content (2 f),
     factors that divide n fewer times than asked, that do not divide it, radicals and sines as generators."""

@@ -234,7 +234,10 @@ def _zero_point(f: sp.Expr, rng: random.Random) -> dict[sp.Symbol, float] | None
         g = f.args[0] - (0 if isinstance(f, sp.sin) else sp.pi / 2)
     else:
         g = f
+    linear = _linear_candidates(g)
     for s in sorted(g.free_symbols, key=lambda x: x.name):
+        if linear is not None and s not in linear:
+            continue  # (of degree other than 1: ∂g/∂s would have s)
         g1 = sp.diff(g, s)
         if g1.has(s):
             continue
@@ -248,6 +251,20 @@ def _zero_point(f: sp.Expr, rng: random.Random) -> dict[sp.Symbol, float] | None
             return None
         return point
     return None
+
+
+def _linear_candidates(g: sp.Expr) -> set[sp.Symbol] | None:
+    """The symbols s in which the polynomial g (expanded in the ring of its generators: symbols, sin/cos, radicals)
+    has degree 1 and which occur in no other generator: the only ones whose ∂g/∂s can be free of s (sympy's diff
+    of each symbol of a long factor of δ took up to 0.3 s). None when g is not such a polynomial."""
+    from sympy.polys.rings import sring
+    try:
+        R, p = sring(g)
+    except (sp.PolynomialError, sp.CoercionFailed, sp.GeneratorsNeeded, sp.ComputationFailed, ValueError,
+            TypeError):
+        return None
+    inside = set().union(*[x.free_symbols for x in R.symbols if not x.is_Symbol])
+    return {x for i, x in enumerate(R.symbols) if x.is_Symbol and x not in inside and p.degree(i) == 1}
 
 
 class _NoValue(Exception):
