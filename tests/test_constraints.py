@@ -673,6 +673,22 @@ def test_zero_point_skips_only_symbols_it_cannot_solve_for():
         assert _zero_point(f, random.Random(3)) == every_symbol(f), f
 
 
+def test_memoized_factor_terms_is_sympys():
+    """constraints.factor_terms (sympy's recursion, memoized on subexpressions) equals sp.factor_terms on sums of
+    products with contents, common factors, minus signs, sines of multiple angles, powers and fractions."""
+    import random
+
+    from solver.interaction.constraints import factor_terms
+    a, b, c, q1, q2 = sp.symbols("a b c q1 q2", real=True)
+    atoms = [a, b, c, a + b, 2 * a - 4 * c, sp.sin(2 * q1 - 2 * q2), sp.cos(q1 + 3 * q2), sp.sin(q2), (a - c) ** 2,
+             sp.Rational(3, 4), -2, 1 / (a + b), sp.sqrt(2)]
+    rng = random.Random(5)
+    for _ in range(40):
+        e = sp.Add(*[sp.Mul(*rng.sample(atoms, rng.randint(1, 4))) for _ in range(rng.randint(1, 6))])
+        assert factor_terms(e) == sp.factor_terms(e), e
+    assert factor_terms(sp.Sum(a * b + a * c, (b, 1, 3))) == sp.factor_terms(sp.Sum(a * b + a * c, (b, 1, 3)))
+
+
 def test_exact_division_in_the_sparse_ring_equals_sympys_div():
     """_exact_division (sparse ring, over QQ) gives sp.div's quotients and exponents: factors with a content (2 f),
     factors that divide n fewer times than asked, that do not divide it, radicals and sines as generators."""

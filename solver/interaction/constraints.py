@@ -469,10 +469,50 @@ def _short_denominator(d: sp.Expr) -> sp.Expr:
     return short if count_ops(short) <= count_ops(d) else d
 
 
+def factor_terms(e: sp.Expr) -> sp.Expr:
+    """sp.factor_terms(e) with its default options, its recursion memoized on subexpressions (:func:`_terms_of`):
+    the coefficients of a numerator's Fourier form (m₁₂ − m₁₃ − m₂₂ + m₂₃, sin(2q₁ − q₂), ...) recur in many of
+    its terms and in the other entries of a matrix. Expressions outside sympy's plain arithmetic and functions
+    (sums, integrals, non-commutative factors) go to sympy's own."""
+    e = sp.sympify(e)
+    if not isinstance(e, sp.Expr) or not e.is_commutative or e.has(sp.Sum, sp.Integral):
+        return sp.factor_terms(e)
+    return _terms_of(e)
+
+
+@lru_cache(maxsize=8192)
+def _terms_of(expr: sp.Expr) -> sp.Expr:
+    """The recursion of sympy's factor_terms (sympy/core/exprtools.py, ``do`` with radical=False, clear=False,
+    fraction=False, sign=True), each subexpression's result memoized."""
+    from sympy.core.exprtools import gcd_terms
+    from sympy.core.mul import _keep_coeff
+    if expr.is_Atom:
+        return expr
+    if expr.is_Pow or expr.is_Function or not hasattr(expr, "args_cnc"):
+        args = expr.args
+        new = tuple(_terms_of(a) for a in args)
+        return expr if new == args else expr.func(*new)
+    cont, p = expr.as_content_primitive(radical=False, clear=False)
+    if p.is_Add:
+        parts = [_terms_of(a) for a in sp.Add.make_args(p)]
+        if not any(a.as_coeff_Mul()[0].extract_multiplicatively(-1) is None for a in parts):
+            cont, parts = -cont, [-a for a in parts]  # (a common minus sign, which gcd_terms keeps)
+        special = {}
+        for i, a in enumerate(parts):  # exp(-(x + 2)), which gcd_terms would change to exp(-x - 2)
+            _, ex = a.as_base_exp()
+            if ex.is_Mul and ex != sp.Mul(*ex.args):
+                parts[i] = sp.Dummy()
+                special[parts[i]] = a
+        p = gcd_terms(sp.Add._from_args(parts), isprimitive=True, clear=False, fraction=False).xreplace(special)
+    elif p.args:
+        p = p.func(*[_terms_of(a) for a in p.args])
+    return _keep_coeff(cont, p, clear=False, sign=True)
+
+
 @lru_cache(maxsize=4096)
 def _common(e: sp.Expr) -> sp.Expr:
     """Memoized: common factors pulled out (factor_terms), the arguments of sin/cos kept expanded (2 q1 + 2 q2)."""
-    return sp.factor_terms(e).replace(lambda x: isinstance(x, (sp.sin, sp.cos)) and not x.args[0].is_Add
+    return factor_terms(e).replace(lambda x: isinstance(x, (sp.sin, sp.cos)) and not x.args[0].is_Add
                                       and not x.args[0].is_Symbol, lambda x: x.func(sp.expand(x.args[0])))
 
 
