@@ -360,3 +360,20 @@ def test_tidy_proves_zero_before_simplify():
     e = -(k * x**2 + 1) * sp.sin(2 * sp.asin(z)) / 2 + g * sp.sqrt(1 - z**2)
     assert _proved_zero(e) and tidy(e) == 0
     assert not _proved_zero(e + sp.asin(z)) and not _proved_zero(sp.sin(x) ** 2 + sp.cos(x) ** 2 - 1)
+
+
+def test_inverse_powers_in_the_ring_are_the_laurent_coefficients():
+    """_inverse_coefficients (s⁻ᵏ as a generator tₛᵏ, s tₛ = 1 on the coefficients) gives _laurent_coefficients'
+    keys and expanded coefficients, also where s tₛ = 1 cancels a pair; None where an angle or a sum is in a
+    denominator."""
+    from solver.math.simplify import _inverse_coefficients, _laurent_coefficients
+    q1, q2, p, r, lam = sp.symbols("q1 q2 p r lambda", real=True)
+    cases = [(a / p + b / r) * sp.cos(q1) + a * sp.sin(q1 + q2) / p ** 2 - b * r * sp.cos(2 * q2) / (3 * p),
+             (lam + r ** 2 * sp.sin(q1) ** 2 / lam) * sp.cos(q1) / r - r * sp.sin(q1) ** 2 * sp.cos(q1) / lam,
+             (p + 1 / p) ** 2 * sp.sin(q1) * sp.cos(q2) + c / p]
+    for e in cases:
+        fast, slow = _inverse_coefficients(e, [q1, q2]), _laurent_coefficients(e, [q1, q2])
+        assert fast == slow and all(sp.srepr(x) == sp.srepr(y) for k in fast for x, y in zip(fast[k], slow[k]))
+    assert _inverse_coefficients(sp.cos(q1) / q1 + 1 / p, [q1]) is None
+    assert _inverse_coefficients(sp.cos(q1) / (p + r), [q1]) is None
+    assert tidy(cases[1]) == lam * sp.cos(q1) / r
