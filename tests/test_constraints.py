@@ -689,6 +689,26 @@ def test_memoized_factor_terms_is_sympys():
     assert factor_terms(sp.Sum(a * b + a * c, (b, 1, 3))) == sp.factor_terms(sp.Sum(a * b + a * c, (b, 1, 3)))
 
 
+def test_ring_expansion_is_sympys_expand():
+    """ring_expand (sparse ring over the symbols and the sines/cosines) gives sp.expand's terms, and with trig those
+    of sp.expand(sp.expand(sp.expand_trig(.))), for printed Fourier and product forms with factored coefficients
+    (2·(q₃ − d) unevaluated); None for an offset in an argument, a float or a fraction."""
+    from solver.interaction.constraints import ring_expand
+    from solver.math.simplify import tidy
+    a, b, d, q1, q2, q3 = sp.symbols("a b d q1 q2 q3", real=True)
+    forms = [tidy((a + b * sp.cos(q2)) ** 2 * sp.sin(q1 + q2) - a * d * sp.cos(2 * q1)),
+             tidy(sp.expand((a * sp.sin(q1) + b * sp.cos(q1 + q2)) ** 3)),
+             sp.Mul(2, q3 - d, evaluate=False) * sp.cos(q1 - 2 * q2) + (a + b) * (a - b) * sp.sin(3 * q2) / 4,
+             a * sp.sin(q1) ** 2 * sp.cos(q1) + sp.Rational(3, 2)]
+    for n in forms:
+        for trig in (False, True):
+            ref = sp.expand(sp.expand(sp.expand_trig(n))) if trig else sp.expand(n)
+            assert sp.Add.make_args(ring_expand(n, trig)) == sp.Add.make_args(ref), (n, trig)
+    assert ring_expand(sp.cos(q1 + 1) * a, False) is None
+    assert ring_expand(0.5 * a * sp.cos(q1), False) is None
+    assert ring_expand(a / b * sp.cos(q1), True) is None
+
+
 def test_exact_division_in_the_sparse_ring_equals_sympys_div():
     """_exact_division (sparse ring, over QQ) gives sp.div's quotients and exponents: factors with a content (2 f),
     factors that divide n fewer times than asked, that do not divide it, radicals and sines as generators."""

@@ -134,8 +134,81 @@ def _expanded_terms(n: sp.Expr, trig: bool) -> tuple[sp.Expr, ...]:
     if key not in _TERMS:
         if len(_TERMS) > 1024:
             _TERMS.clear()
-        _TERMS[key] = sp.Add.make_args(sp.expand(sp.expand(sp.expand_trig(n)) if trig else n))
+        fast = ring_expand(n, trig)
+        _TERMS[key] = sp.Add.make_args(fast if fast is not None else
+                                       sp.expand(sp.expand(sp.expand_trig(n)) if trig else n))
     return _TERMS[key]
+
+
+@lru_cache(maxsize=1024)
+def _trig_expanded(f: sp.Expr) -> sp.Expr:
+    return sp.expand_trig(f)
+
+
+def ring_expand(n: sp.Expr, trig: bool = False) -> sp.Expr | None:
+    """sp.expand(n) (trig: sp.expand(sp.expand(sp.expand_trig(n)))) for a polynomial with rational coefficients in
+    symbols and sines/cosines of expanded integer combinations of them (a numerator's printed Fourier or product
+    form), by sparse-ring arithmetic over those generators (each sin/cos through its expand_trig with trig): the same
+    expanded sum, without sympy's expansion of the factored coefficients. None for anything else."""
+    from sympy.polys.rings import ring
+    trigs = n.atoms(sp.sin, sp.cos)
+    for f in trigs:
+        a = f.args[0]
+        if not all(t.is_Symbol or (t.is_Mul and len(t.args) == 2 and t.args[0].is_Integer and t.args[1].is_Symbol)
+                   for t in sp.Add.make_args(a)):
+            return None  # (an offset, a fraction or a product of symbols in an argument)
+    sub = {f: _trig_expanded(f) for f in trigs} if trig else {}
+    gens = set()
+    for f in trigs:
+        gens |= sub[f].atoms(sp.sin, sp.cos) if trig else {f}
+
+    def outside(e: sp.Expr) -> set:  # the symbols of e outside sin/cos
+        if e.is_Symbol:
+            return {e}
+        if isinstance(e, (sp.sin, sp.cos)):
+            return set()
+        return set().union(*[outside(a) for a in e.args]) if e.args else set()
+
+    gens |= outside(n)
+    if not gens:
+        return None
+    R, *_ = ring(sorted(gens, key=sp.default_sort_key), sp.QQ)
+    index = dict(zip(R.symbols, R.gens))
+    memo: dict = {}
+
+    def conv(e: sp.Expr) -> Any:
+        hit = memo.get(e)
+        if hit is not None:
+            return hit
+        if e.is_Rational:
+            out = R(sp.QQ(int(e.p), int(e.q)))
+        elif e in index:
+            out = index[e]
+        elif isinstance(e, (sp.sin, sp.cos)) and trig:
+            out = conv(sub[e])
+        elif e.is_Add:
+            out = R.zero
+            for a in e.args:
+                out += conv(a)
+        elif e.is_Mul:
+            out = R.one
+            for a in e.args:
+                out *= conv(a)
+        elif e.is_Pow and e.exp.is_Integer and e.exp >= 0:
+            out = conv(e.base) ** int(e.exp)
+        else:
+            raise _NotPolynomial(e)
+        memo[e] = out
+        return out
+
+    try:
+        return conv(n).as_expr()
+    except _NotPolynomial:
+        return None
+
+
+class _NotPolynomial(Exception):
+    pass
 
 
 def _divide_symbols(n: sp.Expr, factors: list[tuple[sp.Symbol, int]],
