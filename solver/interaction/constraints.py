@@ -538,7 +538,7 @@ def _short_denominator(d: sp.Expr) -> sp.Expr:
     paired = _paired_sines(d)
     if paired is not None:
         return paired
-    short = factor_within(sp.trigsimp(tidy(sp.expand(d))))
+    short = factor_within(sp.trigsimp(tidy_expanded(d)))
     return short if count_ops(short) <= count_ops(d) else d
 
 
@@ -650,14 +650,14 @@ def multiplier(B: sp.Matrix, nvec: sp.Matrix, Gu: sp.Matrix, A: sp.Matrix, Adot:
     λ = adj(W')(A adj(B)(n − G u) − det(B) Ȧ q̇)/det W',  A_B^# = adj(B) Aᵀ adj(W')/det W',
     P = (det W' I − Aᵀ (adj(B) Aᵀ adj(W'))ᵀ)/det W'."""
     adjB, detB = B.adjugate().applyfunc(tidy), tidy(B.det())
-    Wp = (A * adjB * A.T).applyfunc(lambda x: tidy(sp.expand(x)))
-    detW = tidy(sp.expand(Wp.det()))
+    Wp = (A * adjB * A.T).applyfunc(tidy_expanded)
+    detW = tidy_expanded(Wp.det())
     adjW = Wp.adjugate() if Wp.rows > 1 else sp.Matrix([[1]])
     dqv = sp.Matrix(dq)
     lam = over(adjW * (A * adjB * (nvec - Gu) - detB * Adot * dqv), detW)
-    Npinv = (adjB * A.T * adjW).applyfunc(lambda x: tidy(sp.expand(x)))
+    Npinv = (adjB * A.T * adjW).applyfunc(tidy_expanded)
     n = B.rows
-    NP = (detW * sp.eye(n) - A.T * Npinv.T).applyfunc(lambda x: tidy(sp.expand(x)))
+    NP = (detW * sp.eye(n) - A.T * Npinv.T).applyfunc(tidy_expanded)
     model = over(detW * B * sp.Matrix(ddq) - NP * (Gu - nvec) + B * Npinv * Adot * dqv, detW)
     return Multiplier(over(Wp, detB), lam, over(Npinv, detW), over(NP, detW), model)
 
@@ -749,8 +749,8 @@ def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None,
     δ² n = δ² g + δ F_v N_F v + c(q, N_F v), whence numerators that are polynomials."""
     k = A.rows
     AD = A.col_join(D)
-    det = tidy(sp.expand(AD.det()))
-    adj = AD.adjugate().applyfunc(lambda x: tidy(sp.expand(x)))
+    det = tidy_expanded(AD.det())
+    adj = AD.adjugate().applyfunc(tidy_expanded)
     NE, NF = adj[:, :k], adj[:, k:]
     dqv, ddqv = sp.Matrix(dq), sp.Matrix(ddq)
     fz = dict(frozen or {})
@@ -760,7 +760,7 @@ def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None,
         return M.xreplace(fz) if fz else M
 
     E, F = over(NE, det), over(NF, det)
-    NFd, detd = time_derivative(NF, q, dq), tidy(sp.expand(time_derivative(sp.Matrix([[det]]), q, dq)[0]))
+    NFd, detd = time_derivative(NF, q, dq), tidy_expanded(time_derivative(sp.Matrix([[det]]), q, dq)[0])
     NFdot = NFd * det - NF * detd                       # Ḟ = NFdot/δ²
     Fdot = over(NFdot, det ** 2)
     v_def = (D * dqv).applyfunc(tidy)
@@ -786,7 +786,7 @@ def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None,
                - detz ** 3 * NEz.T * Gz, detz ** 4)
     vdot = None
     if NF.cols == 1:  # one pseudo-velocity: v̇ = Fᵀ(Gu − n − BḞv)/FᵀBF (for more, a linear system in v̇)
-        M = tidy(sp.expand((NFz.T * Bz * NFz)[0]))   # δ² FᵀBF
+        M = tidy_expanded((NFz.T * Bz * NFz)[0])   # δ² FᵀBF
         vdot = over(detz ** 3 * NFz.T * Gz - detz * NFz.T * n2 - NFz.T * Bz * Fdv, M * detz ** 2)
     on_v = dict(zip(dq, F * v))
     return Reduction(D, AD, det, E, F, v, dv, v_def, dv_def, Fdot, qddot, BF, FtBF, FtBFdot, Ftn, Ftu, EtBF,
@@ -871,7 +871,7 @@ def solve_inputs(M: sp.Matrix, b: sp.Matrix, u: list[sp.Symbol]) -> Inputs:
     free = [j for j in range(m) if j not in pivots]
     Mp = M[rows, pivots]
     rhs = b[rows, :] - (M[rows, free] * sp.Matrix([u[j] for j in free]) if free else sp.zeros(rank, 1))
-    det = tidy(sp.expand(Mp.det())) if rank > 1 else Mp[0, 0]
+    det = tidy_expanded(Mp.det()) if rank > 1 else Mp[0, 0]
     up = over(Mp.adjugate() * rhs, det) if rank > 1 else rhs.applyfunc(lambda x: ratio(x, det))
     sol = [sp.Integer(0)] * m
     for k, j in enumerate(pivots):
@@ -880,8 +880,8 @@ def solve_inputs(M: sp.Matrix, b: sp.Matrix, u: list[sp.Symbol]) -> Inputs:
         sol[j] = u[j]
     u_min = None
     if free and rank == r and sp.count_ops(M) + sp.count_ops(b) <= MAX_MIN_NORM_OPS:
-        MMt = (M * M.T).applyfunc(lambda x: tidy(sp.expand(x)))
-        d = tidy(sp.expand(MMt.det()))
+        MMt = (M * M.T).applyfunc(tidy_expanded)
+        d = tidy_expanded(MMt.det())
         u_min = over(M.T * (MMt.adjugate() if r > 1 else sp.eye(1)) * b, d)
     return Inputs(sp.Matrix(sol), [u[j] for j in free], u_min, True)
 
