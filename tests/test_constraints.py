@@ -502,8 +502,10 @@ def test_report_in_both_formats():
     for part in ("**Constraints.**", "**Multiplier.**", "dynamically consistent", "**Reduced model.**",
                  "**Static equilibrium.**", "Inputs for a desired pseudo-acceleration"):
         assert part.lower() in md.lower(), part
+    assert "so the robot keeps 1 degree of freedom." in md and "$1$ degree" not in md  # (as the tex says it)
     tex = render(p, sols, "tex")
     assert "\\paragraph{Reduced dynamics.}" in tex and "\\begin{document}" in tex
+    assert "so the robot keeps 1 degree of freedom." in tex
 
 
 def test_solve_inputs_rows_over_one_denominator():
