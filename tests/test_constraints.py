@@ -990,6 +990,37 @@ def test_sentences_agree_with_the_number_of_constraints(kind):
 FROZEN3 = R3 + "  - kind: constrained_dynamics\n    freeze: {q3: 0.4}\n    multiplier: false\n"
 
 
+FROZEN_AT = """
+id: cd-frozen-at
+title: 2R with q2 frozen at q2d, evaluated at a state that leaves q2 and dq2 out
+symbols: {q2d: frozen value of q2}
+values: {q2d: pi/2}
+robot:
+  joints: [R, R]
+  model:
+    B: [[3 + 2*cos(q2), 1/2 + cos(q2)], [1/2 + cos(q2), 1/2]]
+    g: [10*cos(q1) + 4*cos(q1 + q2), 4*cos(q1 + q2)]
+asks:
+  - kind: constrained_dynamics
+    freeze: {q2: q2d}
+    multiplier: false
+    at: {q1: 0, dq1: 1}
+"""
+
+
+def test_frozen_coordinates_at_a_state_that_omits_them():
+    """An at: state without the frozen q2, dq2: they are q2d (its value) and 0 there, as the freeze says: n and
+    λ at the state had dq2 in them (c1 = -a2 sin q2 (2 dq1 dq2 + dq2^2)) and the equilibrium inputs kept the
+    symbol q2d. λ = (A B⁻¹ Aᵀ)⁻¹ A B⁻¹ (n - u) with B = [[3, 1/2], [1/2, 1/2]], n = (10, 1) by hand."""
+    p, sols, res = solved(FROZEN_AT)
+    dq2, q2d = p.names["dq2"], p.names["q2d"]
+    u1, u2 = p.robot.inputs
+    at = next(st for st in sols[0].steps if st.name == "at").data
+    assert list(at["nvec"]) == [10, 1] and at["state"][dq2] == 0
+    assert sp.simplify(res["lambda_at"].value - (u1 / 6 - u2 - sp.Rational(2, 3))) == 0
+    assert not value(res, "u_eq_at").free_symbols & {q2d, dq2} and value(res, "u_eq_at")[0] == 10
+
+
 def test_frozen_velocities_are_zero_in_the_printed_reduced_terms():
     """With freeze: {q3: 0.4}, Fᵀn kept the velocity of the frozen joint (terms in q̇3) while the spec takes it
     on the constraint, n_a(q_a, q_b,d, q̇_a, 0): now Fᵀn, Eᵀn, FᵀBḞ, EᵀBḞ are free of q3 and q̇3, equal to the

@@ -1352,7 +1352,7 @@ def _equilibrium(spec: _Spec, red: Reduction, dm, G: sp.Matrix, u: list[sp.Symbo
                  subs: dict | None) -> dict[str, Any]:
     """At rest (q̇ = 0, v̇ = 0): every u with Fᵀ(G u − g) = 0, the minimum-norm one, λ = Eᵀ(g − G u), and the u
     with λ = 0 (G u = g)."""
-    s = {**(subs or {}), **spec.frozen}
+    s = {**(subs or {}), **{x: val.xreplace(subs or {}) for x, val in spec.frozen.items()}}  # (q_b,d's value)
     F, E, g, Gs = (red.F.xreplace(s), red.E.xreplace(s), dm.g.xreplace(s), G.xreplace(s))
     M, b = rtidy_matrix(F.T * Gs), (F.T * g).applyfunc(rtidy)
     sol = solve_inputs(M, b, u)
@@ -1384,12 +1384,24 @@ def _evaluate(M: sp.Matrix, subs: dict) -> sp.Matrix:
                                         else (rtidy(x) if x.free_symbols else x)))
 
 
+def _implied(problem, spec: _Spec) -> dict[sp.Symbol, sp.Expr]:  # type: ignore[no-untyped-def]
+    """What freezing fixes at any state: q_b = q_b,d (parameter values substituted) and q̇_b = 0 for each frozen
+    coordinate q_b (the ``at:`` state need not repeat them; given, they are checked against the constraints)."""
+    out: dict[sp.Symbol, sp.Expr] = {}
+    for x, dx in zip(spec.q, spec.dq):
+        if x in spec.frozen:
+            out[x] = spec.frozen[x].xreplace(problem.values)
+            out[dx] = sp.Integer(0)
+    return out
+
+
 def _on_constraints(problem, spec: _Spec) -> tuple[dict, sp.Matrix]:  # type: ignore[no-untyped-def]
     """The substitution of the ``at:`` state (parameter values too) and q̇ there; a spec error when the state is
     off the constraints (h ≠ 0 or A q̇ ≠ 0 where they are numbers)."""
     state = spec.state or {}
     subs = {**problem.values, **{x: val.xreplace(problem.values) for x, val in state.items()}}
     q, dq = spec.q, spec.dq
+    subs.update({x: val for x, val in _implied(problem, spec).items() if x not in subs})
     A_at = spec.A.xreplace(subs)
     bad = []
     if spec.h is not None:
@@ -1421,6 +1433,7 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
     lam = lam.applyfunc(_num)
     add("lambda_at", lam, "vector", label="\\lambda\\big|_{*}")
     shown = {x: as_written(spec.options.at[x.name], val) for x, val in state.items()}  # (decimals as written)
+    shown.update({x: val for x, val in _implied(problem, spec).items() if x not in state})  # (frozen: q_b,d, 0)
     raw = problem.located.data.get("values") if isinstance(problem.located.data, dict) else None
     raw = raw if isinstance(raw, dict) else {}
     values = {x: as_written(raw.get(x.name), val) for x, val in problem.values.items()}  # (d2: 0.6 read 3/5)
