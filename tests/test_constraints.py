@@ -1021,6 +1021,21 @@ def test_frozen_coordinates_at_a_state_that_omits_them():
     assert not value(res, "u_eq_at").free_symbols & {q2d, dq2} and value(res, "u_eq_at")[0] == 10
 
 
+def test_values_at_a_state_keep_whole_coefficients_whole():
+    """_num evaluates a long value at a state with 15-digit floats; a whole coefficient stays an integer (2 a₂ τ,
+    -u₂, not 2.0 a₂ τ, -1.0 u₂, also when the float is 1.0000000000000002), the others are floats."""
+    from solver.interaction.constraints import _num
+    a1, a2, u1, u2, tau = sp.symbols("a1 a2 u1 u2 tau", real=True)
+    r3, c, s_ = sp.sqrt(3), sp.cos(sp.Rational(3, 10)), sp.sin(sp.Rational(1, 5))
+    e = (r3 * a1 * a2 ** 2 + 2 * a2 * tau - u2 + r3 * u1 / 7 + c * a1 * u1 * tau + 5 * r3 * a1 ** 3 * u1 ** 2
+         + s_ * a2 * u2 ** 2 + 3 * a1 * a2 * tau + c * s_ * a1 ** 2 * a2 ** 2 * tau ** 3 - r3 * c * u1 * u2 * a2 ** 4)
+    out = _num(e).as_coefficients_dict()
+    assert out[a2 * tau] == 2 and out[u2] == -1 and out[a1 * a2 * tau] == 3
+    floats = [v for v in out.values() if v.is_Float]
+    assert len(floats) == 7 and all(abs(f - round(f)) > 1e-9 for f in floats)
+    assert _num(sp.Float(1.0000000000000002) * u1 * u2 + e).as_coefficients_dict()[u1 * u2] == 1
+
+
 def test_frozen_velocities_are_zero_in_the_printed_reduced_terms():
     """With freeze: {q3: 0.4}, Fᵀn kept the velocity of the frozen joint (terms in q̇3) while the spec takes it
     on the constraint, n_a(q_a, q_b,d, q̇_a, 0): now Fᵀn, Eᵀn, FᵀBḞ, EᵀBḞ are free of q3 and q̇3, equal to the

@@ -1364,7 +1364,7 @@ def _equilibrium(spec: _Spec, red: Reduction, dm, G: sp.Matrix, u: list[sp.Symbo
 
 def _num(e: Any) -> Any:
     """A value at a state for the report and the grader: exact when short (√3/2 (a4 + a5)), otherwise with
-    15-digit floats (also as the coefficients of the symbols left, e.g. the inputs)."""
+    15-digit floats (also as the coefficients of the symbols left, e.g. the inputs), whole ones as integers."""
     if isinstance(e, sp.MatrixBase):
         return e.applyfunc(_num)
     if not isinstance(e, sp.Expr) or e.is_Rational:
@@ -1374,7 +1374,11 @@ def _num(e: Any) -> Any:
     if e.is_number:
         return sp.Float(e.evalf(15), 15)
     irrational = [a for a in e.atoms(sp.Pow, sp.Function) if a.is_number]
-    return e.evalf(15) if irrational or e.atoms(sp.Float) else e
+    if not (irrational or e.atoms(sp.Float)):
+        return e
+    out = e.evalf(15)  # (whole coefficients back to integers: 2 a2 τ and u2, not 2.0 a2 τ and 1.0 u2)
+    return out.xreplace({f: sp.Integer(round(f)) for f in out.atoms(sp.Float)
+                         if abs(f - round(f)) <= 1e-12 * max(1, abs(f))})
 
 
 def _evaluate(M: sp.Matrix, subs: dict) -> sp.Matrix:
