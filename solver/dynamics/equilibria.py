@@ -215,15 +215,15 @@ def angle_sums(rows: list[sp.Expr], angles: list[sp.Symbol]) -> Optional[AngleSu
             basis.append(list(k))
     if not basis or len(basis) == len(angles):
         return None
-    kept: list[int] = []
-    for j in reversed(range(len(angles))):
-        unit = [int(i == j) for i in range(len(angles))]
-        if len(basis) + len(kept) < len(angles) and \
-                sp.Matrix(basis + [[int(i == m) for i in range(len(angles))] for m in kept] + [unit]).rank() \
-                > len(basis) + len(kept):
+    n = len(angles)
+    unit = sp.eye(n).tolist()
+    rows, kept = list(basis), []
+    for j in reversed(range(n)):   # the last angles that complete the rank
+        if len(rows) < n and sp.Matrix(rows + [unit[j]]).rank() > len(rows):
+            rows.append(unit[j])
             kept.append(j)
     kept.sort()
-    T = sp.Matrix(basis + [[int(i == m) for i in range(len(angles))] for m in kept])
+    T = sp.Matrix(basis + [unit[m] for m in kept])
     if abs(T.det()) != 1:
         return None
     sums = [sp.Dummy(f"phi{i + 1}", real=True) for i in range(len(basis))]
