@@ -6,14 +6,11 @@ import os
 import sys
 from enum import Enum
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Optional
+from typing import Any, Callable, Optional
 
 import typer
 
 from solver.spec.errors import UserError
-
-if TYPE_CHECKING:
-    from solver.results import Solution
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Solve, explain, verify robotics (dynamics & control) exam problems written as YAML specs.")
@@ -88,43 +85,13 @@ def solve(spec: Path = typer.Argument(..., help="problem spec (YAML)"),
           jobs: int = typer.Option(0, "--jobs", "-j", min=0, help="processes solving the asks (0: one per core)")
           ) -> None:
     """Solve a problem and print the step-by-step solution."""
-    from solver.publish.figures import Painter  # (no sympy: the helper is forked before it is imported)
+    from functools import partial
 
-    def work() -> tuple[str, int]:
-        # figures are drawn by a helper process that warms matplotlib up while sympy is imported and the problem
-        # solved
-        painter = Painter(format.value) if output and format is not Fmt.json else None
-        try:
-            from solver.registry import frozen_imports
-            with frozen_imports():
-                from solver.publish.render import render
-                from solver.sandbox import cores
-                from solver.solve import solve_problem
-                from solver.spec import load_problem
-            problem = load_problem(spec)
-            figures: list[Path] = []
-
-            def solved(k: int, solution: Solution) -> None:  # its figures drawn while the next asks are solved
-                assert painter is not None and output is not None
-                last = k == len(problem.asks)
-                figures.extend(painter.send([solution], output, format.value, first=k, last=last))
-                if last and not figures:  # nothing to draw: do not wait for the warm-up
-                    painter.cancel()
-            solutions = solve_problem(problem, solved if painter and output else None, jobs=jobs or cores(),
-                                      figures=painter is not None)
-            text = render(problem, solutions, format.value, fragment=fragment, template_dir=templates,
-                          details=details)
-            if painter:
-                painter.wait()
-        except BaseException:
-            if painter:
-                painter.cancel()
-            raise
-        return text, len(figures)
+    from solver.publish.report import solve_job
     try:
         if output:
             _output_file(output)
-        text, n_figures = _bounded(work)
+        text, n_figures = _bounded(partial(solve_job, spec, format.value, output, fragment, templates, details, jobs))
         if output:
             _write(output, text)
     except UserError as exc:

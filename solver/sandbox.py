@@ -75,7 +75,8 @@ def _child(fn: Callable[[T], Any], item: T, limits: Limits, w: int) -> None:
         if base:
             cap = base + limits.memory_mb * 1024 * 1024
             resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-        cpu = math.ceil(limits.seconds) + 1
+        used = resource.getrusage(resource.RUSAGE_SELF)  # (a prestarted worker has spent some on its imports)
+        cpu = math.ceil(limits.seconds + used.ru_utime + used.ru_stime) + 1
         resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
     except (ImportError, ValueError, OSError):
         pass
@@ -132,11 +133,25 @@ class _Running:
     buf: bytearray
 
 
+def _fork(fn: Callable[[T], Any], item: T, limits: Limits) -> tuple[int, int]:
+    """A child running ``fn(item)`` bounded: (its pid, the descriptor its answer comes from)."""
+    discard_prestarted()  # (it would inherit the prestarted worker's job pipe)
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # child
+        os.close(r)
+        _child(fn, item, limits, w)
+    os.close(w)
+    return pid, r
+
+
 def run_many(fn: Callable[[T], Any], items: Sequence[T], jobs: int = 0, limits: Limits | None = None,
-             on_done: Callable[[int, Outcome], None] | None = None) -> list[Outcome]:
+             on_done: Callable[[int, Outcome], None] | None = None,
+             spawn: Callable[[int], tuple[int, int]] | None = None) -> list[Outcome]:
     """``fn(item)`` for every item, each in its own bounded child process, ``jobs`` at a time (0: one per core).
     Outcomes in the order of ``items``; ``on_done(index, outcome)`` is called in the parent as each finishes.
-    ``fn`` must return picklable values; exceptions become failed outcomes."""
+    ``fn`` must return picklable values; exceptions become failed outcomes. ``spawn(index)``: another way to get
+    a child running item ``index`` ((pid, answer descriptor); default: fork one)."""
     limits = limits or Limits()
     outcomes: list[Outcome | None] = [None] * len(items)
     if not hasattr(os, "fork"):
@@ -157,12 +172,7 @@ def run_many(fn: Callable[[T], Any], items: Sequence[T], jobs: int = 0, limits: 
         while pending or running:
             while pending and len(running) < jobs:
                 i = pending.pop()
-                r, w = os.pipe()
-                pid = os.fork()
-                if pid == 0:  # child
-                    os.close(r)
-                    _child(fn, items[i], limits, w)
-                os.close(w)
+                pid, r = spawn(i) if spawn else _fork(fn, items[i], limits)
                 os.set_blocking(r, False)
                 running[r] = _Running(i, pid, r, time.monotonic(), bytearray())
             now = time.monotonic()
@@ -245,5 +255,105 @@ def _finish(run: _Running, limits: Limits, outcomes: list[Outcome | None],
 
 
 def run_one(fn: Callable[[], Any], limits: Limits | None = None) -> Outcome:
-    """``fn()`` in one bounded child process."""
+    """``fn()`` in one bounded child process: the prestarted worker when there is one and ``fn`` pickles (a
+    module-level function or a ``functools.partial`` of one), else a fresh fork."""
+    limits = limits or Limits()
+    warm = _take_prestarted()
+    if warm is not None:
+        try:
+            job = pickle.dumps((fn, limits))
+            write_message(warm.jobs, job)
+        except Exception:  # noqa: BLE001 - not picklable (a closure), or the worker is gone: fork as usual
+            warm.stop()
+        else:
+            os.close(warm.jobs)
+            return run_many(lambda _: fn(), [None], 1, limits, spawn=lambda _: (warm.pid, warm.answer))[0]
     return run_many(lambda _: fn(), [None], 1, limits)[0]
+
+
+# ------------------------------------------------------------------------------- the prestarted worker
+@dataclass
+class _Prestarted:
+    pid: int
+    jobs: int     # the job is written here (length-prefixed pickle of (fn, limits)); closed unused: the worker exits
+    answer: int   # its answer comes from here, as a forked child's does
+
+    def stop(self) -> None:
+        for fd in (self.jobs, self.answer):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        stop(self.pid)
+
+
+_PRESTARTED: _Prestarted | None = None
+
+
+def prestart(warm_up: Callable[[], None]) -> None:
+    """Fork now the worker of the next :func:`run_one`: it runs ``warm_up()`` (the heavy imports) while this
+    process goes on (importing typer and parsing the command line: on two cores the two overlap), then waits
+    for its job and runs it bounded like any child. Unused (the command failed, or ran something else), it is
+    stopped at exit or before another child is forked. No-op without fork."""
+    global _PRESTARTED
+    if _PRESTARTED is not None or not hasattr(os, "fork"):
+        return
+    try:
+        jobs_r, jobs_w = os.pipe()
+        answer_r, answer_w = os.pipe()
+        pid = os.fork()
+    except OSError:
+        return
+    if pid == 0:
+        os.close(jobs_w)
+        os.close(answer_r)
+        _serve(warm_up, jobs_r, answer_w)
+    os.close(jobs_r)
+    os.close(answer_w)
+    _PRESTARTED = _Prestarted(pid, jobs_w, answer_r)
+    import atexit
+    atexit.register(discard_prestarted)
+
+
+def _serve(warm_up: Callable[[], None], jobs: int, answer: int) -> None:
+    """The prestarted worker: warm up, read one job, run it as :func:`_child` does; exit at once without one."""
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            warm_up()
+        except Exception:  # noqa: BLE001 - the job imports the same modules again and reports what fails
+            pass
+        head = read_exactly(jobs, HEADER)
+        if head is None:
+            os._exit(0)
+        fn, limits = pickle.loads(read_exactly(jobs, int.from_bytes(head, "big")) or b"")
+    except BaseException:  # noqa: BLE001 - no job: the parent forks its own child
+        os._exit(1)
+    _child(lambda _: fn(), None, limits, answer)
+
+
+def read_exactly(fd: int, n: int) -> bytes | None:
+    """``n`` bytes from the (blocking) descriptor ``fd``; None at its end (before the first byte)."""
+    chunks, left = [], n
+    while left:
+        chunk = os.read(fd, min(left, 1 << 20))
+        if not chunk:
+            if left == n:
+                return None
+            raise EOFError("the message ended in the middle")
+        chunks.append(chunk)
+        left -= len(chunk)
+    return b"".join(chunks)
+
+
+def _take_prestarted() -> _Prestarted | None:
+    global _PRESTARTED
+    warm, _PRESTARTED = _PRESTARTED, None
+    return warm
+
+
+def discard_prestarted() -> None:
+    """Stop the prestarted worker if it was not used."""
+    warm = _take_prestarted()
+    if warm is not None:
+        warm.stop()

@@ -154,8 +154,8 @@ def test_heavy_imports_run_without_the_collector_and_are_frozen():
             "print(inside, gc.isenabled(), gc.get_freeze_count() > 100000)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert r.stdout.split() == ["False", "True", "True"], r.stdout + r.stderr
-    src = (ROOT / "solver" / "cli.py").read_text()
-    body = src[src.index("def work() -> tuple[str, int]:"):]
+    src = (ROOT / "solver" / "publish" / "report.py").read_text()
+    body = src[src.index("def solve_job("):]
     assert body.index("with frozen_imports():") < body.index("from solver.publish.render import render")
 
 
@@ -166,9 +166,11 @@ def test_the_figure_helper_is_forked_before_sympy_is_imported():
                         "print(sorted(m for m in sys.modules if m.split('.')[0] in ('sympy', 'numpy')))"],
                        capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
-    src = (ROOT / "solver" / "cli.py").read_text()
-    body = src[src.index("def work() -> tuple[str, int]:"):]
-    assert body.index("Painter(") < body.index("from solver.spec import load_problem")
+    src = (ROOT / "solver" / "publish" / "report.py").read_text()
+    body = src[src.index("def solve_job("):]
+    assert body.index("painter_for(") < body.index("from solver.spec import load_problem")
+    warm = src[src.index("def warm_up("):]
+    assert warm.index("prestart_painter(") < warm.index("frozen_imports()")
 
 
 def test_help_imports_no_maths():

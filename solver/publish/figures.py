@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Callable, NoReturn
 
 from solver.results import Figure, RobotPose, Sketch, Solution
-from solver.sandbox import HEADER, read_all, stop, write_all, write_message
+from solver.sandbox import HEADER, read_all, read_exactly, stop, write_all, write_message
 
 
 def _categorical(ax, curves: list) -> None:  # type: ignore[no-untyped-def]
@@ -127,20 +127,6 @@ def _warm_up(fmt: str) -> None:
     plt.close(f)
 
 
-def _read_exactly(fd: int, n: int) -> bytes | None:
-    """n bytes from the (blocking) descriptor fd; None at its end (before the first byte)."""
-    chunks, left = [], n
-    while left:
-        chunk = os.read(fd, min(left, 1 << 20))
-        if not chunk:
-            if left == n:
-                return None
-            raise EOFError("the figure jobs ended in the middle of a message")
-        chunks.append(chunk)
-        left -= len(chunk)
-    return b"".join(chunks)
-
-
 def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
     """The painter process: warm up, then read messages (length, pickled (last, [(name, panels, path)])) until the
     pipe ends, drawing each as it comes while the asks after it are solved; the last one (the report is being
@@ -148,8 +134,8 @@ def _paint(fmt: str, jobs_fd: int, status_fd: int) -> None:
     closed first (a parent reading to EOF, like the sandbox, must not wait for it)."""
     def read(inbox: queue.Queue) -> None:  # a thread: the sender never blocks on a full pipe during the warm-up
         try:
-            while (head := _read_exactly(jobs_fd, HEADER)) is not None:
-                item = pickle.loads(_read_exactly(jobs_fd, int.from_bytes(head, "big")) or b"")
+            while (head := read_exactly(jobs_fd, HEADER)) is not None:
+                item = pickle.loads(read_exactly(jobs_fd, int.from_bytes(head, "big")) or b"")
                 inbox.put(item)
                 if item[0]:
                     return
@@ -260,6 +246,7 @@ class Painter:
     limits (the sandbox's memory and CPU time)."""
 
     def __init__(self, fmt: str) -> None:
+        self.fmt = fmt
         self.pid, self._jobs, self._status = 0, -1, -1
         if not hasattr(os, "fork"):
             return
@@ -328,6 +315,27 @@ class Painter:
         self._jobs = self._status = -1
         stop(self.pid)
         self.pid = 0
+
+
+_PRESTARTED: Painter | None = None
+
+
+def prestart_painter(fmt: str) -> None:
+    """Fork the painter for ``fmt`` now (before the heavy imports), for :func:`painter_for` to hand out."""
+    global _PRESTARTED
+    _PRESTARTED = Painter(fmt)
+
+
+def painter_for(fmt: str) -> Painter:
+    """The painter started by :func:`prestart_painter` when it was for ``fmt`` (another one is stopped), else a
+    new one."""
+    global _PRESTARTED
+    painter, _PRESTARTED = _PRESTARTED, None
+    if painter is not None and painter.fmt == fmt:
+        return painter
+    if painter is not None:
+        painter.cancel()
+    return Painter(fmt)
 
 
 # ------------------------------------------------------------------------------------------------ robot sketches
