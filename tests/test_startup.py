@@ -87,6 +87,16 @@ def test_solve_imports_its_kinds_and_no_plotting_without_figures():
     assert not any(m in modules for m in (*HEAVY, "numpy"))  # numpy only to sample figures
 
 
+def test_solve_of_a_control_law_problem_imports_no_numpy():
+    """control_law needs numpy only to check a numeric Γ and gains: not to derive a law (numpy's import is ~0.1 s
+    of a 2 s command)."""
+    code, modules, out = imported("solve", str(PROBLEMS / "2004-03-25-ex1.yaml"), "--format", "json")
+    assert code == 0 and "control_law" in out
+    assert kind_modules_in(modules) == {"solver.dynamics.model", "solver.dynamics.parametrization",
+                                        "solver.control.laws"}
+    assert not any(m in modules for m in (*HEAVY, "numpy"))
+
+
 def test_solve_does_not_import_sympy_units_for_simplify():
     """sympy's simplify and solve import sympy.physics.units (0.1 s) to look for physical quantities: solve and
     render answer that import with a stub (solver.math.nounits). These two problems call sp.simplify and

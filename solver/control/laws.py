@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from typing import Any, Literal, Optional, Union
 
-import numpy as np
 import sympy as sp
 from pydantic import Field
 
@@ -207,6 +206,7 @@ def _gamma(problem, options: ControlLawAsk, ctx, p: int) -> sp.Matrix:  # type: 
     if any(not _zero(x) for x in (Gam - Gam.T)):
         raise UserError("gamma must be symmetric", place, "write a symmetric positive definite matrix")
     if not Gam.free_symbols:
+        import numpy as np
         ev = np.linalg.eigvalsh(np.array(Gam.evalf(), dtype=float))
         if ev.min() <= 0:
             raise UserError(f"gamma must be positive definite (smallest eigenvalue {ev.min():.4g})", place)
@@ -771,6 +771,7 @@ def check_adaptive(problem, results, sfx: str, value) -> PropertyVerdict | None:
                           "velocity and acceleration), is not compensated")
         return PropertyVerdict(False, 0.0, fb, final=False)
     M = Ke - Kde * Lam
+    import numpy as np
     rng = np.random.default_rng(7)
     syms = sorted((Kde.free_symbols | M.free_symbols | Lam.free_symbols), key=str)
     for _ in range(8):
