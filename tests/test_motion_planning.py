@@ -256,3 +256,50 @@ def test_problem_verifies():
 def test_check_finds_bad_input_without_solving(text, words):
     """The graph and the potential's inputs are read by the kind's validate hook (`check`) as by solving."""
     assert words in error_found_without_solving(text)
+
+
+@pytest.mark.parametrize("rows, line, words", [
+    (["...G", ".#x.", "S.#."], 9, "row 1, column 2: 'x' is not a cell"),
+    (["..SG", ".#..", "S.#."], 10, "one S (start); it has 2 (row, column: (0, 2), (2, 0))"),
+    (["...G", ".#.", "S.#."], 9, "grid row 1 has 3 cells, row 0 has 4"),
+    (["....", ".#..", "S.#."], 8, "one G (goal); it has 0"),
+])
+def test_astar_grid_is_checked_cell_by_cell(rows, line, words):
+    """Another character than . # S G, rows of different lengths, no or two S/G: an error at the row's line
+    (before, 'x' was a free cell and a second S silently replaced the first)."""
+    text = GRID.replace('grid: ["...G", ".#..", "S.#."]', "grid:\n" + "".join(f'      - "{r}"\n' for r in rows))
+    with pytest.raises(UserError) as exc:
+        load_problem_text(text, "g.yaml")
+        solve_problem(load_problem_text(text, "g.yaml"))
+    assert f"g.yaml:{line}:" in str(exc.value) and words in str(exc.value)
+
+
+def test_astar_unreachable_goal_still_draws_the_search(tmp_path):
+    """No path: the figure shows the obstacles, start, goal and the nodes expanded before the open list ran out."""
+    from solver.publish.figures import draw
+    sols = solve_problem(load_problem_text(GRID.replace('"...G", ".#..", "S.#."', '"S.#.", "..#G", "###."')))
+    res = all_results(sols)
+    assert res["path_found"].value is False and res["expansions"].value == 4
+    fig = next(f for f in sols[0].figures if f.name == "search")
+    assert "no path" in fig.caption
+    panel, = fig.panels
+    assert not any(c.label == "path" for c in panel.curves) and sum(c.filled for c in panel.curves) == 5
+    assert sorted(label for *_, label in panel.markers) == ["2", "3", "4", "goal", "start"]  # 1: the start
+    draw(fig, tmp_path / "search.png")
+    assert (tmp_path / "search.png").stat().st_size > 5000
+
+
+def test_a_caption_with_a_star_stays_one_emphasis_in_markdown_and_html():
+    """"*A*: the path ...*" made "A" the emphasis; the caption's stars outside math are escaped. In HTML, an
+    emphasis around math was left as literal stars."""
+    from solver.publish.render import md2html
+    p = load_problem_text(GRID)
+    sols = solve_problem(p)
+    fig = next(f for f in sols[0].figures if f.name == "search")
+    fig.path = "r-1-search.png"
+    md = render(p, sols, "md")
+    assert "\n*A\\*: the path found and the expanded nodes, numbered with their step, the occupied cells in grey.*\n" in md
+    assert "<em>A*: the path found and the expanded nodes, numbered with their step, the occupied cells in " \
+           "grey.</em>" in md2html(md)
+    assert md2html("*$q^*$ and x\\*y*") == "<p><em>$q^*$ and x*y</em></p>"
+    assert md2html("*Gravity torque $g_1(q)$.*") == "<p><em>Gravity torque $g_1(q)$.</em></p>"  # was "*...*"

@@ -332,13 +332,37 @@ def grid_graph(rows: list[str], connectivity: int, corner_cutting: bool = True) 
     return nb, pos, start, goal
 
 
+GRID_CELLS = ".#SG"
+
+
+def _check_grid(rows: list[str], row_place, place) -> None:  # type: ignore[no-untyped-def]
+    """An occupancy grid: rows of one length, cells among '.', '#', 'S', 'G', exactly one S and one G; else a
+    UserError at the row."""
+    if not rows:
+        raise UserError("the grid has no rows", place, 'e.g. grid: ["S..", ".#.", "..G"]')
+    for r, line in enumerate(rows):
+        bad = next((c for c, ch in enumerate(line) if ch not in GRID_CELLS), None)
+        if bad is not None:
+            raise UserError(f"grid row {r}, column {bad}: {line[bad]!r} is not a cell", row_place(r),
+                            "write '.' (free), '#' (occupied), 'S' (start) or 'G' (goal)")
+        if len(line) != len(rows[0]):
+            raise UserError(f"grid row {r} has {len(line)} cells, row 0 has {len(rows[0])}", row_place(r),
+                            "give every row the same number of cells")
+    for mark, what in (("S", "start"), ("G", "goal")):
+        at = [(r, c) for r, line in enumerate(rows) for c, ch in enumerate(line) if ch == mark]
+        if len(at) != 1:
+            raise UserError(f"the grid needs one {mark} ({what}); it has {len(at)}"
+                            + (f" (row, column: {', '.join(f'({r}, {c})' for r, c in at)})" if at else ""),
+                            row_place(at[1][0]) if len(at) > 1 else place, f"mark one cell {mark}")
+
+
 def _astar_inputs(problem, options: MotionPlanningAsk, ctx) -> tuple:  # type: ignore[no-untyped-def]
     """The graph (neighbours with weights), the node positions, start, goal and the heuristic by node."""
     place = problem.located.place(ctx.path + ("method",))
     if options.grid is not None:
+        _check_grid(options.grid, lambda r: problem.located.place(ctx.path + ("grid", r)),
+                    problem.located.place(ctx.path + ("grid",)))
         nb, pos, start, goal = grid_graph(options.grid, options.connectivity, options.corner_cutting)
-        if not start or not goal:
-            raise UserError("the grid needs one S (start) and one G (goal)", place)
     elif options.graph is not None:
         if not options.start or not options.target:
             raise UserError("a graph search needs start: and target: (node names)", place)
@@ -400,20 +424,23 @@ def _solve_astar(problem, options: MotionPlanningAsk, ctx, sol: Solution, add) -
              if not isinstance(hs, dict) else "given", moves=moves, admissible=chk["admissible"],
              consistent=chk["consistent"], over=chk["over"], edge=chk["edge"], optimal_cost=best,
              optimal=path is not None and cost <= best + 1e-9 * (1 + best))
-    if pos and path is not None:
+    if pos and start in pos and goal in pos:
         blocked = [(float(c), float(-r)) for r, line in enumerate(options.grid or []) for c, ch in enumerate(line)
                    if ch == "#"]
 
         def panels() -> list[Panel]:
             cells = [Curve("obstacle" if i == 0 else "", [x - .5, x + .5, x + .5, x - .5],
                            [y - .5, y - .5, y + .5, y + .5], filled=True) for i, (x, y) in enumerate(blocked)]
-            curves = cells + [Curve("path", [pos[k][0] for k in path], [pos[k][1] for k in path])]
+            curves = cells + ([Curve("path", [pos[k][0] for k in path], [pos[k][1] for k in path])]
+                              if path is not None else [])
             order = [(i, s["node"]) for i, s in enumerate(steps, 1) if s["node"] in pos and s["node"] not in
                      (start, goal)]   # each expanded node numbered with its step of the table
             marks = [(*pos[start], "start"), (*pos[goal], "goal")] + [(*pos[k], str(i)) for i, k in order]
             return [Panel("$x$", "$y$", curves, markers=marks, equal_axes=True)]
-        sol.figures.append(Figure("search", "A*: the path found and the expanded nodes, numbered with their step"
-                                  + (", the occupied cells in grey." if blocked else "."), panels))
+        sol.figures.append(Figure("search", ("A*: the path found and the expanded nodes" if path is not None else
+                                             "A*: no path; the nodes expanded before the open list ran out")
+                                  + ", numbered with their step" + (", the occupied cells in grey." if blocked
+                                                                    else "."), panels))
 
 
 def validate_motion_planning(problem, options: MotionPlanningAsk, ctx) -> None:  # type: ignore[no-untyped-def]

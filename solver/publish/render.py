@@ -353,19 +353,17 @@ def md2html(text: str) -> str:
     import html as _html
 
     def inline(t: str) -> str:
-        parts = re.split(r"(\$\$.*?\$\$|\$[^$]*\$)", t)
-        out = []
-        for k, part in enumerate(parts):
-            if k % 2:
-                out.append(_html.escape(_math(part), quote=False))
-                continue
-            p = _html.escape(part, quote=False)
-            p = re.sub(r"!\[([^\]]*)\]\(([^)\s]+)\)", lambda m: _img(m.group(1), m.group(2)), p)
-            p = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", p)
-            p = re.sub(r"(?<![\w*])\*(?!\s)(.+?)(?<!\s)\*(?![\w*])", r"<em>\1</em>", p)
-            p = re.sub(r"`([^`]+)`", r"<code>\1</code>", p)
-            out.append(p)
-        return "".join(out)
+        maths: list[str] = []   # math set aside (as \0k\0) while the emphasis is found: "*torque $g_1$.*"
+
+        def aside(m: re.Match) -> str:
+            maths.append(m.group(0))
+            return f"\0{len(maths) - 1}\0"
+        p = _html.escape(re.sub(r"\$\$.*?\$\$|\$[^$]*\$", aside, t.replace("\0", "")), quote=False)
+        p = re.sub(r"!\[([^\]]*)\]\(([^)\s]+)\)", lambda m: _img(m.group(1), m.group(2)), p)
+        p = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", p)
+        p = re.sub(r"(?<![\w*\\])\*(?!\s)(.+?)(?<![\s\\])\*(?![\w*])", r"<em>\1</em>", p)
+        p = re.sub(r"`([^`]+)`", r"<code>\1</code>", p).replace("\\*", "*")
+        return re.sub(r"\0(\d+)\0", lambda m: _html.escape(_math(maths[int(m.group(1))]), quote=False), p)
 
     blocks = re.split(r"\n\s*\n", _one_line_math(text).strip())
     html_out = []
@@ -758,8 +756,15 @@ def template_env(subdir: str, custom: Path | None = None, autoescape: bool = Fal
                     variable_end_string=">>", comment_start_string="<#", comment_end_string="#>")
     env = jinja2.Environment(**opts)
     env.filters.update(points=lambda x: f"{x:g}", latex_text=latex_text, md2tex=md2tex, md2html=md2html,
-                       md_math=md_math)
+                       md_math=md_math, md_stars=md_stars)
     return env
+
+
+def md_stars(text: str) -> str:
+    """``*`` outside ``$...$`` escaped (``\\*``), so that text put between ``*...*`` ("A*: ...") stays one
+    emphasis in Markdown and :func:`md2html`."""
+    parts = re.split(r"(\$\$.*?\$\$|\$[^$]*\$)", text)
+    return "".join(p if k % 2 else p.replace("*", "\\*") for k, p in enumerate(parts))
 
 
 def written(x: Any, tex: Callable[[Any], str]) -> str:
