@@ -60,7 +60,17 @@ SPEC_ERRORS = [  # (replace this, by that) in GOOD -> every piece of text expect
     ("kind: dynamic_model", "kind: dynamics", ["ask kind", "dynamic_model"]),
     ("  m1: mass 1\n", "  m1: mass 1\n  q1: bad\n", ["generalized coordinate"]),
     ("mass: m2", "mass: \"__import__('os').system('echo hacked')\"", ["unexpected character"]),
+    # a list or a mapping where one number or expression goes: one message, not "Input should be a valid string"
+    ("    - mass: m2", "    - mass: [m2]", ["spec.yaml:17:13", "robot.links[1].mass: expected one number or "
+                                           "expression, got a list", "fix: write one value, e.g. mass: 0.1"]),
+    ("inertia: I1}", "inertia: {z: I1}}", ["links[0].inertia: expected one number or expression, got a mapping"]),
 ]
+
+
+def test_scalar_errors_are_counted_by_place(write):
+    msg = error_of(write, GOOD.replace("mass: m1", "mass: [m1]").replace("mass: m2", "mass: [m2]"))
+    assert "links[0].mass: expected one number or expression, got a list (and 1 more problem(s))" in msg
+    assert "valid string" not in msg
 
 
 @pytest.mark.parametrize("old, new, expected", SPEC_ERRORS)

@@ -56,6 +56,15 @@ def dotted(path: PathT) -> str:
     return out or "spec"
 
 
+_SCALAR_TYPES = {"string_type", "int_type", "float_type", "int_from_float", "int_parsing", "float_parsing"}
+
+
+def _without_member(err: dict[str, Any]) -> tuple[Any, ...]:
+    """The loc of a pydantic error without the member of a ``Scalar`` union (str | int | float) that refused it."""
+    loc = tuple(err["loc"])
+    return loc[:-1] if err["type"] in _SCALAR_TYPES and loc[-1:] in (("str",), ("int",), ("float",)) else loc
+
+
 def _pyd_message(err: dict[str, Any], path: PathT) -> tuple[str, str | None]:
     typ, loc = err["type"], err["loc"]
     field = str(loc[-1]) if loc else "spec"
@@ -163,6 +172,12 @@ class SpecLoader:
             err = errors[0]
             path = self._data_path(err["loc"])
             msg, hint = _pyd_message(err, path)
+            if _without_member(err) != err["loc"]:
+                # each member of a Scalar union (str | int | float) refused a list or a mapping: one message
+                path = self._data_path(_without_member(err))
+                got = {list: "a list", dict: "a mapping"}.get(type(err["input"]), "another type")
+                msg = f"{dotted(path)}: expected one number or expression, got {got}"
+                hint = f"write one value, e.g. {path[-1]}: 0.1" if path and isinstance(path[-1], str) else None
             if err["type"] == "extra_forbidden":
                 fields = self._fields_for(path[:-1])
                 close = difflib.get_close_matches(str(path[-1]), fields, n=1) if fields else []
@@ -170,7 +185,8 @@ class SpecLoader:
                     f"allowed fields: {', '.join(fields)}" if fields else "remove it")
                 if path[-1] is None or str(path[-1]) == "None":
                     hint = 'a bare null: is YAML\'s empty key: quote it, "null": [...]'
-            more = f" (and {len(errors) - 1} more problem(s))" if len(errors) > 1 else ""
+            others = {self._data_path(_without_member(e)) for e in errors} - {path}
+            more = f" (and {len(others)} more problem(s))" if others else ""  # counted by place
             raise self.fail(path, msg + more, hint) from None
         why = text_math_problem(spec.statement)
         if why:
