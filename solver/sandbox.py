@@ -327,7 +327,7 @@ def _serve(warm_up: Callable[[], None], jobs: int, answer: int) -> None:
         if head is None:
             os._exit(0)
         fn, limits = pickle.loads(read_exactly(jobs, int.from_bytes(head, "big")) or b"")
-    except BaseException:  # noqa: BLE001 - no job: the parent forks its own child
+    except BaseException:  # noqa: BLE001 - a job that cannot be read: the parent reports a crashed worker
         os._exit(1)
     _child(lambda _: fn(), None, limits, answer)
 
