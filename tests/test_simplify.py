@@ -280,6 +280,21 @@ def test_tidy_keeps_a_float_without_a_short_fraction():
     assert tidy(x) == x and tidy(x).is_Float
 
 
+def test_tidy_float_searches_once_and_agrees_with_nsimplify():
+    """tidy of a float (one closed-form search, the decimal fallback only near a short fraction, −x as x) gives what
+    nsimplify followed by the q <= 10⁴ rule gives: a short fraction found by the search (−29.43), by the decimal
+    fallback (0.1234 → 617/5000), a closed form that is not rational (√2/2) or none (1025.5468...), tiny values."""
+    from solver.math.simplify import _small_rational, _tidy_float
+    values = [sp.Float(v) for v in (-29.43, 0.1234, -0.1234, 0.7071067811865476, -1025.54680174258,
+                                    1.4210854715202e-14)]
+    for x in values:
+        fast, general = _tidy_float(x), _small_rational(x)
+        assert sp.srepr(fast) == sp.srepr(general), x
+    assert _tidy_float(sp.Float(0.1234)) == sp.Rational(617, 5000)
+    assert _tidy_float(sp.Float(-29.43)) == sp.Rational(-2943, 100)
+    assert _tidy_float(sp.Float(1025.54680174258)).is_Float
+
+
 def test_matmul_builds_the_entries_of_sympys_product():
     """matmul (no checks for infinities, which query the assumptions of every entry) builds the same expressions as
     Matrix.__mul__: zero entries skipped, numbers distributed over sums as sympy's Mul does, rational matrices."""

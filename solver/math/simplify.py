@@ -14,6 +14,7 @@ Expressions outside this class (rational in trig functions, tan, atan2, ...) fal
 """
 from __future__ import annotations
 
+from fractions import Fraction
 from functools import lru_cache
 from typing import Any
 
@@ -640,14 +641,40 @@ def together(expr: sp.Expr) -> sp.Expr:
     return expr.func(*[together(a) for a in expr.args])
 
 
+def _small_rational(x: sp.Float) -> sp.Expr:
+    """sp.nsimplify(x) when it is a rational p/q with q <= MAX_DENOMINATOR, else x (the general path of
+    :func:`_tidy_float`)."""
+    r = sp.nsimplify(x)
+    return r if r.is_Rational and r.q <= MAX_DENOMINATOR else x
+
+
+@lru_cache(maxsize=20000)
+def _tidy_float(x: sp.Float) -> sp.Expr:
+    """:func:`_small_rational` of a float with one search for a closed form instead of two: nsimplify(x, rational=False)
+    is the closed form mpmath's identify finds, or x when it finds none; only then does nsimplify(x) fall back to
+    the rational of x's decimal digits, which has q <= MAX_DENOMINATOR only when x is within 10⁻¹² (relative) of
+    such a rational (its 15 digits are), the one case passed to :func:`_small_rational`. identify(−x) is −identify(x)
+    and the decimal fallback is odd too, so −x is tidied as x."""
+    if not x.is_finite:
+        return _small_rational(x)
+    if x.is_negative:
+        return -_tidy_float(-x)
+    r = sp.nsimplify(x, rational=False)
+    if not isinstance(r, sp.Float):   # a closed form (identify's string, sympified: exact)
+        return r if r.is_Rational and r.q <= MAX_DENOMINATOR else x
+    exact = Fraction(*sp.Rational(x).as_numer_denom())   # x's binary value
+    if abs(exact - exact.limit_denominator(MAX_DENOMINATOR)) <= exact / 10**12:
+        return _small_rational(x)
+    return x
+
+
 @lru_cache(maxsize=20000)
 def tidy(expr: sp.Expr) -> sp.Expr:
     """Simplify ``expr`` to the compact form a teacher prints (canonical for trigonometric polynomials)."""
     expr = sp.sympify(expr)
     if expr.is_number:
         if expr.is_Float:   # 0.5 → 1/2, but 0.4926... stays a float (not 2^(31/111)·3^(73/111)·…/…)
-            r = sp.nsimplify(expr)
-            return r if r.is_Rational and r.q <= MAX_DENOMINATOR else expr
+            return _tidy_float(expr)
         return sp.simplify(expr)
     if not expr.free_symbols:
         return expr
