@@ -283,16 +283,30 @@ def test_tidy_keeps_a_float_without_a_short_fraction():
 def test_tidy_float_searches_once_and_agrees_with_nsimplify():
     """tidy of a float (one closed-form search, the decimal fallback only near a short fraction, −x as x) gives what
     nsimplify followed by the q <= 10⁴ rule gives: a short fraction found by the search (−29.43), by the decimal
-    fallback (0.1234 → 617/5000), a closed form that is not rational (√2/2) or none (1025.5468...), tiny values."""
+    fallback (0.1234 → 617/5000), a closed form that is not rational (√2/2) or none (1.42·10⁻¹⁴)."""
     from solver.math.simplify import _small_rational, _tidy_float
-    values = [sp.Float(v) for v in (-29.43, 0.1234, -0.1234, 0.7071067811865476, -1025.54680174258,
-                                    1.4210854715202e-14)]
+    values = [sp.Float(v) for v in (-29.43, -0.1234, 0.7071067811865476, 1.4210854715202e-14)]
     for x in values:
         fast, general = _tidy_float(x), _small_rational(x)
         assert sp.srepr(fast) == sp.srepr(general), x
     assert _tidy_float(sp.Float(0.1234)) == sp.Rational(617, 5000)
     assert _tidy_float(sp.Float(-29.43)) == sp.Rational(-2943, 100)
     assert _tidy_float(sp.Float(1025.54680174258)).is_Float
+
+
+def test_tidy_float_skips_the_search_only_where_no_short_fraction_can_come_out():
+    """The screen before nsimplify's search keeps floats a computation leaves (no rational with q <= 10⁴ within
+    reach of any of identify's relations) and sends on those identify could turn into one: 0.500000015 becomes
+    1/2 by a double root of (2t − 1)² ≈ 0 (3·10⁻⁸ away), 29.43 is 2943/100; every result is nsimplify's."""
+    from solver.math.simplify import _no_rational_closed_form, _small_rational, _tidy_float
+    kept = [sp.Float(v) for v in (341.848933914192, 0.0708184980152517, 1025.54680174258)]
+    assert all(_no_rational_closed_form(x) for x in kept)
+    assert all(sp.srepr(_tidy_float(x)) == sp.srepr(x) for x in kept)
+    assert _small_rational(kept[1]) == kept[1]   # (the search: 25-50 ms each)
+    sent = [sp.Float(0.5 * (1 + 3e-8)), sp.Float(29.43), sp.Float(1 / 3), sp.Float(0.25)]
+    assert not any(_no_rational_closed_form(x) for x in sent)
+    assert [_tidy_float(x) for x in sent] == [sp.Rational(1, 2), sp.Rational(2943, 100), sp.Rational(1, 3),
+                                              sp.Rational(1, 4)]
 
 
 def test_matmul_builds_the_entries_of_sympys_product():

@@ -648,6 +648,45 @@ def _small_rational(x: sp.Float) -> sp.Expr:
     return r if r.is_Rational and r.q <= MAX_DENOMINATOR else x
 
 
+def _near(t: float, den: int, tol: float) -> bool:
+    """Whether a non-zero rational with denominator <= den lies within tol of t (limit_denominator: the nearest)."""
+    f = Fraction(t)
+    r = f.limit_denominator(den)
+    return r != 0 and abs(f - r) <= tol
+
+
+def _no_rational_closed_form(x: sp.Float) -> bool:
+    """True when nsimplify(x, rational=False), for a positive 15-digit float x in [10⁻⁶, 10⁶], cannot be a rational
+    with q <= MAX_DENOMINATOR and, should mpmath's identify find nothing, x's decimal digits are not such a
+    rational either; False when that is not excluded (the caller then searches).
+
+    nsimplify calls identify(x, tol=1e-15) (maxcoeff M = 1000, no constants), which returns the first of: for
+    t = x, 1/x, x², 1/x², √x, 1/√x (and e^{±x}, e^{1/x}, ±ln x, 1/ln x, whose closed forms are never rational
+    but 1 = exp(0), when x is within 4·10⁻⁸ of 1) a PSLQ relation found with |relation| < tol·|vector|,
+    coefficients <= M: r₀t + r₁ ≈ 0, so t is within 1.5·10⁻¹⁵·max(1, |t|) of −r₁/r₀ (denominator <= 1000, and
+    |t| <= 1001); or a + bt + ct² ≈ 0 and t is near its root v: a rational v has denominator | c (<= 1000) and
+    lies within 3.5·10⁻¹⁵·max(1, t²) of t when the roots differ (they are 1/c apart at least), within
+    4.2·10⁻⁸·max(1, |t|) when v is a double root (then its denominator n has n² | c: n <= 31); an irrational
+    v = ±√(−a/c) gives a rational x only through v² = −a/c (denominator <= 1000, x within 10⁻¹⁴ relative);
+    last, x = 2^a 3^b 5^c 7^d within 10⁻¹³ relative. A rational with q <= 10⁴ from the decimal digits is within
+    10⁻¹⁴ relative of x. Each window below is 10× these bounds (x's own at 10⁻¹² relative, denominators <= 10⁴),
+    t computed in floats (1 ulp). For the floats a computation leaves (341.848933914192...) it holds almost always,
+    and tidy keeps them without the search (25-50 ms each)."""
+    if x._prec != 53:
+        return False
+    v = float(x)
+    if not 1e-6 <= v <= 1e6:
+        return False
+    if _near(v, MAX_DENOMINATOR, v * 1e-12):
+        return False
+    for t in (v, 1 / v, v * v, 1 / (v * v), v ** 0.5, v ** -0.5):
+        if t > 1002:   # no relation with coefficients <= 1000 has a root there
+            continue
+        if _near(t, 31, 4.2e-7 * max(1.0, t)) or _near(t, 2000, 3.5e-14 * max(1.0, t * t)):
+            return False
+    return True
+
+
 @lru_cache(maxsize=20000)
 def _tidy_float(x: sp.Float) -> sp.Expr:
     """:func:`_small_rational` of a float with one search for a closed form instead of two: nsimplify(x, rational=False)
@@ -659,6 +698,8 @@ def _tidy_float(x: sp.Float) -> sp.Expr:
         return _small_rational(x)
     if x.is_negative:
         return -_tidy_float(-x)
+    if _no_rational_closed_form(x):
+        return x
     r = sp.nsimplify(x, rational=False)
     if not isinstance(r, sp.Float):   # a closed form (identify's string, sympified: exact)
         return r if r.is_Rational and r.q <= MAX_DENOMINATOR else x
