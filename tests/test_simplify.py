@@ -406,3 +406,33 @@ def test_inverse_powers_in_the_ring_are_the_laurent_coefficients():
     assert _inverse_coefficients(sp.cos(q1) / q1 + 1 / p, [q1]) is None
     assert _inverse_coefficients(sp.cos(q1) / (p + r), [q1]) is None
     assert tidy(cases[1]) == lam * sp.cos(q1) / r
+
+
+def test_offsets_and_roots_in_the_ring_are_the_laurent_coefficients(monkeypatch):
+    """_offset_coefficients (offsets π/4, π/6 and √n in sparse ring arithmetic, √n² = n and x·(1/x) = 1 applied at
+    the end) gives the general z-expansion's keys and expanded coefficients, node for node; it refuses what that
+    path refuses (an angle-free sum in the denominator of a term in sin/cos) and leaves the rest to it (two roots,
+    a sum only in the constant term, other constants)."""
+    import solver.math.simplify as S
+    q1, q2, p, r, m = sp.symbols("q1 q2 p r m", real=True)
+    x = (a * sp.cos(q1 + sp.pi / 6) + q2 * sp.sin(q1 + q2 - sp.pi / 3)) ** 2 + sp.sqrt(3) * b * sp.cos(q2) / p
+    y = m * ((r * sp.cos(q1) + (q2 - c) * sp.cos(q1 + sp.pi / 4)) ** 2 + (r * sp.sin(q1) + (q2 - c) * sp.sin(q1 + sp.pi / 4)) ** 2)
+    w = sp.sqrt(2) * p * sp.cos(q1 - 3 * sp.pi / 4) * sp.sin(2 * q2 + sp.pi / 4) / m + m / p - sp.sqrt(2) / 2
+    cases = [x, y, w, sp.sqrt(2) * r * m / 2 - c / m]
+    fast = [S._offset_coefficients(e, S.angle_symbols(e)) for e in cases]
+    assert fast[1] == {(0,): (sp.expand(m * (c ** 2 - sp.sqrt(2) * c * r - 2 * c * q2 + q2 ** 2 + r ** 2
+                                             + sp.sqrt(2) * q2 * r)), 0)}
+    assert fast[3] == {(): (sp.sqrt(2) * r * m / 2 - c / m, 0)}
+    monkeypatch.setattr(S, "_offset_coefficients", lambda *args: None)
+    for e, f in zip(cases, fast):
+        slow = S._laurent_coefficients(e, S.angle_symbols(e))
+        assert f == slow and all(sp.srepr(u) == sp.srepr(v) for k in f for u, v in zip(f[k], slow[k]))
+    refused = sp.sin(q1 + sp.pi / 4) / (p + r) + r
+    with pytest.raises(S.NotTrigPolynomial):
+        S._laurent_coefficients(refused, [q1])
+    monkeypatch.undo()
+    with pytest.raises(S.NotTrigPolynomial):
+        S._offset_coefficients(refused, [q1])
+    assert S._offset_coefficients(sp.cos(q1 + sp.pi / 12), [q1]) is None   # √2 and √6
+    assert S._offset_coefficients((sp.sin(q1) ** 2 + sp.cos(q1) ** 2) / (p + r), [q1]) is None
+    assert S._offset_coefficients(sp.cos(q1 + 1) * p, [q1]) is None

@@ -20,8 +20,8 @@ from typing import Any
 
 import sympy as sp
 
-from solver.math.fourier import (NotTrigPolynomial, factor_small, fourier_coefficients, nice_poly,
-                                  product_cost_bound, product_form, product_groups)
+from solver.math.fourier import (NotTrigPolynomial, TrigPoly, _Algebra, _canon, factor_small, fourier_coefficients,
+                                  nice_poly, product_cost_bound, product_form, product_groups)
 from solver.math.budget import BudgetExceeded, cpu_budget
 from solver.math.opcount import count_ops
 
@@ -62,6 +62,9 @@ def _laurent_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict[tuple[
     aset = set(angles)
     if any(not (p.exp.is_Integer and p.exp > 0) and p.base.free_symbols & aset for p in expr.atoms(sp.Pow)):
         raise NotTrigPolynomial(expr)   # an angle in a denominator or a radical: refused before expanding
+    fast = _offset_coefficients(expr, angles)
+    if fast is not None:
+        return fast
     zs = [sp.Dummy(f"z_{x.name}") for x in angles]
 
     def expo(k: tuple[int, ...], b: sp.Expr, sign: int) -> sp.Expr:
@@ -111,6 +114,134 @@ def _laurent_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict[tuple[
             if a.has(sp.I) or b.has(sp.I):
                 raise NotTrigPolynomial(expr)
             out[neg] = (a, b)
+    return out
+
+
+_SQRT: dict[int, sp.Dummy] = {}  # n -> the generator standing for √n in :class:`_OffsetAlgebra`
+
+
+class _OffsetAlgebra(_Algebra):
+    """fourier's algebra with two more kinds of atoms, the ones offsets such as π/4 or π/6 bring: √n (n a positive
+    integer, a generator r with r² = n applied at the end) and sin/cos(k·x + b) of any constant b whose sin and cos
+    are sums of rationals and such roots (cos(k·x + b) = cos b cos(k·x) − sin b sin(k·x)). Anything else raises
+    NotTrigPolynomial, as in fourier's algebra."""
+
+    def __init__(self, angles: list[sp.Symbol], gens: list[sp.Symbol], inverse: dict[sp.Expr, sp.Dummy]) -> None:
+        super().__init__(angles, gens)
+        self.inverse = inverse   # {a symbol or a sum without angles, as written: the generator standing for its 1/·}
+
+    def conv(self, e: sp.Expr) -> TrigPoly:
+        if e.is_Pow and e.exp == sp.S.Half and e.base.is_Integer and e.base > 0:
+            g = _SQRT.get(int(e.base))
+            if g is None or g not in self.gen:
+                raise NotTrigPolynomial(e)
+            return self.const(self.gen[g])
+        if e.is_Pow and e.exp.is_Integer and e.exp < 0:
+            t = self.inverse.get(e.base)
+            if t is None:
+                raise NotTrigPolynomial(e)
+            return self.const(self.gen[t] ** int(-e.exp))
+        return super().conv(e)
+
+    def trig(self, f: sp.Expr) -> TrigPoly:
+        k = [0] * len(self.angles)
+        b = sp.Integer(0)
+        for term, coeff in f.args[0].as_coefficients_dict().items():
+            if term in self.index and coeff.is_Integer:
+                k[self.index[term]] += int(coeff)
+            elif term.is_number:
+                b += coeff * term
+            else:
+                raise NotTrigPolynomial(f)
+        if not any(k):  # (a constant sin/cos: the general path decides)
+            raise NotTrigPolynomial(f)
+        cos_b, sin_b = self.conv(sp.cos(b)), self.conv(sp.sin(b))
+        kc, sc = _canon(tuple(k), 0)   # (the sign of cos(-k·x) is +1)
+        ks, ss = _canon(tuple(k), 1)
+        cos_k, sin_k = {kc: self.R.one}, {ks: self.R.one if ss > 0 else -self.R.one}
+        if isinstance(f, sp.cos):   # cos(k·x + b) = cos b cos(k·x) − sin b sin(k·x)
+            return self._sum(self.mul(cos_b, cos_k), self.mul(sin_b, sin_k), -1)
+        return self._sum(self.mul(sin_b, cos_k), self.mul(cos_b, sin_k), 1)   # sin b cos(k·x) + cos b sin(k·x)
+
+    def _sum(self, a: TrigPoly, b: TrigPoly, sign: int) -> TrigPoly:
+        out = dict(a)
+        for key, c in b.items():
+            self.add_into(out, key, c if sign > 0 else -c)
+        return out
+
+
+def _offset_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict | None:
+    """:func:`_laurent_coefficients` of a trigonometric polynomial whose arguments have constant offsets (π/4, π/6)
+    and whose coefficients have square roots of integers (√2/2), by sparse ring arithmetic (:class:`_OffsetAlgebra`)
+    instead of expanding the z-form: the coefficients a_k, b_k are polynomials over Q in the symbols and the roots,
+    each root's powers reduced (√n² = n) and written back, the same expanded sums as sympy's expansion gives. None
+    for anything else (other functions and constants, powers that are not natural numbers, no angle): the general
+    path then decides."""
+    def root_bases(e: sp.Expr) -> set[int]:
+        return {int(p.base) for p in e.atoms(sp.Pow) if p.exp == sp.S.Half and p.base.is_Integer and p.base > 0}
+
+    ns = root_bases(expr)
+    for f in expr.atoms(sp.sin, sp.cos):   # and the roots the offsets bring (cos π/4 = √2/2)
+        b = f.args[0].as_independent(*angles)[0]
+        if b != 0:
+            ns |= root_bases(sp.cos(b)) | root_bases(sp.sin(b))
+    if len(ns) > 1:   # (√2·√3 is √6: a relation between the roots; the general path)
+        return None
+    inverse: dict[sp.Expr, sp.Dummy] = {}   # 1/m₂, 1/(a² + q₂²): a generator each, by the expanded base
+    by_base: dict[sp.Expr, sp.Dummy] = {}   # the same by the base as written
+    for p in expr.atoms(sp.Pow):
+        if p.exp.is_Integer and p.exp < 0 and p.base not in by_base:
+            key = p.base if p.base.is_Symbol else sp.expand(p.base)
+            if not (key.is_Symbol or key.is_Add):
+                return None
+            by_base[p.base] = inverse.setdefault(key, sp.Dummy("inv"))
+    gens = sorted(expr.free_symbols, key=lambda s: s.name)
+    alg = _OffsetAlgebra(angles, gens + [_SQRT.setdefault(n, sp.Dummy(f"sqrt{n}")) for n in sorted(ns)]
+                         + list(inverse.values()), by_base)
+    try:
+        tp = alg.conv(expr)
+    except NotTrigPolynomial:
+        return None
+    R = alg.R
+    roots = [(R.symbols.index(_SQRT[n]), n) for n in ns]
+    pairs = [(R.symbols.index(b), R.symbols.index(t)) for b, t in inverse.items() if b.is_Symbol]
+
+    def reduced(p):  # type: ignore[no-untyped-def]
+        """p with √n² = n and x·(1/x) = 1 applied: a polynomial in the roots and a Laurent one in the symbols."""
+        if not roots and not pairs:
+            return p
+        acc: dict = {}
+        for mono, c in p.iterterms():
+            m = list(mono)
+            for i, n in roots:
+                c *= R.domain(n) ** (m[i] // 2)
+                m[i] %= 2
+            for i, j in pairs:
+                low = min(m[i], m[j])
+                m[i] -= low
+                m[j] -= low
+            acc[tuple(m)] = acc.get(tuple(m), R.domain.zero) + c
+        return R.from_dict({m: c for m, c in acc.items() if c})
+
+    tp = {key: r for key, c in tp.items() if (r := reduced(c))}
+    sums = [R.symbols.index(t) for b, t in inverse.items() if not b.is_Symbol]
+    if sums:
+        # sympy's expansion of the z-form writes a term z⁻ᵏ/(a² + q₂²) over one expanded denominator (the z inside it),
+        # which the general path refuses: so does this one, when such a term is left with k ≠ 0; a sum in a
+        # denominator of the constant term only is left to the general path (its expanded form is sympy's)
+        if any(m[i] for (k, _), c in tp.items() if any(k) for m in c.itermonoms() for i in sums):
+            raise NotTrigPolynomial(expr)
+        return None
+    back = list(R.symbols)
+    for i, n in roots:
+        back[i] = sp.sqrt(n)
+    for b, t in inverse.items():
+        back[R.symbols.index(t)] = 1 / b
+    zero = sp.Integer(0)
+    out: dict[tuple[int, ...], tuple[sp.Expr, sp.Expr]] = {}
+    for (k, kind), c in tp.items():
+        a, b = out.get(k, (zero, zero))
+        out[k] = (c.as_expr(*back), b) if kind == 0 else (a, c.as_expr(*back))
     return out
 
 
