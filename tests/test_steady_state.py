@@ -848,3 +848,26 @@ def test_equilibria_in_angle_sums():
     assert not every and not conditions
     assert sorted(sp.simplify(c[0] + q2 + q3) for c in configs) == [-sp.pi / 2, sp.pi / 2]
     assert all(list(c[1:]) == [q2, q3] for c in configs)
+
+
+def test_ring_rows_are_the_expanded_trigonometric_rows(monkeypatch):
+    """_to_polynomial's rows in c_θ, s_θ computed in a sparse ring (sympy's expand_trig forms of sums and of
+    multiples 2θ, 3θ, 4θ, the rows cleared of their rational denominators) are node for node what the expansions
+    give, on rows of a robot no library problem has; a row outside the ring (a float, an offset, a parameter angle)
+    takes the expansions."""
+    import solver.dynamics.equilibria as E
+    q1, q2, x = sp.symbols("q1 q2 x", real=True)
+    a, b, al = sp.symbols("a b alpha", positive=True)
+    rows = [a * sp.sin(3 * q1 - q2) / 6 + b * sp.cos(2 * q1 + 2 * q2) * sp.sin(q2) ** 2 / 4 - x * sp.cos(4 * q2) / 3,
+            (a * sp.cos(q1) + b * sp.sin(2 * q2 - q1)) ** 2 - b ** 2 * sp.sin(4 * q1) / 2 + x * a]
+    fast, cs = E._to_polynomial(rows, [q1, q2])
+    (c1, s1), (c2, s2) = cs[q1], cs[q2]
+    assert E._ring_rows(rows, cs) is not None and fast[2:] == [c1 ** 2 + s1 ** 2 - 1, c2 ** 2 + s2 ** 2 - 1]
+    assert sp.expand(fast[1] - (a * c1 + b * (2 * s2 * c2 * c1 - (2 * c2 ** 2 - 1) * s1)) ** 2
+                     + b ** 2 * c1 * (4 * s1 - 8 * s1 ** 3) / 2 - x * a) == 0   # sin 4θ = cos θ U₃(sin θ)
+    monkeypatch.setattr(E, "_ring_rows", lambda *args: None)
+    slow, _ = E._to_polynomial(rows, [q1, q2])
+    assert [sp.srepr(u) for u in fast] == [sp.srepr(v) for v in slow]
+    monkeypatch.undo()
+    for other in (sp.Float(0.5) * sp.sin(q1), sp.cos(q1 + sp.pi / 4), sp.sin(q1 + al)):
+        assert E._ring_rows([other], cs) is None

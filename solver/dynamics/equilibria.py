@@ -74,7 +74,12 @@ class EquilibriaAsk(Strict):
 
 
 def _to_polynomial(g: list[sp.Expr], angles: list[sp.Symbol]) -> tuple[list[sp.Expr], dict]:
+    """The rows in c_θ = cos θ, s_θ = sin θ (sums and multiples of angles expanded as sympy's expand_trig writes
+    them), each cleared of denominators and expanded, and c_θ² + s_θ² − 1 for each angle."""
     cs = {a: (sp.Symbol(f"c_{a.name}", real=True), sp.Symbol(f"s_{a.name}", real=True)) for a in angles}
+    eqs = _ring_rows(g, cs)
+    if eqs is not None:
+        return eqs + [c ** 2 + s ** 2 - 1 for c, s in cs.values()], cs
     eqs = []
     for x in g:
         e = sp.expand(sp.expand_trig(sp.expand(x, trig=True)))
@@ -84,6 +89,93 @@ def _to_polynomial(g: list[sp.Expr], angles: list[sp.Symbol]) -> tuple[list[sp.E
             eqs.append(sp.expand(e))
     eqs += [c ** 2 + s ** 2 - 1 for c, s in cs.values()]
     return eqs, cs
+
+
+def _ring_rows(g: list[sp.Expr], cs: dict) -> list[sp.Expr] | None:
+    """What :func:`_to_polynomial`'s expansions give for rows that are polynomials over Q in symbols and sin/cos of
+    integer combinations of the angles, computed in a sparse ring instead: cos/sin of k·θ as sympy's expand_trig
+    writes them (the addition formulas, which multiply out as Π (C_j + i S_j), and cos nθ = T_n(cos θ),
+    sin nθ = ±T_n(sin θ) for odd n, ±cos θ U_{n−1}(sin θ) for even n), and numer(together(e)) of a polynomial e is
+    e times the least common multiple of its coefficients' denominators. None for anything else."""
+    from sympy.polys.domains import QQ
+    from sympy.polys.rings import ring
+    syms = sorted(set().union(*(x.free_symbols for x in g)) - set(cs), key=lambda s: s.name) if g else []
+    flat = [v for pair in cs.values() for v in pair]
+    if set(flat) & set(syms):
+        return None
+    R, *gens = ring(syms + flat, QQ)
+    gen = dict(zip(syms + flat, gens))
+    memo: dict = {}
+    chebyshev: dict = {}
+
+    def cheb(kind: str, n: int, x):  # type: ignore[no-untyped-def]
+        """T_n(x) or U_n(x) (n ≥ 0) in R."""
+        key = (kind, n, x)
+        if key not in chebyshev:
+            a, b = R.one, (x if kind == "T" else 2 * x)
+            for _ in range(n):
+                a, b = b, 2 * x * b - a
+            chebyshev[key] = a
+        return chebyshev[key]
+
+    def multiple(n: int, a: sp.Symbol) -> tuple:  # type: ignore[no-untyped-def]
+        """(cos nθ, sin nθ) of the angle a, n ≠ 0."""
+        c, s = gen[cs[a][0]], gen[cs[a][1]]
+        m = abs(n)
+        cos_n = cheb("T", m, c)
+        if m % 2:
+            sin_n = (-1) ** ((m - 1) // 2) * cheb("T", m, s)
+        else:
+            sin_n = (-1) ** (m // 2 - 1) * c * cheb("U", m - 1, s)
+        return cos_n, (sin_n if n > 0 else -sin_n)
+
+    def trig(f: sp.Expr):  # type: ignore[no-untyped-def]
+        re, im = R.one, R.zero
+        for term in sp.Add.make_args(f.args[0]):
+            k, a = term.as_coeff_Mul()
+            if a not in cs or not k.is_Integer or k == 0:
+                raise ValueError(f)
+            c, s = multiple(int(k), a)
+            re, im = re * c - im * s, im * c + re * s
+        return re if isinstance(f, sp.cos) else im
+
+    def conv(e: sp.Expr):  # type: ignore[no-untyped-def]
+        hit = memo.get(e)
+        if hit is not None:
+            return hit
+        if e.is_Rational:
+            out = R.ground_new(QQ(int(e.p), int(e.q)))
+        elif e.is_Symbol:
+            out = gen[e]
+        elif e.is_Add:
+            out = R.zero
+            for a in e.args:
+                out += conv(a)
+        elif e.is_Mul:
+            out = R.one
+            for a in e.args:
+                out *= conv(a)
+        elif e.is_Pow and e.exp.is_Integer and e.exp >= 0:
+            out = conv(e.base) ** int(e.exp)
+        elif isinstance(e, (sp.sin, sp.cos)):
+            out = trig(e)
+        else:
+            raise ValueError(e)
+        memo[e] = out
+        return out
+
+    out = []
+    try:
+        for x in g:
+            p = conv(sp.sympify(x))
+            if p:
+                den = 1
+                for c in p.itercoeffs():
+                    den = sp.ilcm(den, int(c.denominator))
+                out.append((p * den).as_expr())
+    except (ValueError, KeyError):
+        return None
+    return out
 
 
 def equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False) -> tuple[list[sp.Matrix], list[sp.Expr], bool]:
