@@ -373,3 +373,25 @@ def test_readable_is_memoized_on_its_arguments():
     assert again is first and _readable.cache_info().hits == 1
     _readable.cache_clear()
     assert readable(e, {q1, q2, dq1, ddq1}, [ddq1, dq1]) == first
+
+
+def test_ring_canonical_is_the_expanded_canonical_form(monkeypatch):
+    """canonical() computed in a sparse ring (cos/sin of combinations as Π (c + i s)^k, c² → 1 − s² or s² → 1 − c²)
+    is node for node what expand(expand_trig(.)) and the replacements give, on terms of a robot no library problem
+    has (multiples, differences, an angle outside sin/cos, a prismatic coordinate); anything else takes the
+    expansions (a float, an angle outside the state, a parameter angle)."""
+    import solver.dynamics.parametrization as P
+    q1, q2, d3, dq1, dq2, ddq1, al = sp.symbols("q1 q2 d3 dq1 dq2 ddq1 alpha", real=True)
+    m, a, b = sp.symbols("m a b", positive=True)
+    state = {q1, q2, d3, dq1, dq2, ddq1}
+    exprs = [m * (a * sp.cos(2 * q1 - q2) + d3 * sp.sin(q2)) ** 2 * ddq1 / 3 - b * sp.sin(3 * q2) * dq1 * dq2,
+             q1 * sp.sin(q1) * sp.cos(q1 + q2) ** 3 + a * sp.cos(q2) ** 4 / 2 - m * sp.sin(q1) ** 2 * dq1 ** 2]
+    fast = {(i, sq): P._ring_canonical(e, state, sq) for i, e in enumerate(exprs) for sq in ("cos", "sin")}
+    assert P._ring_canonical(sp.cos(q1) ** 2, state, "cos") == 1 - sp.sin(q1) ** 2
+    assert P._ring_canonical(sp.sin(2 * q1) ** 2, state, "sin") == sp.expand(4 * sp.cos(q1) ** 2 * (1 - sp.cos(q1) ** 2))
+    monkeypatch.setattr(P, "_ring_canonical", lambda *args: None)
+    for (i, sq), f in fast.items():
+        assert f is not None and sp.srepr(f) == sp.srepr(P.canonical(exprs[i], state, sq))
+    monkeypatch.undo()
+    for other in (sp.Float(0.5) * sp.sin(q1), sp.cos(q1 + al), sp.sin(q1) * sp.cos(b)):
+        assert P._ring_canonical(other, state, "cos") is None

@@ -83,7 +83,11 @@ class _NotPolynomial(Exception):
 def canonical(expr: sp.Expr, state: set, square: str = "cos") -> sp.Expr:
     """``expr`` expanded over products of sin/cos of single angles, with cos² x -> 1 - sin² x (``square`` =
     "cos"; "sin": sin² x -> 1 - cos² x): a unique representation of trigonometric polynomials."""
-    e = sp.expand(sp.expand_trig(sp.sympify(expr)))
+    expr = sp.sympify(expr)
+    fast = _ring_canonical(expr, state, square)
+    if fast is not None:
+        return fast
+    e = sp.expand(sp.expand_trig(expr))
     fn, other = (sp.cos, sp.sin) if square == "cos" else (sp.sin, sp.cos)
 
     def is_square(x: Any) -> bool:
@@ -99,6 +103,78 @@ def canonical(expr: sp.Expr, state: set, square: str = "cos") -> sp.Expr:
             break
         e = sp.expand(e.replace(is_square, reduce))
     return e
+
+
+def _ring_canonical(expr: sp.Expr, state: set, square: str) -> sp.Expr | None:
+    """:func:`canonical` computed in a sparse ring, for a polynomial over Q in symbols and sin/cos of integer
+    combinations of the state's angles: cos and sin of each angle are generators c, s, cos/sin of a combination the
+    real and imaginary parts of Π (c_j + i s_j)^k_j, and c² (``square`` "cos"; s² for "sin") is replaced by 1 − s²
+    (1 − c²) in every monomial; the representation being unique, its expanded sum is the one the expansions give.
+    None for anything else (floats, other functions, an angle outside the state, a fraction in an argument)."""
+    from sympy.polys.domains import QQ
+    from sympy.polys.rings import ring
+    angles = sorted({x for f in expr.atoms(sp.sin, sp.cos) for x in f.args[0].free_symbols}, key=lambda x: x.name)
+    if not angles or not set(angles) <= state:
+        return None
+    syms = sorted(expr.free_symbols, key=lambda x: x.name)
+    cs = {a: (sp.Dummy(f"c_{a.name}"), sp.Dummy(f"s_{a.name}")) for a in angles}
+    R, *gens = ring(syms + [v for a in angles for v in cs[a]], QQ)
+    gen = dict(zip(syms + [v for a in angles for v in cs[a]], gens))
+    memo: dict = {}
+
+    def trig(f: sp.Expr):  # type: ignore[no-untyped-def]
+        re, im = R.one, R.zero
+        for term in sp.Add.make_args(f.args[0]):
+            k, a = term.as_coeff_Mul()
+            if a not in cs or not k.is_Integer:
+                raise ValueError(f)
+            c, s = gen[cs[a][0]], gen[cs[a][1]] * (1 if k > 0 else -1)
+            for _ in range(abs(int(k))):
+                re, im = re * c - im * s, im * c + re * s
+        return re if isinstance(f, sp.cos) else im
+
+    def conv(e: sp.Expr):  # type: ignore[no-untyped-def]
+        hit = memo.get(e)
+        if hit is not None:
+            return hit
+        if e.is_Rational:
+            out = R.ground_new(QQ(int(e.p), int(e.q)))
+        elif e.is_Symbol:
+            out = gen[e]
+        elif e.is_Add:
+            out = R.zero
+            for a in e.args:
+                out += conv(a)
+        elif e.is_Mul:
+            out = R.one
+            for a in e.args:
+                out *= conv(a)
+        elif e.is_Pow and e.exp.is_Integer and e.exp >= 0:
+            out = conv(e.base) ** int(e.exp)
+        elif isinstance(e, (sp.sin, sp.cos)):
+            out = trig(e)
+        else:
+            raise ValueError(e)
+        memo[e] = out
+        return out
+
+    try:
+        p = conv(expr)
+    except (ValueError, KeyError):
+        return None
+    first = 0 if square == "cos" else 1   # the generator whose square is replaced
+    pairs = [(R.symbols.index(cs[a][first]), R.symbols.index(cs[a][1 - first])) for a in angles]
+    out = R.zero
+    for mono, coeff in p.iterterms():
+        m = list(mono)
+        term = R.ground_new(coeff)
+        for i, j in pairs:
+            if m[i] >= 2:
+                term *= (1 - R.gens[j] ** 2) ** (m[i] // 2)
+                m[i] %= 2
+        out += term * R.from_dict({tuple(m): QQ.one})
+    back = list(syms) + [fn(a) for a in angles for fn in (sp.cos, sp.sin)]
+    return out.as_expr(*back)
 
 
 def split_term(term: sp.Expr, state: set, dyn: set) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
