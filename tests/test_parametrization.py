@@ -395,3 +395,18 @@ def test_ring_canonical_is_the_expanded_canonical_form(monkeypatch):
     monkeypatch.undo()
     for other in (sp.Float(0.5) * sp.sin(q1), sp.cos(q1 + al), sp.sin(q1) * sp.cos(b)):
         assert P._ring_canonical(other, state, "cos") is None
+
+
+def test_readable_factors_each_sum_of_parameters_once():
+    """_group_by_state factors a sum of parameters once (memoized) however many entries it multiplies, with
+    sympy's factor_terms result."""
+    import solver.dynamics.parametrization as P
+    dq1, ddq1 = sp.symbols("dq1 ddq1", real=True)
+    m, a, b = sp.symbols("m a b", positive=True)
+    s = 2 * m * a ** 2 + 4 * m * a * b
+    P._factor_terms.cache_clear()
+    first = P._group_by_state(sp.expand(s * ddq1 + s * dq1 ** 2), [ddq1, dq1])
+    second = P._group_by_state(sp.expand(s * ddq1), [ddq1, dq1])
+    assert first == 2 * a * m * (a + 2 * b) * ddq1 + 2 * a * m * (a + 2 * b) * dq1 ** 2
+    assert second == sp.factor_terms(s) * ddq1
+    assert P._factor_terms.cache_info().hits >= 2 and P._factor_terms.cache_info().misses == 1
