@@ -111,6 +111,8 @@ def _ring_canonical(expr: sp.Expr, state: set, square: str) -> sp.Expr | None:
     real and imaginary parts of Π (c_j + i s_j)^k_j, and c² (``square`` "cos"; s² for "sin") is replaced by 1 − s²
     (1 − c²) in every monomial; the representation being unique, its expanded sum is the one the expansions give.
     None for anything else (floats, other functions, an angle outside the state, a fraction in an argument)."""
+    from math import comb as binomial
+
     from sympy.polys.domains import QQ
     from sympy.polys.rings import ring
     angles = sorted({x for f in expr.atoms(sp.sin, sp.cos) for x in f.args[0].free_symbols}, key=lambda x: x.name)
@@ -164,17 +166,25 @@ def _ring_canonical(expr: sp.Expr, state: set, square: str) -> sp.Expr | None:
         return None
     first = 0 if square == "cos" else 1   # the generator whose square is replaced
     pairs = [(R.symbols.index(cs[a][first]), R.symbols.index(cs[a][1 - first])) for a in angles]
-    out = R.zero
+    acc: dict = {}
     for mono, coeff in p.iterterms():
-        m = list(mono)
-        term = R.ground_new(coeff)
-        for i, j in pairs:
-            if m[i] >= 2:
-                term *= (1 - R.gens[j] ** 2) ** (m[i] // 2)
-                m[i] %= 2
-        out += term * R.from_dict({tuple(m): QQ.one})
+        terms = [(list(mono), coeff)]
+        for i, j in pairs:   # c^(2k + r) = c^r (1 − s²)^k, binomially
+            k = mono[i] // 2
+            if k:
+                spread = []
+                for m, c in terms:
+                    for t in range(k + 1):
+                        m2 = list(m)
+                        m2[i] -= 2 * k
+                        m2[j] += 2 * t
+                        spread.append((m2, c * binomial(k, t) * (-1) ** t))
+                terms = spread
+        for m, c in terms:
+            key = tuple(m)
+            acc[key] = acc.get(key, QQ.zero) + c
     back = list(syms) + [fn(a) for a in angles for fn in (sp.cos, sp.sin)]
-    return out.as_expr(*back)
+    return R.from_dict({m: c for m, c in acc.items() if c}).as_expr(*back)
 
 
 def split_term(term: sp.Expr, state: set, dyn: set) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
