@@ -644,3 +644,19 @@ def test_forward_dynamics_of_a_spatial_3r_at_a_state_and_in_q():
     ddq = r["ddq"].value
     assert ddq.free_symbols == set(p.robot.q[1:] + p.robot.dq)
     assert np.allclose(np.array(ddq.xreplace(x).evalf(), float).ravel(), want, rtol=1e-9)
+
+
+def test_pd_conditions_take_each_entry_worst_cases_once(monkeypatch):
+    """The diagonal entries are collected twice (alone, then with the minors) and a 1×1 block's minor is its entry:
+    their worst configurations are computed once each, with the same conditions (B of an RP arm with a 1×1 and a
+    2×2 block, not a library robot)."""
+    import solver.dynamics.properties as P
+    q1, q2, q3 = sp.symbols("q1 q2 q3", real=True)
+    m, a, b, i1 = sp.symbols("m a b I1", positive=True)
+    B = sp.Matrix([[i1 + m * q2 ** 2, 0, 0], [0, m + a * sp.cos(q3) ** 2, b * sp.cos(q3)], [0, b * sp.cos(q3), a]])
+    calls: list = []
+    real = P.worst_case
+    monkeypatch.setattr(P, "worst_case", lambda e, *rest: calls.append(e) or real(e, *rest))
+    conds, minors, possible, _, diag = P.pd_conditions(B, [q1, q2, q3], {q1, q3})
+    assert len(calls) == len(set(calls)) == 4   # b11, b22, b33 and the 2×2 minor
+    assert possible and diag == [] and len(minors) == 3 and conds   # (I1 > 0 holds: no diagonal condition)

@@ -162,12 +162,15 @@ def pd_conditions(B: sp.Matrix, q: list[sp.Symbol], revolute: set[sp.Symbol]
     per_block = []
     possible = True
 
+    worst: dict[sp.Expr, list[tuple[sp.Expr, sp.Expr]]] = {}   # (the diagonal entries are collected twice)
+
     def collect(exprs: list[sp.Expr]) -> list[sp.Expr]:
         nonlocal possible
         out: list[sp.Expr] = []
         for m in exprs:
-            for v in worst_case(m, q, revolute):
-                nc = normalize_condition(v)
+            if m not in worst:
+                worst[m] = [(v, normalize_condition(v)) for v in worst_case(m, q, revolute)]
+            for v, nc in worst[m]:
                 if nc == -1 or bool(v.is_nonpositive):
                     possible = False
                 if nc != 1 and not any(sp.expand(nc - x) == 0 for x in out):
