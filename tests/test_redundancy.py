@@ -399,3 +399,42 @@ def test_check_reports_the_error_solve_raises(write, ask, words):
     check, solve = check_and_solve(path)
     assert check.returncode == solve.returncode == 2, check.stdout + check.stderr
     assert check.stderr == solve.stderr and words in check.stderr and "spec.yaml:" in check.stderr, check.stderr
+
+
+def _tidy_rational_reference(e: sp.Expr) -> sp.Expr:
+    """_tidy_rational as it was before the pair screen: the subs of every cos atom, always."""
+    from solver.kinematics.redundancy import _hide_radicals
+    from solver.math.opcount import count_ops
+    from solver.math.simplify import factor_within, tidy
+    e, back = _hide_radicals(e)
+    t = tidy(e)
+    if t.free_symbols and not t.is_polynomial() and count_ops(t) <= 150:
+        f = factor_within(sp.expand_trig(t))
+        for _ in range(2):
+            g = f
+            for c in f.atoms(sp.cos):
+                g = g.subs((c - 1) * (c + 1), -sp.sin(c.args[0]) ** 2)
+            if g == f:
+                break
+            f = factor_within(g)
+        if sp.count_ops(f) < sp.count_ops(t):
+            t = f
+    return t.xreplace(back) if back else t
+
+
+def test_tidy_rational_pair_screen_matches_general_path():
+    """The (cos x − 1)(cos x + 1) → −sin² x substitution runs only when both factors occur (sympy's subs walked the
+    whole factored form once per cos and was most of the redundancy asks' time); same forms as always running it,
+    with and without a pair to replace, a constant to distribute in the denominator."""
+    from solver.kinematics.redundancy import _sine_square_pair, _tidy_rational
+    q1, q2, a, b = sp.symbols("q1 q2 a b", real=True)
+    c1, c2, s1 = sp.cos(q1), sp.cos(q2), sp.sin(q1)
+    cases = [(s1 * c2 + 2 * c1) / (2 * (c1**2 * c2**2 - c2**2 + a)),
+             (c2**2 - 1) / (a * s1 + c2),
+             a * (c1**2 - 1) * c2 / (b * s1**2 * c2 + a * c1)]
+    got = [_tidy_rational(e) for e in cases]
+    assert got == [_tidy_rational_reference(e) for e in cases]
+    assert got[1] == (c2**2 - 1) / (a * s1 + c2)
+    assert got[2] == -a * s1**2 * c2 / (a * c1 - b * c1**2 * c2 + b * c2)
+    assert _sine_square_pair((c2 - 1) * (c2 + 1) / (a * s1 + c2))
+    assert not _sine_square_pair((s1 * c2 + 2 * c1) / (2 * (a + c1**2 * c2**2 - c2**2)))

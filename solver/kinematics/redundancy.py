@@ -181,6 +181,12 @@ def _hide_radicals(e: sp.Expr) -> tuple[sp.Expr, dict]:
     return (out, back) if back else (e, back)
 
 
+def _sine_square_pair(f: sp.Expr) -> bool:
+    """Whether both cos x − 1 and cos x + 1 occur in f for some x: only then can f.subs((cos x − 1)(cos x + 1),
+    −sin² x) replace anything (a Mul must have both as bases); sympy's subs walks every node of f for each cos."""
+    return any(f.has(c - 1) and f.has(c + 1) for c in f.atoms(sp.cos))
+
+
 def _tidy_rational(e: sp.Expr) -> sp.Expr:
     """tidy, or the factored form when that is shorter (rational functions of cos q, sin q); square roots are
     kept as they are (their radicands tidied)."""
@@ -191,6 +197,8 @@ def _tidy_rational(e: sp.Expr) -> sp.Expr:
     if t.free_symbols and not t.is_polynomial() and count_ops(t) <= 150:
         f = factor_within(sp.expand_trig(t))
         for _ in range(2):  # (cos x - 1)(cos x + 1) -> -sin(x)^2, then cancel again
+            if not _sine_square_pair(f):
+                break  # (nothing to replace: subs would only re-evaluate f, which factor_within gives back)
             g = f
             for c in f.atoms(sp.cos):
                 g = g.subs((c - 1) * (c + 1), -sp.sin(c.args[0]) ** 2)
