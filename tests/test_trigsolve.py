@@ -65,3 +65,24 @@ def test_spherical_arm_by_squares_of_two_then_three_equations() -> None:
         assert all(abs(float(fi.subs(real)) - target[ri]) < 1e-9 for fi, ri in zip(f, r))
         found += 1
     assert found == 4
+
+
+def test_trig_factors_and_simple_memoized():
+    """trig_factors and _simple's exact numbers are memoized (a problem's asks factor the same determinants and
+    simplify the same angles again): a repeated call is a cache hit with the same value, and the caller gets its
+    own list of factors (a caller mutating it leaves the memo intact)."""
+    from solver.math import trigsolve as ts
+    q1, q2, a, b = sp.symbols("q1 q2 a b", real=True)
+    e = a * b * sp.sin(q2) * (a * sp.cos(q1) + 2 * b * sp.cos(q1 + q2))
+    first = ts.trig_factors(e)
+    hits = ts._trig_factors.cache_info().hits
+    first[1].append((q1, 9))
+    again = ts.trig_factors(e)
+    assert ts._trig_factors.cache_info().hits == hits + 1
+    assert again == ts._trig_factors_uncached(e)
+    assert (q1, 9) not in again[1]
+    v = sp.atan2(-sp.sqrt(3) / 2, sp.Rational(1, 2)) + 2 * sp.pi
+    hits = ts._simple_exact.cache_info().hits
+    assert ts._simple(v) == ts._simple(v) == sp.nsimplify(sp.simplify(v), [sp.pi]) == 5 * sp.pi / 3
+    assert ts._simple_exact.cache_info().hits == hits + 1
+    assert ts._simple(sp.Float(0.25) + sp.pi) == sp.Float(float(sp.N(sp.pi)) + 0.25, 15)

@@ -30,6 +30,7 @@ import cmath
 import itertools
 import random
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any, Callable, Iterable, Sequence
 
 import sympy as sp
@@ -393,12 +394,18 @@ def _simple(v: sp.Expr) -> sp.Expr:
         if v.atoms(sp.Float):
             z = complex(sp.N(v))
             return sp.Float(z.real, 15) if abs(z.imag) < 1e-12 else v
-        try:
-            v2 = sp.nsimplify(sp.simplify(v), [sp.pi]) if sp.count_ops(v) <= 40 else v
-            return v2 if sp.count_ops(v2) <= sp.count_ops(v) and abs(complex(sp.N(v2 - v))) < 1e-12 else v
-        except Exception:  # pragma: no cover - sympy internals
-            return v
+        return _simple_exact(v)
     return v
+
+
+@lru_cache(maxsize=4096)
+def _simple_exact(v: sp.Expr) -> sp.Expr:
+    """:func:`_simple` of an exact number, memoized (the same angles recur in every family and ask)."""
+    try:
+        v2 = sp.nsimplify(sp.simplify(v), [sp.pi]) if sp.count_ops(v) <= 40 else v
+        return v2 if sp.count_ops(v2) <= sp.count_ops(v) and abs(complex(sp.N(v2 - v))) < 1e-12 else v
+    except Exception:  # pragma: no cover - sympy internals
+        return v
 
 
 def _poly_in(e: sp.Expr, x: sp.Symbol) -> sp.Poly | None:
@@ -645,8 +652,19 @@ def trig_factors(e: sp.Expr) -> tuple[sp.Expr, list[tuple[sp.Expr, int]]]:
     factorization is done after the substitution t = tan(x/2) (cos x = (1 - t²)/(1 + t²), sin x = 2t/(1 + t²)),
     in a genuine polynomial ring: a factor F of degree d in t (d even, or d odd taking one of the roots at x = π
     that the numerator lost, 2m - deg N of them for a denominator (1 + t²)^m) is the trigonometric polynomial
-    F/(1 + t²)^{⌈d/2⌉}. The result is checked exactly; the plain factorization in cos/sin is the fallback."""
-    e = sp.sympify(e)
+    F/(1 + t²)^{⌈d/2⌉}. The result is checked exactly; the plain factorization in cos/sin is the fallback.
+    Memoized (a problem's asks factor the same determinants and minors again)."""
+    const, facs = _trig_factors(sp.sympify(e))
+    return const, list(facs)
+
+
+@lru_cache(maxsize=1024)
+def _trig_factors(e: sp.Expr) -> tuple[sp.Expr, tuple[tuple[sp.Expr, int], ...]]:
+    const, facs = _trig_factors_uncached(e)
+    return const, tuple(facs)
+
+
+def _trig_factors_uncached(e: sp.Expr) -> tuple[sp.Expr, list[tuple[sp.Expr, int]]]:
     if e == 0 or not e.free_symbols:
         return e, []
     angles = sorted({s for f in e.atoms(sp.sin, sp.cos) for s in f.args[0].free_symbols}, key=lambda s: s.name)
@@ -706,15 +724,15 @@ def _collect(const: sp.Expr, facs: list[tuple[sp.Expr, int]], angles: list[sp.Sy
 
 def _factor_half_tangent(e: sp.Expr, angles: list[sp.Symbol]) -> tuple[sp.Expr, list[tuple[sp.Expr, int]]] | None:
     ts = [sp.Dummy(f"t_{x.name}") for x in angles]
-    sub = {}
-    for x, t in zip(angles, ts):
-        sub[sp.cos(x)] = (1 - t**2) / (1 + t**2)
-        sub[sp.sin(x)] = 2 * t / (1 + t**2)
     P = sp.expand(sp.expand_trig(e))
     fast = _half_tangent_numerator(P, angles, ts)
     if fast is not None:
         const, facs, m, deg_total = fast
     else:
+        sub = {}
+        for x, t in zip(angles, ts):
+            sub[sp.cos(x)] = (1 - t**2) / (1 + t**2)
+            sub[sp.sin(x)] = 2 * t / (1 + t**2)
         R = P.xreplace(sub)
         if any(R.has(x) for x in angles):
             return None
