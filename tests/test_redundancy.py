@@ -417,7 +417,7 @@ def _tidy_rational_reference(e: sp.Expr) -> sp.Expr:
             if g == f:
                 break
             f = factor_within(g)
-        if sp.count_ops(f) < sp.count_ops(t):
+        if count_ops(f) < count_ops(t):
             t = f
     return t.xreplace(back) if back else t
 
@@ -434,6 +434,8 @@ def test_tidy_rational_pair_screen_matches_general_path():
              a * (c1**2 - 1) * c2 / (b * s1**2 * c2 + a * c1)]
     got = [_tidy_rational(e) for e in cases]
     assert got == [_tidy_rational_reference(e) for e in cases]
+    hits = _tidy_rational.cache_info().hits  # memoized: minimum_norm's asks tidy the same entries again
+    assert [_tidy_rational(e) for e in cases] == got and _tidy_rational.cache_info().hits == hits + len(cases)
     assert got[1] == (c2**2 - 1) / (a * s1 + c2)
     assert got[2] == -a * s1**2 * c2 / (a * c1 - b * c1**2 * c2 + b * c2)
     assert _sine_square_pair((c2 - 1) * (c2 + 1) / (a * s1 + c2))

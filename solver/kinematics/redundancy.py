@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import random
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, Literal, Union
 
 import numpy as np
@@ -187,9 +188,10 @@ def _sine_square_pair(f: sp.Expr) -> bool:
     return any(f.has(c - 1) and f.has(c + 1) for c in f.atoms(sp.cos))
 
 
+@lru_cache(maxsize=4096)
 def _tidy_rational(e: sp.Expr) -> sp.Expr:
     """tidy, or the factored form when that is shorter (rational functions of cos q, sin q); square roots are
-    kept as they are (their radicands tidied)."""
+    kept as they are (their radicands tidied). Memoized (minimum_norm's three asks tidy the same entries)."""
     if not e.free_symbols:
         return tidy(e)
     e, back = _hide_radicals(e)
