@@ -86,3 +86,34 @@ def test_trig_factors_and_simple_memoized():
     assert ts._simple(v) == ts._simple(v) == sp.nsimplify(sp.simplify(v), [sp.pi]) == 5 * sp.pi / 3
     assert ts._simple_exact.cache_info().hits == hits + 1
     assert ts._simple(sp.Float(0.25) + sp.pi) == sp.Float(float(sp.N(sp.pi)) + 0.25, 15)
+
+
+def _sympy_terms(e: sp.Expr, angles: list) -> dict:
+    """The terms of sp.expand(sp.expand_trig(e)) keyed by their exponents (the general path's reading)."""
+    gens = [sp.cos(x) for x in angles] + [sp.sin(x) for x in angles]
+    params = sorted(e.free_symbols - set(angles), key=lambda s: s.name)
+    return sp.Poly(sp.expand(sp.expand_trig(e)), *gens, *params).as_dict()
+
+
+def test_expanded_terms_equal_sympys_expansion():
+    """_expanded_terms (the half-tangent factorization's input, multiplied out in a ring) gives the terms of
+    sp.expand(sp.expand_trig(e)) exactly: sympy's multiple-angle conventions (sin 3x = 3 sin x − 4 sin³ x, sin 4x =
+    −cos x (8 sin³ x − 4 sin x)), negative multiples, sums of angles, products and powers; None (the sympy path)
+    for a constant in an argument, a half angle, a float, a symbol in a denominator, an angle outside sin/cos."""
+    a, b, x, y, z = sp.symbols("a b x y z", real=True)
+    angles = [x, y, z]
+    cases = [sp.sin(3 * x) * a - b * sp.cos(2 * y - x) ** 2,
+             sp.sin(4 * x - 3 * y + z) + a * b * sp.cos(-2 * x + y) * sp.sin(2 * z),
+             sp.Rational(3, 2) * a**2 * sp.cos(x + y) * sp.sin(x - y) - sp.cos(5 * z) + 7,
+             (a * sp.sin(x) + b * sp.cos(x + 2 * z)) ** 3 - sp.sin(-3 * y) * sp.sin(-4 * y)]
+    for e in cases:
+        terms = T._expanded_terms(e, angles)
+        params = sorted(e.free_symbols - set(angles), key=lambda s: s.name)
+        got = {tuple(ca) + tuple(sb) + tuple(o.get(s, 0) for s in params): c for c, ca, sb, o in terms}
+        assert got == _sympy_terms(e, angles)
+    for e in (sp.sin(x + 1) * a, sp.cos(x / 2) + a, sp.Float(0.5) * sp.sin(x), sp.sin(x) / a, x * sp.cos(x)):
+        assert T._expanded_terms(e, angles) is None
+    e = a * sp.sin(y) * (b * sp.cos(2 * x) + a * sp.cos(x + y))  # the numerator's factors through either path
+    ts = [sp.Dummy("t_x"), sp.Dummy("t_y")]
+    assert T._half_tangent_numerator(None, [x, y], ts, T._expanded_terms(e, [x, y])) == \
+        T._half_tangent_numerator(sp.expand(sp.expand_trig(e)), [x, y], ts)

@@ -724,8 +724,12 @@ def _collect(const: sp.Expr, facs: list[tuple[sp.Expr, int]], angles: list[sp.Sy
 
 def _factor_half_tangent(e: sp.Expr, angles: list[sp.Symbol]) -> tuple[sp.Expr, list[tuple[sp.Expr, int]]] | None:
     ts = [sp.Dummy(f"t_{x.name}") for x in angles]
-    P = sp.expand(sp.expand_trig(e))
-    fast = _half_tangent_numerator(P, angles, ts)
+    terms = _expanded_terms(e, angles)
+    fast = _half_tangent_numerator(None, angles, ts, terms) if terms is not None else None
+    P = None
+    if fast is None:
+        P = sp.expand(sp.expand_trig(e))
+        fast = _half_tangent_numerator(P, angles, ts) if terms is None else None
     if fast is not None:
         const, facs, m, deg_total = fast
     else:
@@ -814,19 +818,101 @@ def _factor_half_tangent(e: sp.Expr, angles: list[sp.Symbol]) -> tuple[sp.Expr, 
     return tidy(const2), out
 
 
-def _half_tangent_numerator(P: sp.Expr, angles: list[sp.Symbol], ts: list[sp.Symbol]
+def _trig_multiple(n: int, C: Any, S: Any) -> tuple[Any, Any]:
+    """(cos n x, sin n x) as sympy's expand_trig writes them, in the ring of C = cos x, S = sin x: cos n x = T_|n|(C);
+    sin n x = (−1)^((n−1)/2) T_n(S) for odd n, (−1)^(n/2−1) C U_{n−1}(S) for even n, and −sin(|n| x) for n < 0."""
+    a = abs(n)
+    t0, t1 = C.ring.one, C  # T_0, T_1 of C
+    for _ in range(a - 1):
+        t0, t1 = t1, 2 * C * t1 - t0
+    cos_n = t1 if a else C.ring.one
+    if a == 0:
+        return cos_n, C.ring.zero
+    if a % 2:
+        v0, v1 = C.ring.one, S  # T_0, T_1 of S
+        for _ in range(a - 1):
+            v0, v1 = v1, 2 * S * v1 - v0
+        sin_n = (-1) ** ((a - 1) // 2) * v1
+    else:
+        u0, u1 = C.ring.one, 2 * S  # U_0, U_1 of S
+        for _ in range(a - 2):
+            u0, u1 = u1, 2 * S * u1 - u0
+        sin_n = (-1) ** (a // 2 - 1) * C * u1
+    return cos_n, (sin_n if n > 0 else -sin_n)
+
+
+def _expanded_terms(e: sp.Expr, angles: list[sp.Symbol]
+                    ) -> list[tuple[sp.Rational, list[int], list[int], dict[sp.Symbol, int]]] | None:
+    """The terms of sp.expand(sp.expand_trig(e)) as :func:`_half_tangent_numerator` reads them (coefficient,
+    exponents of cos x_i, of sin x_i, of the other symbols), computed in a polynomial ring of (cos x_i, sin x_i,
+    symbols) over Q: each sin/cos of Σ n_j x_j (integers n_j, no constant) is expand_trig's polynomial (the
+    multiple-angle formulas of :func:`_trig_multiple`, the addition formulas), and the ring multiplies out what
+    sympy's expand would. None for anything else (a constant in an argument, a radical, a symbol in a
+    denominator, an angle outside sin/cos): the caller then expands with sympy."""
+    index = {x: i for i, x in enumerate(angles)}
+    k = len(angles)
+    params = sorted(e.free_symbols - set(angles), key=lambda s: s.name)
+    R = sp.polys.rings.PolyRing([sp.Dummy() for _ in range(2 * k)] + params, sp.QQ, sp.polys.orderings.lex)
+    C, S, P = R.gens[:k], R.gens[k:2 * k], dict(zip(params, R.gens[2 * k:]))
+    memo: dict[sp.Expr, tuple[Any, Any]] = {}
+
+    def trig(arg: sp.Expr) -> tuple[Any, Any]:
+        if arg not in memo:
+            c, s_ = R.one, R.zero
+            for term in sp.Add.make_args(arg):
+                n, x = term.as_coeff_Mul()
+                if not (n.is_Integer and x in index):
+                    raise ValueError
+                cn, sn = _trig_multiple(int(n), C[index[x]], S[index[x]])
+                c, s_ = c * cn - s_ * sn, s_ * cn + c * sn
+            memo[arg] = (c, s_)
+        return memo[arg]
+
+    def conv(f: sp.Expr) -> Any:
+        if f.is_Rational:
+            return R(sp.QQ(int(f.p), int(f.q)))
+        if f.is_Add:
+            return sum((conv(a) for a in f.args), R.zero)
+        if f.is_Mul:
+            out = R.one
+            for a in f.args:
+                out *= conv(a)
+            return out
+        if f.is_Pow and f.exp.is_Integer and f.exp > 0:
+            return conv(f.base) ** int(f.exp)
+        if isinstance(f, sp.cos):
+            return trig(f.args[0])[0]
+        if isinstance(f, sp.sin):
+            return trig(f.args[0])[1]
+        if f in P:
+            return P[f]
+        raise ValueError
+
+    try:
+        poly = conv(e)
+    except ValueError:
+        return None
+    out = []
+    for mono, c in poly.terms():
+        other = {g: d for g, d in zip(params, mono[2 * k:]) if d}
+        out.append((sp.Rational(int(c.numerator), int(c.denominator)), list(mono[:k]), list(mono[k:2 * k]), other))
+    return out
+
+
+def _half_tangent_numerator(P: sp.Expr | None, angles: list[sp.Symbol], ts: list[sp.Symbol],
+                            terms: list | None = None
                             ) -> tuple[sp.Expr, list[tuple[sp.Expr, int, list[int]]], list[int], list[int]] | None:
     """P (expanded, a polynomial in the cos/sin of the angles with polynomial coefficients) as N(t)/Π(1 + t_i²)^{m_i}
     with t_i = tan(x_i/2), m_i the largest degree of a term in (cos x_i, sin x_i): each term c^a s^b becomes
     (1 - t²)^a (2t)^b (1 + t²)^{m-a-b}, computed in a sparse polynomial ring (no rational-function arithmetic on
     expressions). Returns (constant, [(factor, multiplicity, degree in each t_i)], m, degree of N in each t_i), the
     factors those of ``sp.factor_list(N)`` in its order; None when P is not of that shape (the caller then takes
-    the general path)."""
+    the general path). ``terms``: P's terms already read (:func:`_expanded_terms`), P then unused."""
     index = {x: i for i, x in enumerate(angles)}
     k = len(angles)
-    parsed: list[tuple[sp.Rational, list[int], list[int], dict[sp.Symbol, int]]] = []
-    params: set[sp.Symbol] = set()
-    for term in sp.Add.make_args(P):
+    parsed: list[tuple[sp.Rational, list[int], list[int], dict[sp.Symbol, int]]] = list(terms or [])
+    params: set[sp.Symbol] = {s_ for *_, other in parsed for s_ in other}
+    for term in (sp.Add.make_args(P) if terms is None else ()):
         coeff, a, b, other = sp.Integer(1), [0] * k, [0] * k, {}
         for f in sp.Mul.make_args(term):
             if f.is_Rational:
