@@ -36,7 +36,7 @@ def test_ring_path_equals_general_path(e: sp.Expr, monkeypatch: pytest.MonkeyPat
     assert sp.expand(sp.expand_trig(const * sp.Mul(*[f**k for f, k in facs]) - e)) == 0 or \
         T.tidy(sp.expand(const * sp.Mul(*[f**k for f, k in facs]) - e)) == 0
     monkeypatch.setattr(T, "_half_tangent_numerator", lambda *args: None)
-    assert T.trig_factors(e) == fast
+    assert T._trig_factors_uncached(e) == fast  # (trig_factors is memoized: the general path itself)
 
 
 def test_sin_squared_is_one_factor() -> None:
@@ -117,3 +117,17 @@ def test_expanded_terms_equal_sympys_expansion():
     ts = [sp.Dummy("t_x"), sp.Dummy("t_y")]
     assert T._half_tangent_numerator(None, [x, y], ts, T._expanded_terms(e, [x, y])) == \
         T._half_tangent_numerator(sp.expand(sp.expand_trig(e)), [x, y], ts)
+
+
+def test_half_tangent_numerator_factored_by_gcds(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The numerator N(t) is factored by fourier.factor_list_fast (gcds where it is linear in a generator), not
+    sympy's dense factorization: the same factors as the general path (sp.factor_list of together's numerator)."""
+    e = sp.expand(l * (a + b * sp.cos(q2)) * (sp.sin(q1) + 2 * sp.cos(q1 + q2)) * sp.sin(q2))
+    with monkeypatch.context() as m:
+        m.setattr(T, "_half_tangent_numerator", lambda *args: None)
+        want = T._trig_factors_uncached(e)
+
+    def refuse(*args: object, **kw: object) -> None:
+        raise AssertionError("sympy's Poly.factor_list called")
+    monkeypatch.setattr(sp.Poly, "factor_list", refuse)
+    assert T._trig_factors_uncached(e) == want

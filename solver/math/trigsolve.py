@@ -35,6 +35,7 @@ from typing import Any, Callable, Iterable, Sequence
 
 import sympy as sp
 
+from solver.math.fourier import factor_list_fast
 from solver.math.simplify import factor_within, tidy
 
 MAX_FAMILIES = 32
@@ -965,9 +966,11 @@ def _half_tangent_numerator(P: sp.Expr | None, angles: list[sp.Symbol], ts: list
     low = [min(mo[j] for mo in terms) for j in range(len(gens))]
     terms = {tuple(x - y for x, y in zip(mo, low)): c for mo, c in terms.items()}
     used = [j for j in range(len(gens)) if any(mo[j] for mo in terms)]
-    rest = sp.Poly.from_dict({tuple(mo[j] for j in used): c for mo, c in terms.items()},
-                             *[gens[j] for j in used], domain=sp.ZZ)
-    const, rest_facs = rest.factor_list()
+    rest_gens = [gens[j] for j in used]
+    Rz = sp.polys.rings.PolyRing(rest_gens, sp.ZZ, sp.polys.orderings.lex)
+    const, ring_facs = factor_list_fast(Rz.from_dict({tuple(mo[j] for j in used): c for mo, c in terms.items()}))
+    # (sympy's factors of the same polynomial, by gcds where it is linear in a generator: as Polys in its generators)
+    rest_facs = [(sp.Poly.from_dict(dict(f.terms()), *rest_gens, domain=sp.ZZ), e_) for f, e_ in ring_facs]
     monomial = sp.Mul(*[gens[j] ** low[j] for j in range(len(gens)) if low[j]])
     facs: list[tuple[sp.Poly, int]] = []
     for f in sp.Mul.make_args(monomial):
