@@ -543,3 +543,17 @@ def test_check_reports_the_error_solve_raises(write, robot, ask, words):
     assert check.returncode == solve.returncode == 2, check.stdout + check.stderr
     assert check.stderr == solve.stderr and words in check.stderr, check.stderr
     assert f"spec.yaml:{head.count(chr(10)) + 1}:" in check.stderr and "Traceback" not in check.stderr
+
+
+def test_jacobian_dot_entry_by_entry(monkeypatch: pytest.MonkeyPatch) -> None:
+    """J̇ is differentiated entry by entry (Matrix.diff goes through sympy's array derivatives, several times
+    slower): the same entries as Σ_k (∂J/∂q_k) q̇_k with Matrix.diff, on a planar RP arm with an offset."""
+    q1, q2, dq1, dq2, a = sp.symbols("q1 q2 dq1 dq2 a", real=True)
+    J = sp.Matrix([[-(a + q2) * sp.sin(q1) - sp.cos(2 * q1), sp.cos(q1)], [(a + q2) * sp.cos(q1), sp.sin(q1)]])
+    want = (J.diff(q1) * dq1 + J.diff(q2) * dq2).applyfunc(lambda e: sp.factor_terms(tidy(e)))
+
+    def refuse(*args: object, **kw: object) -> None:
+        raise AssertionError("Matrix.diff called")
+    monkeypatch.setattr(sp.MatrixBase, "diff", refuse)
+    assert geo.jacobian_dot(J, [q1, q2], [dq1, dq2]) == want
+    assert want[0, 1] == -sp.sin(q1) * dq1

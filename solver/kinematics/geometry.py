@@ -86,10 +86,11 @@ def analytic_jacobian(r: sp.Matrix, wrt: Sequence[sp.Symbol]) -> sp.Matrix:
 
 
 def jacobian_dot(J: sp.Matrix, q: Sequence[sp.Symbol], dq: Sequence[sp.Symbol]) -> sp.Matrix:
-    """J̇ = Σ_k ∂J/∂q_k q̇_k."""
+    """J̇ = Σ_k ∂J/∂q_k q̇_k (entry by entry: Matrix.diff builds the same entries through sympy's array
+    derivatives, at several times the cost)."""
     out = sp.zeros(*J.shape)
     for qk, dqk in zip(q, dq):
-        out += J.diff(qk) * dqk
+        out += J.applyfunc(lambda e: e.diff(qk)) * dqk
     return out.applyfunc(lambda e: sp.factor_terms(tidy(e)))
 
 
