@@ -8,6 +8,7 @@ import pytest
 import sympy as sp
 from conftest import PROBLEMS, error_found_without_solving
 
+from solver.planning import laws
 from solver.planning.laws import Cond, piecewise_polynomial, rest_defaults
 from solver.planning.paths import axis_angle, rot_axis_angle
 from solver.publish.render import render
@@ -152,6 +153,21 @@ def test_maxima_agree_with_dense_sampling(law):
         best = max(np.max(np.abs(fn(grid[(grid >= float(a)) & (grid <= float(b))])))
                    for fn, a, b in zip(fns, law_.breaks, law_.breaks[1:]))
         assert float(r[f"max_{'d' * k}q"].value) == pytest.approx(best, rel=1e-6)
+
+
+def test_linear_root_at_an_end_is_no_interior_root_as_the_general_search_finds():
+    """A derivative linear in t with radicals in its coefficients, zero at an end: no root inside, decided without
+    simplifying it in σ; the general search (simplify in σ, solve) finds the same root σ = 1, and a root inside
+    still goes the general way."""
+    m, k = sp.symbols("m k", positive=True)
+    b = sp.sqrt(k) * m
+    f1 = (t - b) * sp.sqrt(m) / (m + k)
+    assert laws._linear_root_at_end(f1, t, 0, b) and laws._linear_root_at_end(f1, t, b, 3 * b)
+    assert laws._interior_roots(f1, t, 0, b) == [] and laws._interior_roots(f1, t, b, 3 * b) == []
+    s = sp.Symbol("s", real=True)
+    assert sp.solve(sp.simplify(f1.subs(t, b * s)), s) == [1]
+    assert not laws._linear_root_at_end(f1, t, 0, 2 * b) and not laws._linear_root_at_end(t ** 2 - b ** 2, t, 0, b)
+    assert sp.simplify(laws._interior_roots(f1, t, 0, 2 * b)[0] - b) == 0
 
 
 def test_expression_law_derivatives():

@@ -24,6 +24,7 @@ from typing import Any, Callable, Optional
 import numpy as np
 import sympy as sp
 
+from solver.math.equivalence import exact_zero
 from solver.math.numeric import lambdify_np
 from solver.math.simplify import simplified
 from solver.math.opcount import count_ops
@@ -285,6 +286,16 @@ def _transcendental_in(f: sp.Expr, t: sp.Symbol) -> bool:
     return False
 
 
+def _linear_root_at_end(f1: sp.Expr, t: sp.Symbol, a: sp.Expr, b: sp.Expr) -> bool:
+    """Whether f1 is linear in t, with a slope provably non-zero and f1 zero at a or at b (exact tests): its
+    only root is then an end of the interval, so there is none inside, found without simplifying f1 in σ
+    (seconds for a torque with radicals in its coefficients)."""
+    slope = sp.diff(f1, t)
+    if slope.has(t) or not (slope.is_zero is False or exact_zero(slope) is False):
+        return False
+    return any(exact_zero(f1.subs(t, e)) is True for e in (a, b))
+
+
 def _interior_roots(f1: sp.Expr, t: sp.Symbol, a: sp.Expr, b: sp.Expr) -> Optional[list[sp.Expr]]:
     """Zeros of f1 strictly inside (a, b), found in σ = (t − a)/(b − a) ∈ (0, 1); None when they cannot be
     found exactly."""
@@ -292,6 +303,8 @@ def _interior_roots(f1: sp.Expr, t: sp.Symbol, a: sp.Expr, b: sp.Expr) -> Option
         return []
     if count_ops(f1) > SIZE_LIMIT or _transcendental_in(f1, t):
         return None
+    if _linear_root_at_end(f1, t, a, b):
+        return []
     s = sp.Dummy("sigma", real=True)
     g = simplified(f1.subs(t, a + (b - a) * s))
     try:
