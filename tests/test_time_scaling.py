@@ -9,7 +9,7 @@ import pytest
 import sympy as sp
 from conftest import PROBLEMS, error_found_without_solving
 
-from solver.planning.time_scaling import y_limit
+from solver.planning.time_scaling import y_exact, y_limit
 from solver.publish.render import render
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem, load_problem_text
@@ -117,6 +117,17 @@ def test_y_limit_is_the_largest_feasible_inverse_scaling():
         if np.isfinite(y):
             yy = y * (1 + 1e-6)
             assert abs(a * yy ** 2 + f * yy + g) > U
+
+
+def test_y_exact_is_the_root_sympy_would_simplify_and_choose():
+    """Only the chosen root of a y² + f y + g = ±U is simplified: the same expression as choosing among the roots
+    sp.solve simplifies (and filters by the sign of y), on a row no exercise uses (friction, no gravity)."""
+    b, u, c = sp.symbols("b u c", positive=True)
+    y = sp.Symbol("y", positive=True)
+    a, f, g, vals = b, c, sp.Integer(0), {b: 2, u: 5, c: sp.Rational(1, 4)}
+    roots = [r for rhs in (u, -u) for r in sp.solve(a * y ** 2 + f * y + g - rhs, y)]
+    real = [r for r in roots if abs(complex(r.subs(vals)).imag) < 1e-12 and complex(r.subs(vals)).real > 0]
+    assert y_exact(a, f, g, u, vals) == min(real, key=lambda r: complex(r.subs(vals)).real)
 
 
 def test_gravity_beyond_the_bound_is_a_user_error():

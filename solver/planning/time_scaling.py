@@ -187,20 +187,21 @@ def y_limit(a: float, f: float, g: float, U: float) -> float:
 
 def y_exact(a: sp.Expr, f: sp.Expr, g: sp.Expr, U: sp.Expr, values: dict) -> Optional[sp.Expr]:
     """The same limit in closed form (the parameters symbolic), on the branch the parameter values select
-    (None if no bound)."""
+    (None if no bound). The roots are chosen by value, and only the chosen one is simplified (as sp.solve would
+    simplify every root)."""
     y = sp.Symbol("y", positive=True)
     best, val = None, np.inf
     for rhs in (U, -U):
         if simplified(a) == 0 and simplified(f) == 0:
             continue
-        for c in sp.solve(a * y ** 2 + f * y + g - rhs, y):
+        for c in sp.solve(a * y ** 2 + f * y + g - rhs, y, simplify=False):
             cv = sp.N(c.subs(values), 30)
             if cv.free_symbols:
                 continue
             cn = complex(cv)
             if abs(cn.imag) < 1e-12 and cn.real > 1e-15 and cn.real < val:
                 best, val = c, cn.real
-    return best
+    return simplified(best) if best is not None else None
 
 
 def inverse(y: sp.Expr) -> sp.Expr:
