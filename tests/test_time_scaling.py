@@ -9,7 +9,7 @@ import pytest
 import sympy as sp
 from conftest import PROBLEMS, error_found_without_solving
 
-from solver.planning.time_scaling import y_exact, y_limit
+from solver.planning.time_scaling import _depends_on, y_exact, y_limit
 from solver.publish.render import render
 from solver.solve import all_results, solve_problem
 from solver.spec import load_problem, load_problem_text
@@ -121,13 +121,23 @@ def test_y_limit_is_the_largest_feasible_inverse_scaling():
 
 def test_y_exact_is_the_root_sympy_would_simplify_and_choose():
     """Only the chosen root of a y² + f y + g = ±U is simplified: the same expression as choosing among the roots
-    sp.solve simplifies (and filters by the sign of y), on a row no exercise uses (friction, no gravity)."""
+    sp.solve simplifies (and filters by the sign of y), on a row no exercise uses."""
     b, u, c = sp.symbols("b u c", positive=True)
     y = sp.Symbol("y", positive=True)
-    a, f, g, vals = b, c, sp.Integer(0), {b: 2, u: 5, c: sp.Rational(1, 4)}
+    a, f, g, vals = b, sp.Integer(0), c, {b: 2, u: 5, c: sp.Rational(1, 4)}
     roots = [r for rhs in (u, -u) for r in sp.solve(a * y ** 2 + f * y + g - rhs, y)]
     real = [r for r in roots if abs(complex(r.subs(vals)).imag) < 1e-12 and complex(r.subs(vals)).real > 0]
     assert y_exact(a, f, g, u, vals) == min(real, key=lambda r: complex(r.subs(vals)).real)
+
+
+def test_dependence_on_the_duration_as_simplify_decides_it():
+    """The shape test: q(σT; T) independent of T by the exact test of the derivative (π as a symbol), radicals by
+    simplify; each as T left after sp.simplify says, on laws no exercise uses."""
+    T, s, a = sp.Symbol("T", positive=True), sp.Symbol("sigma_", positive=True), sp.Symbol("a", positive=True)
+    cases = [sp.pi * a - 5 * sp.pi * (T - T * s) ** 3 / (7 * T ** 3), sp.cos(3 * sp.pi * T * s / T) + a * T * s / T,
+             sp.pi * (T * s) ** 2 / T, sp.sqrt(a * T ** 2) / T, sp.sqrt(a) * T + 1]
+    assert [_depends_on(e, T) for e in cases] == [T in sp.simplify(e).free_symbols for e in cases] \
+        == [False, False, True, False, True]
 
 
 def test_gravity_beyond_the_bound_is_a_user_error():

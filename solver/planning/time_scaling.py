@@ -28,6 +28,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import DynamicModel, derive, require_model
+from solver.math.equivalence import exact_zero
 from solver.math.numeric import lambdify_np
 from solver.math.opcount import count_ops
 from solver.math.search import golden_min
@@ -292,15 +293,26 @@ def _numeric_ready(exprs: list[sp.Expr], values: dict, t: sp.Symbol) -> list[str
     return sorted(s.name for s in syms - {t})
 
 
+def _depends_on(e: sp.Expr, x: sp.Symbol) -> bool:
+    """Whether e depends on x: by the exact zero test of de/dx where it decides (π taken as a symbol: it is
+    transcendental), else x left after simplifying."""
+    if x not in e.free_symbols:
+        return False
+    z = exact_zero(sp.diff(e, x).xreplace({sp.pi: sp.Dummy("pi", positive=True)}))
+    if z is not None:
+        return not z
+    return x in simplified(e).free_symbols
+
+
 def _shape_invariant(motion_T: Motion, Tsym: sp.Symbol) -> bool:
     """q(σT; T) does not depend on T (the same shape for every duration)."""
     sig = sp.Symbol("sigma_", positive=True)
     for law in motion_T.laws:
         for p in law.pieces:
-            if Tsym in simplified(p.subs(law.t, sig * Tsym)).free_symbols:
+            if _depends_on(p.subs(law.t, sig * Tsym), Tsym):
                 return False
         for b in law.breaks:
-            if Tsym in simplified(sp.sympify(b) / Tsym).free_symbols:
+            if _depends_on(sp.sympify(b) / Tsym, Tsym):
                 return False
     return True
 
