@@ -170,6 +170,20 @@ def test_linear_root_at_an_end_is_no_interior_root_as_the_general_search_finds()
     assert sp.simplify(laws._interior_roots(f1, t, 0, 2 * b)[0] - b) == 0
 
 
+def test_less_decides_as_on_the_simplified_difference():
+    """a < b from the assumptions on b − a as written, else simplified: the same answers as simplify first."""
+    T, m, k = sp.symbols("T m k", positive=True)
+    x = sp.Symbol("x", real=True)
+    pairs = [(T / 4, T), (T, T), (sp.sqrt(k) * m, sp.sqrt(k) * (m + T)), ((T + m) ** 2, T ** 2 + 2 * T * m + m ** 2),
+             (x, T), (-m, sp.pi / 3)]
+
+    def general(a, b):
+        d = sp.simplify(b - a)
+        return True if d.is_positive else False if d.is_nonpositive else None
+    assert [laws.less(a, b) for a, b in pairs] == [general(a, b) for a, b in pairs] == \
+        [True, False, True, False, None, True]
+
+
 def test_expression_law_derivatives():
     r = solve_text(spec("law: expression\nq: a*sin(w*t)^2\nT: 1", symbols="{a: a, w: w}"))
     a, w = sp.symbols("a w", positive=True)

@@ -108,8 +108,14 @@ class Law:
 
 
 def less(a: sp.Expr, b: sp.Expr) -> Optional[bool]:
-    """a < b, when it can be decided (None otherwise)."""
-    d = simplified(sp.sympify(b) - sp.sympify(a))
+    """a < b, when it can be decided (None otherwise): from the assumptions on b − a as it is, else on b − a
+    simplified."""
+    d = sp.sympify(b) - sp.sympify(a)
+    if d.is_positive:
+        return True
+    if d.is_nonpositive:
+        return False
+    d = simplified(d)
     if d.is_positive:
         return True
     if d.is_nonpositive:
