@@ -184,6 +184,20 @@ def test_less_decides_as_on_the_simplified_difference():
         [True, False, True, False, None, True]
 
 
+def test_assume_positive_is_memoized_for_exact_expressions():
+    """|x| → x with the listed positives: a result refined again (when reported) is not refined twice; floats
+    are not memoized (equal at different precisions)."""
+    from solver.planning import trajectory
+    R, d, m = sp.symbols("R d m", positive=True)
+    e = sp.Abs(m * (R - d)) / sp.sqrt(m)
+    r = trajectory.assume_positive(e, [R - d])
+    assert r == sp.sqrt(m) * (R - d)
+    hits = trajectory._assume_positive.cache_info().hits
+    assert trajectory.assume_positive(e, [R - d]) is r and trajectory._assume_positive.cache_info().hits == hits + 1
+    assert trajectory.assume_positive(sp.Float(0.5) * e, [R - d]) == sp.Float(0.5) * r
+    assert trajectory._assume_positive.cache_info().hits == hits + 1
+
+
 def test_expression_law_derivatives():
     r = solve_text(spec("law: expression\nq: a*sin(w*t)^2\nT: 1", symbols="{a: a, w: w}"))
     a, w = sp.symbols("a w", positive=True)

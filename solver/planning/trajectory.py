@@ -7,6 +7,7 @@ with the instants where they occur come from the ends of the pieces and the zero
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any, Literal, Optional, Union
 
 import numpy as np
@@ -79,6 +80,18 @@ def assume_positive(e: Any, positives: list[sp.Expr]) -> Any:
         return e.applyfunc(lambda x: assume_positive(x, positives))
     if not isinstance(e, sp.Basic):
         return e
+    if isinstance(e, sp.Expr) and not e.has(sp.Float) and not any(p.has(sp.Float) for p in positives):
+        return _assume_positive(e, tuple(positives))
+    return _refined(e, positives)
+
+
+@lru_cache(maxsize=4096)
+def _assume_positive(e: sp.Expr, positives: tuple) -> Any:
+    """:func:`_refined`, memoized for exact expressions (a result is refined again when it is reported)."""
+    return _refined(e, list(positives))
+
+
+def _refined(e: sp.Basic, positives: list[sp.Expr]) -> Any:
     facts = sp.And(*[sp.Q.positive(p) for p in positives])
     return simplified(sp.refine(e, facts))
 
