@@ -1153,3 +1153,21 @@ def test_equilibrium_input_at_the_state_in_the_singular_when_unique():
     assert "\\[\\lambda = \\sin {1}.\\]\nThe input giving" in out  # (tex: the sentence ended without a period)
     p, sols, _ = solved(TOY3 + "    h: q1 + q2 + q3 - 1\n    at: {q1: 0.4, q2: 0.35, q3: 1/4}\n")
     assert "At rest there, the equilibrium inputs are" in render(p, sols, "md")
+
+
+def test_singular_skips_the_solver_when_the_zeros_move_with_the_parameters(monkeypatch):
+    """_moving_zeros (the shortcut of _singular) proves only "not computed" answers, the ones the solver gives."""
+    import solver.interaction.constraints as C
+    a, b, c = sp.symbols("a b c", positive=True)
+    q1, q2 = sp.symbols("q1 q2", real=True)
+    moving = [a * sp.sin(q1) - b * sp.cos(q1)]                  # q1 = atan2(b, a): moves with a, b
+    fixed = [a * b * sp.sin(q2)]                                # q2 = 0, pi for every a, b
+    mixed = [a * sp.sin(q1) + c * sp.sin(q1 + q2), sp.sin(q2)]  # q1, q2 = 0 / pi: fixed
+    assert C._moving_zeros(moving, [q1, q2]) is True
+    assert C._moving_zeros(fixed, [q1, q2]) is False
+    assert C._moving_zeros(mixed, [q1, q2]) is False
+    assert C._moving_zeros([a * q1 - b], [q1, q2]) is False      # a coordinate outside sin/cos: undecided
+    assert C._moving_zeros([sp.sin(q1 - a)], [q1, q2]) is False  # a parameter inside sin: undecided
+    fast = C._singular(sp.Matrix([moving]), [q1, q2], 1)
+    monkeypatch.setattr(C, "_moving_zeros", lambda minors, q: False)
+    assert fast == C._singular(sp.Matrix([moving]), [q1, q2], 1) == ([], False, False)   # the solver's answer

@@ -1061,6 +1061,8 @@ def _singular(M: sp.Matrix, q: list[sp.Symbol], k: int) -> tuple[list[sp.Matrix]
         return [], False, True
     if len(set(angle_symbols(sp.Add(*minors))) & set(q)) > 2 or sum(count_ops(x) for x in minors) > 200:
         return [], False, False
+    if _moving_zeros(minors, q):   # no list free of the parameters describes them: skip the solver
+        return [], False, False
     try:
         configs, _, every = equilibria(sp.Matrix(minors), q, clean=True)
     except (NotImplementedError, ValueError, TypeError, sp.PolynomialError, Unclean, NotSolved):
@@ -1070,6 +1072,44 @@ def _singular(M: sp.Matrix, q: list[sp.Symbol], k: int) -> tuple[list[sp.Matrix]
         if any((x.free_symbols - allowed) or x.has(sp.atan2) for x in c):
             return [], False, False
     return configs, every, True
+
+
+def _moving_zeros(minors: list[sp.Expr], q: list[sp.Symbol]) -> bool:
+    """Whether the common zeros of the minors move with the parameters, for minors in sin/cos of integer
+    combinations of the coordinates only (and parameters outside sin/cos, all minors depending on q): a zero q* at
+    a random point P1 of the parameters (multi-start Newton, residual < 1e-10; three tries) where some minor is
+    far from zero at another random point P2. Then :func:`_singular`'s solver cannot give clean configurations (for such minors
+    they are numbers, free coordinates and their sums, free of the parameters; as a list of all the zeros they would
+    be the zeros at P1 and at P2 alike), and it would end in "not computed" after seconds of sympy's solve (radicals
+    of the parameters, or atan2). False (undecided: solve) otherwise."""
+    qs = set(q)
+    for x in minors:
+        trig = x.atoms(sp.sin, sp.cos)
+        if not (x.free_symbols & qs) or any(not (f.args[0].free_symbols <= qs) or any(
+                not t.as_coeff_Mul()[0].is_Integer for t in sp.Add.make_args(f.args[0])) for f in trig):
+            return False
+        if x.xreplace({f: sp.Dummy() for f in trig}).free_symbols & qs:   # a coordinate outside sin/cos
+            return False
+    from solver.math.equivalence import random_point
+    from solver.math.numeric import newton_zeros
+    params = set().union(*(x.free_symbols for x in minors)) - qs
+    gen = np.random.default_rng(5)
+    X0 = gen.uniform(-np.pi, np.pi, size=(24, len(q)))
+    for seed in (5, 7, 9):   # real moving zeros may exist only for some values of the parameters
+        P1, P2 = random_point(params, random.Random(seed)), random_point(params, random.Random(seed + 1))
+        try:
+            ends, res = newton_zeros([x.xreplace(P1) for x in minors], q, X0)
+        except Exception:  # noqa: BLE001 - numeric failure: undecided
+            return False
+        good = np.all(np.isfinite(ends), axis=1) & (np.max(np.abs(res), axis=1) < 1e-10)
+        for end in ends[good]:
+            at = {x: sp.Float(v, 30) for x, v in zip(q, end)}
+            for x in minors:
+                terms = [complex(sp.N(t.xreplace(P2).xreplace(at), 30)) for t in sp.Add.make_args(sp.expand(x))]
+                value, scale = abs(sum(terms)), sum(abs(t) for t in terms)
+                if value > 1e-6 * scale and value > 1e-12:
+                    return True
+    return False
 
 
 class Atoms:
