@@ -1171,3 +1171,23 @@ def test_singular_skips_the_solver_when_the_zeros_move_with_the_parameters(monke
     fast = C._singular(sp.Matrix([moving]), [q1, q2], 1)
     monkeypatch.setattr(C, "_moving_zeros", lambda minors, q: False)
     assert fast == C._singular(sp.Matrix([moving]), [q1, q2], 1) == ([], False, False)   # the solver's answer
+
+
+def test_factor_terms_without_common_factors_matches_sympy():
+    """_coprime_terms skips gcd_terms only when it would return the sum as it is."""
+    import solver.interaction.constraints as C
+    a, b, x, y, q1, q2 = sp.symbols("a b x y q1 q2")
+    cases = [
+        a * sp.cos(q1) + 2 * b * sp.sin(q1 + q2) + 3 * x * y,            # coprime: the sum as it is
+        3 * (2 * a + 2 * b) * x + y,                                      # a base with content: gcd_terms moves it
+        a * x * sp.cos(q1) + 2 * a * y * sp.sin(q2) - 4 * a / x,          # a in every term
+        x / y + a / y + sp.sqrt(y) * b,                                   # 1/y in two terms only
+        (a + b) ** 2 * x + (a + b) * y + sp.sqrt(a + b) * b * x,          # a + b and sqrt(a + b)
+        x * (a * sp.cos(q1) + b * sp.cos(q2)) + y * (2 * a * sp.cos(q1) + 2 * b * sp.cos(q2)),
+        sp.Add(sp.Mul(-3, a + b, evaluate=False), x * sp.cos(q1), -(a - b) * sp.sin(q2)),   # rebuilt: -3a - 3b
+    ]
+    for e in cases:
+        assert C.factor_terms(e) == sp.factor_terms(e), e
+    assert C._coprime_terms(list(cases[0].args)) is True
+    assert C._coprime_terms(list(sp.Add.make_args(3 * (2 * a + 2 * b) * x + y))) is False
+    assert C._coprime_terms(list(cases[2].args)) is False

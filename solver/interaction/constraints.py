@@ -576,10 +576,37 @@ def _terms_of(expr: sp.Expr) -> sp.Expr:
             if ex.is_Mul and ex != sp.Mul(*ex.args):
                 parts[i] = sp.Dummy()
                 special[parts[i]] = a
-        p = gcd_terms(sp.Add._from_args(parts), isprimitive=True, clear=False, fraction=False).xreplace(special)
+        if not special and _coprime_terms(parts):
+            p = sp.Add(*[c * sp.Mul(*f) for c, f in (a.as_coeff_mul() for a in parts)])   # (-3)(a + b) distributed
+        else:
+            p = gcd_terms(sp.Add._from_args(parts), isprimitive=True, clear=False, fraction=False).xreplace(special)
     elif p.args:
         p = p.func(*[_terms_of(a) for a in p.args])
     return _keep_coeff(cont, p, clear=False, sign=True)
+
+
+def _coprime_terms(parts: list[sp.Expr]) -> bool:
+    """Whether gcd_terms (isprimitive, clear=False, fraction=False) of the sum of ``parts`` (integer coefficients
+    with no common divisor) is that sum, its terms rebuilt: no base (as gcd_terms splits the terms: decompose_power, sums
+    without their content) in every term, and every sum among the bases primitive already (gcd_terms would move
+    its content to the coefficient). Then gcd_terms would only rebuild each term as coefficient × the rest
+    (−3·(a + b) distributed), which the caller does, without the Term and Factors objects it builds for every
+    term (the bulk of factor_terms' time on long numerators)."""
+    from sympy.core.exprtools import decompose_power
+    common: set | None = None
+    for a in parts:
+        keys = set()
+        for f in sp.Mul.make_args(a):
+            if f.is_Number:
+                continue
+            if not f.is_commutative:
+                return False
+            b, _ = decompose_power(f)
+            if b.is_Add and b.primitive()[0] != 1:
+                return False
+            keys.add(b)
+        common = keys if common is None else common & keys
+    return not common
 
 
 @lru_cache(maxsize=4096)
