@@ -1166,6 +1166,8 @@ def test_singular_skips_the_solver_when_the_zeros_move_with_the_parameters(monke
     assert C._moving_zeros(moving, [q1, q2]) is True
     assert C._moving_zeros(fixed, [q1, q2]) is False
     assert C._moving_zeros(mixed, [q1, q2]) is False
+    fixed3 = [a * sp.sin(q1), a * sp.sin(q1) + c * sp.sin(q1 + q2), c * sp.sin(q1 + q2)]   # one-term minors
+    assert C._moving_zeros(fixed3, [q1, q2]) is False   # (a rounding error there is not "far from zero")
     assert C._moving_zeros([a * q1 - b], [q1, q2]) is False      # a coordinate outside sin/cos: undecided
     assert C._moving_zeros([sp.sin(q1 - a)], [q1, q2]) is False  # a parameter inside sin: undecided
     fast = C._singular(sp.Matrix([moving]), [q1, q2], 1)

@@ -1103,12 +1103,12 @@ def _singular(M: sp.Matrix, q: list[sp.Symbol], k: int) -> tuple[list[sp.Matrix]
 
 def _moving_zeros(minors: list[sp.Expr], q: list[sp.Symbol]) -> bool:
     """Whether the common zeros of the minors move with the parameters, for minors in sin/cos of integer
-    combinations of the coordinates only (and parameters outside sin/cos, all minors depending on q): a zero q* at
-    a random point P1 of the parameters (multi-start Newton, residual < 1e-10; three tries) where some minor is
-    far from zero at another random point P2. Then :func:`_singular`'s solver cannot give clean configurations (for such minors
-    they are numbers, free coordinates and their sums, free of the parameters; as a list of all the zeros they would
-    be the zeros at P1 and at P2 alike), and it would end in "not computed" after seconds of sympy's solve (radicals
-    of the parameters, or atan2). False (undecided: solve) otherwise."""
+    combinations of the coordinates only (parameters outside sin/cos, every minor depending on q): a zero q* at a
+    random point P1 of the parameters (multi-start Newton, residual < 1e-10) where some minor is far from zero
+    (relative to its size) at another random point P2. Then :func:`_singular`'s solver cannot give clean
+    configurations (for such minors: numbers, free coordinates and their sums, free of the parameters, so the
+    zeros at P1 and at P2 alike) and would end in "not computed" after seconds of sympy's solve (radicals of the
+    parameters, or atan2). False (undecided: solve) otherwise."""
     qs = set(q)
     for x in minors:
         trig = x.atoms(sp.sin, sp.cos)
@@ -1117,25 +1117,29 @@ def _moving_zeros(minors: list[sp.Expr], q: list[sp.Symbol]) -> bool:
             return False
         if x.xreplace({f: sp.Dummy() for f in trig}).free_symbols & qs:   # a coordinate outside sin/cos
             return False
+    params = set().union(*(x.free_symbols for x in minors)) - qs
+    if all(not (f.free_symbols & qs and f.free_symbols & params)   # l1 l2 sin q2: zeros of sin q2, fixed
+           for x in minors for f in sp.Mul.make_args(factor_terms(x))):
+        return False
     from solver.math.equivalence import random_point
     from solver.math.numeric import newton_zeros
-    params = set().union(*(x.free_symbols for x in minors)) - qs
-    gen = np.random.default_rng(5)
-    X0 = gen.uniform(-np.pi, np.pi, size=(24, len(q)))
-    for seed in (5, 7, 9):   # real moving zeros may exist only for some values of the parameters
-        P1, P2 = random_point(params, random.Random(seed)), random_point(params, random.Random(seed + 1))
-        try:
-            ends, res = newton_zeros([x.xreplace(P1) for x in minors], q, X0)
-        except Exception:  # noqa: BLE001 - numeric failure: undecided
-            return False
-        good = np.all(np.isfinite(ends), axis=1) & (np.max(np.abs(res), axis=1) < 1e-10)
-        for end in ends[good]:
-            at = {x: sp.Float(v, 30) for x, v in zip(q, end)}
-            for x in minors:
-                terms = [complex(sp.N(t.xreplace(P2).xreplace(at), 30)) for t in sp.Add.make_args(sp.expand(x))]
-                value, scale = abs(sum(terms)), sum(abs(t) for t in terms)
-                if value > 1e-6 * scale and value > 1e-12:
-                    return True
+    P1, P2 = random_point(params, random.Random(5)), random_point(params, random.Random(6))
+    X0 = np.random.default_rng(5).uniform(-np.pi, np.pi, size=(24, len(q)))
+    try:
+        ends, res = newton_zeros([x.xreplace(P1) for x in minors], q, X0)
+    except Exception:  # noqa: BLE001 - numeric failure: undecided
+        return False
+    ends = ends[np.all(np.isfinite(ends), axis=1) & (np.max(np.abs(res), axis=1) < 1e-10)]
+    if not len(ends):
+        return False
+    at2 = [x.xreplace(P2) for x in minors]
+    bounds = [sum(abs(complex(sp.N(t.xreplace({f: 1 for f in t.atoms(sp.sin, sp.cos)}), 30)))
+                  for t in sp.Add.make_args(sp.expand(x))) for x in at2]   # (|sin|, |cos| <= 1: its size)
+    keys = np.round(np.mod(ends, 2 * np.pi), 6)
+    for j in sorted({tuple(k): j for j, k in enumerate(keys)}.values()):   # each zero once
+        at = {x: sp.Float(v, 30) for x, v in zip(q, ends[j])}
+        if any(abs(complex(sp.N(x.xreplace(at), 30))) > 1e-6 * b for x, b in zip(at2, bounds)):
+            return True
     return False
 
 
