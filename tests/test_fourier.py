@@ -266,3 +266,28 @@ def test_product_form_not_printed_when_it_cannot_be_shorter(monkeypatch) -> None
     assert S.count_ops(product_form(coeffs, [q1])) == 17
     short = (a - b) * sp.sin(2 * q2) / 2
     assert S.fourier_expr(fourier_coefficients(short, [q2]), [q2]).has(sp.sin(q2) * sp.cos(q2)) and len(calls) == 1
+
+
+def test_ring_reader_reads_by_structure_and_leaves_the_rest_to_its_leaf():
+    from sympy.polys.rings import ring
+
+    from solver.math.fourier import ring_reader
+    x, y, q = sp.symbols("x y q")
+    R, X, Y, S = ring("X Y S", sp.QQ)
+    seen = []
+
+    def leaf(e):
+        seen.append(e)
+        if e in (x, y):
+            return X if e == x else Y
+        if e == sp.sin(q):
+            return S
+        raise LookupError(e)
+    read = ring_reader(R, leaf)
+    assert read(sp.Rational(3, 2) * (x + y) ** 2 * sp.sin(q) - x / 4) == sp.Rational(3, 2) * (X + Y) ** 2 * S - X / 4
+    read(x * sp.sin(q) + x)   # memoized: no leaf call again
+    assert sorted(map(str, seen)) == ["sin(q)", "x", "y"]
+    with pytest.raises(LookupError):
+        read(sp.cos(q) + x)
+    with pytest.raises(LookupError):
+        read(1 / x)   # a negative power is a leaf too

@@ -39,6 +39,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
+from solver.math.fourier import ring_reader
 from solver.math.numeric import newton_zeros
 from solver.math.simplify import angle_symbols, tidy
 from solver.registry import ask_kind
@@ -105,7 +106,6 @@ def _ring_rows(g: list[sp.Expr], cs: dict) -> list[sp.Expr] | None:
         return None
     R, *gens = ring(syms + flat, QQ)
     gen = dict(zip(syms + flat, gens))
-    memo: dict = {}
     chebyshev: dict = {}
 
     def cheb(kind: str, n: int, x):  # type: ignore[no-untyped-def]
@@ -139,30 +139,13 @@ def _ring_rows(g: list[sp.Expr], cs: dict) -> list[sp.Expr] | None:
             re, im = re * c - im * s, im * c + re * s
         return re if isinstance(f, sp.cos) else im
 
-    def conv(e: sp.Expr):  # type: ignore[no-untyped-def]
-        hit = memo.get(e)
-        if hit is not None:
-            return hit
-        if e.is_Rational:
-            out = R.ground_new(QQ(int(e.p), int(e.q)))
-        elif e.is_Symbol:
-            out = gen[e]
-        elif e.is_Add:
-            out = R.zero
-            for a in e.args:
-                out += conv(a)
-        elif e.is_Mul:
-            out = R.one
-            for a in e.args:
-                out *= conv(a)
-        elif e.is_Pow and e.exp.is_Integer and e.exp >= 0:
-            out = conv(e.base) ** int(e.exp)
-        elif isinstance(e, (sp.sin, sp.cos)):
-            out = trig(e)
-        else:
-            raise ValueError(e)
-        memo[e] = out
-        return out
+    def leaf(e: sp.Expr):  # type: ignore[no-untyped-def]
+        if e.is_Symbol:
+            return gen[e]
+        if isinstance(e, (sp.sin, sp.cos)):
+            return trig(e)
+        raise ValueError(e)
+    conv = ring_reader(R, leaf)
 
     out = []
     try:

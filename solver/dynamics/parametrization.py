@@ -41,6 +41,7 @@ from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import equivalent, exact_zero
+from solver.math.fourier import ring_reader
 from solver.math.opcount import count_ops
 from solver.math.simplify import group_expanded, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
@@ -122,7 +123,6 @@ def _ring_canonical(expr: sp.Expr, state: set, square: str) -> sp.Expr | None:
     cs = {a: (sp.Dummy(f"c_{a.name}"), sp.Dummy(f"s_{a.name}")) for a in angles}
     R, *gens = ring(syms + [v for a in angles for v in cs[a]], QQ)
     gen = dict(zip(syms + [v for a in angles for v in cs[a]], gens))
-    memo: dict = {}
 
     def trig(f: sp.Expr):  # type: ignore[no-untyped-def]
         re, im = R.one, R.zero
@@ -135,30 +135,13 @@ def _ring_canonical(expr: sp.Expr, state: set, square: str) -> sp.Expr | None:
                 re, im = re * c - im * s, im * c + re * s
         return re if isinstance(f, sp.cos) else im
 
-    def conv(e: sp.Expr):  # type: ignore[no-untyped-def]
-        hit = memo.get(e)
-        if hit is not None:
-            return hit
-        if e.is_Rational:
-            out = R.ground_new(QQ(int(e.p), int(e.q)))
-        elif e.is_Symbol:
-            out = gen[e]
-        elif e.is_Add:
-            out = R.zero
-            for a in e.args:
-                out += conv(a)
-        elif e.is_Mul:
-            out = R.one
-            for a in e.args:
-                out *= conv(a)
-        elif e.is_Pow and e.exp.is_Integer and e.exp >= 0:
-            out = conv(e.base) ** int(e.exp)
-        elif isinstance(e, (sp.sin, sp.cos)):
-            out = trig(e)
-        else:
-            raise ValueError(e)
-        memo[e] = out
-        return out
+    def leaf(e: sp.Expr):  # type: ignore[no-untyped-def]
+        if e.is_Symbol:
+            return gen[e]
+        if isinstance(e, (sp.sin, sp.cos)):
+            return trig(e)
+        raise ValueError(e)
+    conv = ring_reader(R, leaf)
 
     try:
         p = conv(expr)

@@ -35,7 +35,7 @@ from pydantic import Field, model_validator
 from solver.dynamics.equilibria import NotSolved, Unclean, equilibria
 from solver.dynamics.model import derive, require_model
 from solver.kinematics.redundancy import generic_rank
-from solver.math.fourier import factor_list_expr
+from solver.math.fourier import factor_list_expr, ring_reader
 from solver.math.numeric import lambdify_np
 from solver.math.opcount import count_ops
 from solver.math.simplify import (angle_symbols, divide_power, factor_within, fourier_expr, fourier_form, is_zero,
@@ -174,32 +174,14 @@ def ring_expand(n: sp.Expr, trig: bool = False) -> sp.Expr | None:
         return None
     R, *_ = ring(sorted(gens, key=sp.default_sort_key), sp.QQ)
     index = dict(zip(R.symbols, R.gens))
-    memo: dict = {}
 
-    def conv(e: sp.Expr) -> Any:
-        hit = memo.get(e)
-        if hit is not None:
-            return hit
-        if e.is_Rational:
-            out = R(sp.QQ(int(e.p), int(e.q)))
-        elif e in index:
-            out = index[e]
-        elif isinstance(e, (sp.sin, sp.cos)) and trig:
-            out = conv(sub[e])
-        elif e.is_Add:
-            out = R.zero
-            for a in e.args:
-                out += conv(a)
-        elif e.is_Mul:
-            out = R.one
-            for a in e.args:
-                out *= conv(a)
-        elif e.is_Pow and e.exp.is_Integer and e.exp >= 0:
-            out = conv(e.base) ** int(e.exp)
-        else:
-            raise _NotPolynomial(e)
-        memo[e] = out
-        return out
+    def leaf(e: sp.Expr) -> Any:
+        if e in index:
+            return index[e]
+        if isinstance(e, (sp.sin, sp.cos)) and trig:
+            return conv(sub[e])
+        raise _NotPolynomial(e)
+    conv = ring_reader(R, leaf)
 
     try:
         return conv(n).as_expr()

@@ -17,6 +17,7 @@ radicals) raises :class:`NotTrigPolynomial` and the caller falls back to a slowe
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Callable
 
 import sympy as sp
 from sympy.polys.domains import QQ, ZZ
@@ -171,6 +172,35 @@ class _Algebra:
             raise NotTrigPolynomial(e)
         self.memo[e] = out
         return out
+
+
+def ring_reader(R: PolyRing, leaf: Callable[[sp.Expr], PolyElement]) -> Callable[[sp.Expr], PolyElement]:
+    """A reader of sympy expressions into the sparse ring ``R``, memoized on subexpressions: rationals, sums,
+    products and natural powers read by structure, every other node (a symbol, sin/cos, ...) by ``leaf``, which
+    raises (its own exception) for what it refuses; the reader lets that exception through."""
+    memo: dict[sp.Expr, PolyElement] = {}
+
+    def read(e: sp.Expr) -> PolyElement:
+        hit = memo.get(e)
+        if hit is not None:
+            return hit
+        if e.is_Rational:
+            out = R.ground_new(QQ(int(e.p), int(e.q)))
+        elif e.is_Add:
+            out = R.zero
+            for a in e.args:
+                out += read(a)
+        elif e.is_Mul:
+            out = R.one
+            for a in e.args:
+                out *= read(a)
+        elif e.is_Pow and e.exp.is_Integer and e.exp >= 0:
+            out = read(e.base) ** int(e.exp)
+        else:
+            out = leaf(e)
+        memo[e] = out
+        return out
+    return read
 
 
 def fourier_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict[tuple[int, ...], tuple[PolyElement, PolyElement]]:
