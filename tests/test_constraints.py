@@ -153,7 +153,7 @@ def test_reduced_model_reproduces_the_full_model_along_a_constrained_motion():
     u_expr = derive(p.robot).g + sp.Matrix([2 * sp.sin(2 * t), sp.cos(t), 0.5])  # near gravity compensation
     fu = sp.lambdify([t] + q + dq, u_expr, "numpy")
     u = list(p.robot.inputs)
-    v, dv = value(res, "v")[0], sp.Symbol("dq3")  # D selects q3: v = q̇3, v̇ = q̈3
+    v = value(res, "v")[0]  # D selects q3: v = q̇3, v̇ = q̈3
     F = value(res, "F")
     vdot = value(res, "vdot")[0]
     lam_red = value(res, "lambda_reduced")
@@ -265,7 +265,7 @@ def random_states(fF, rng, count=4):
 def test_inputs_for_a_desired_pseudo_acceleration_and_multiplier():
     p, _, res = solved(R3_K2)
     m = Model(p, value(res, "h"))
-    q, dq = m.q, m.dq
+    q = m.q
     u_dv = value(res, "u_dv")
     fF = sp.lambdify(q, value(res, "F"), "numpy")
     fu = sp.lambdify(q + [p.names["dq3"]], u_dv, "numpy")
@@ -365,7 +365,7 @@ def test_underactuated_robot_gets_the_inputs_from_the_reduced_model():
 # ------------------------------------------------------------------------------------------------ grading
 def test_grader_accepts_a_reduced_inertia_under_the_students_complement():
     p, _, res = solved(R2C)
-    q1, q2 = p.names["q1"], p.names["q2"]
+    q1 = p.names["q1"]
     A = value(res, "A")
     D_ref = value(res, "D")
     D_student = sp.Matrix([[sp.cos(q1), sp.sin(q1)]])  # another complement

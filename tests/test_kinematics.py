@@ -93,7 +93,7 @@ def rand_q(n, rng):
 def test_jacobians_match_finite_differences(text):
     prob = load_problem_text(text)
     r = all_results(solve_problem(prob))
-    q, dq = prob.robot.q, prob.robot.dq
+    q = prob.robot.q
     T, J, Jg = r["T"].value, r["J"].value, r["Jg"].value
     assert J.shape == (3, len(q)) and Jg.shape == (6, len(q))
     rng = random.Random(3)
