@@ -258,45 +258,8 @@ def _fourier(expr: sp.Expr) -> sp.Expr:
     try:
         coeffs: dict = fourier_coefficients(expr, angles)
     except NotTrigPolynomial:
-        inverse = _inverse_coefficients(expr, angles)
-        coeffs = inverse if inverse is not None else _laurent_coefficients(expr, angles)
-        return fourier_expr(coeffs, angles, _nice)
+        return fourier_expr(_laurent_coefficients(expr, angles), angles, _nice)
     return fourier_expr(coeffs, angles)
-
-
-def _inverse_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict | None:
-    """:func:`_laurent_coefficients` of a trigonometric polynomial whose only denominators are powers of symbols
-    other than the angles (1/(y_A − y_B) of a constraint, atomized): each s⁻ᵏ becomes tₛᵏ, a generator of the sparse
-    algebra of :func:`fourier_coefficients`, and s tₛ = 1 is applied to the coefficients, which are then the same
-    expanded sums as from the z-form, without sympy expanding it. None for anything else."""
-    aset = set(angles)
-    inverse: dict[sp.Symbol, sp.Dummy] = {}
-    rep = {}
-    for p in expr.atoms(sp.Pow):
-        if p.exp.is_Integer and p.exp < 0 and p.base.is_Symbol and p.base not in aset:
-            t = inverse.setdefault(p.base, sp.Dummy(f"inv_{p.base.name}"))
-            rep[p] = t ** int(-p.exp)
-    if not rep:
-        return None
-    try:
-        coeffs = fourier_coefficients(expr.xreplace(rep), angles)
-    except NotTrigPolynomial:
-        return None
-    back = {t: s for s, t in inverse.items()}
-
-    def laurent(p: Any) -> sp.Expr:
-        terms = []
-        for mono, c in p.iterterms():
-            powers: dict[sp.Symbol, int] = {}
-            for g, e in zip(p.ring.symbols, mono):
-                if e:
-                    s, e = (back[g], -e) if g in back else (g, e)
-                    powers[s] = powers.get(s, 0) + e
-            terms.append(sp.Mul(p.ring.domain.to_sympy(c), *[s ** e for s, e in powers.items() if e]))
-        return sp.Add(*terms)
-
-    out = {k: (laurent(a), laurent(b)) for k, (a, b) in coeffs.items()}
-    return {k: ab for k, ab in out.items() if ab != (0, 0)}  # (s tₛ = 1 may cancel a pair, as in the z-form)
 
 
 def fourier_expr(coeffs: dict, angles: list[sp.Symbol], nice=nice_poly) -> sp.Expr:  # type: ignore[no-untyped-def]
