@@ -291,3 +291,21 @@ def test_ring_reader_reads_by_structure_and_leaves_the_rest_to_its_leaf():
         read(sp.cos(q) + x)
     with pytest.raises(LookupError):
         read(1 / x)   # a negative power is a leaf too
+
+
+def test_ring_trig_is_sympys_expand_trig():
+    """cos/sin of Σ n_j x_j in the ring of (cos x_j, sin x_j): sympy's expand_trig, multiple angles included;
+    anything but an integer combination of the given angles is refused."""
+    from sympy.polys.rings import ring
+
+    from solver.math.fourier import ring_trig
+    x, y, c1, s1, c2, s2 = sp.symbols("x y c1 s1 c2 s2")
+    R, C1, S1, C2, S2 = ring("c1 s1 c2 s2", sp.QQ)
+    back = {sp.cos(x): c1, sp.sin(x): s1, sp.cos(y): c2, sp.sin(y): s2}
+    for arg in [x, -x, 2 * x, 3 * x, -4 * x, 5 * x, x + y, 2 * x - 3 * y, -x - 2 * y]:
+        c, s = ring_trig(arg, {x: (C1, S1), y: (C2, S2)})
+        for f, got in ((sp.cos(arg), c), (sp.sin(arg), s)):
+            assert sp.expand(sp.expand_trig(f).xreplace(back) - got.as_expr()) == 0, f
+    for bad in (x + 1, x / 2, 2 * sp.Symbol("z")):
+        with pytest.raises(ValueError):
+            ring_trig(bad, {x: (C1, S1)})

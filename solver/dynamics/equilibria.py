@@ -39,7 +39,7 @@ import sympy as sp
 from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
-from solver.math.fourier import ring_reader
+from solver.math.fourier import ring_reader, ring_trig
 from solver.math.numeric import newton_zeros
 from solver.math.simplify import angle_symbols, tidy
 from solver.registry import ask_kind
@@ -106,38 +106,11 @@ def _ring_rows(g: list[sp.Expr], cs: dict) -> list[sp.Expr] | None:
         return None
     R, *gens = ring(syms + flat, QQ)
     gen = dict(zip(syms + flat, gens))
-    chebyshev: dict = {}
-
-    def cheb(kind: str, n: int, x):  # type: ignore[no-untyped-def]
-        """T_n(x) or U_n(x) (n ≥ 0) in R."""
-        key = (kind, n, x)
-        if key not in chebyshev:
-            a, b = R.one, (x if kind == "T" else 2 * x)
-            for _ in range(n):
-                a, b = b, 2 * x * b - a
-            chebyshev[key] = a
-        return chebyshev[key]
-
-    def multiple(n: int, a: sp.Symbol) -> tuple:  # type: ignore[no-untyped-def]
-        """(cos nθ, sin nθ) of the angle a, n ≠ 0."""
-        c, s = gen[cs[a][0]], gen[cs[a][1]]
-        m = abs(n)
-        cos_n = cheb("T", m, c)
-        if m % 2:
-            sin_n = (-1) ** ((m - 1) // 2) * cheb("T", m, s)
-        else:
-            sin_n = (-1) ** (m // 2 - 1) * c * cheb("U", m - 1, s)
-        return cos_n, (sin_n if n > 0 else -sin_n)
+    angle_cs = {a: (gen[c], gen[s]) for a, (c, s) in cs.items()}
 
     def trig(f: sp.Expr):  # type: ignore[no-untyped-def]
-        re, im = R.one, R.zero
-        for term in sp.Add.make_args(f.args[0]):
-            k, a = term.as_coeff_Mul()
-            if a not in cs or not k.is_Integer or k == 0:
-                raise ValueError(f)
-            c, s = multiple(int(k), a)
-            re, im = re * c - im * s, im * c + re * s
-        return re if isinstance(f, sp.cos) else im
+        c, s = ring_trig(f.args[0], angle_cs)
+        return c if isinstance(f, sp.cos) else s
 
     def leaf(e: sp.Expr):  # type: ignore[no-untyped-def]
         if e.is_Symbol:

@@ -203,6 +203,47 @@ def ring_reader(R: PolyRing, leaf: Callable[[sp.Expr], PolyElement]) -> Callable
     return read
 
 
+def _multiple_angle(n: int, C: PolyElement, S: PolyElement) -> tuple[PolyElement, PolyElement]:
+    """(cos n x, sin n x) as sympy's expand_trig writes them, in the ring of C = cos x, S = sin x: cos n x = T_|n|(C);
+    sin n x = (−1)^((n−1)/2) T_n(S) for odd n, (−1)^(n/2−1) C U_{n−1}(S) for even n, and −sin(|n| x) for n < 0."""
+    a = abs(n)
+    t0, t1 = C.ring.one, C  # T_0, T_1 of C
+    for _ in range(a - 1):
+        t0, t1 = t1, 2 * C * t1 - t0
+    cos_n = t1 if a else C.ring.one
+    if a == 0:
+        return cos_n, C.ring.zero
+    if a % 2:
+        v0, v1 = C.ring.one, S  # T_0, T_1 of S
+        for _ in range(a - 1):
+            v0, v1 = v1, 2 * S * v1 - v0
+        sin_n = (-1) ** ((a - 1) // 2) * v1
+    else:
+        u0, u1 = C.ring.one, 2 * S  # U_0, U_1 of S
+        for _ in range(a - 2):
+            u0, u1 = u1, 2 * S * u1 - u0
+        sin_n = (-1) ** (a // 2 - 1) * C * u1
+    return cos_n, (sin_n if n > 0 else -sin_n)
+
+
+def ring_trig(arg: sp.Expr, cs: dict[sp.Symbol, tuple[PolyElement, PolyElement]]
+              ) -> tuple[PolyElement, PolyElement]:
+    """(cos arg, sin arg) of an integer combination arg = Σ n_j x_j as sympy's expand_trig writes them, in the ring
+    where cs[x] = (cos x, sin x): the addition formulas over the terms, each n x by :func:`_multiple_angle`.
+    ValueError for any other argument (a constant, a fraction, a symbol not in ``cs``)."""
+    R = next(iter(cs.values()))[0].ring if cs else None
+    if R is None:
+        raise ValueError(arg)
+    c, s = R.one, R.zero
+    for term in sp.Add.make_args(arg):
+        n, x = term.as_coeff_Mul()
+        if not (n.is_Integer and x in cs):
+            raise ValueError(arg)
+        cn, sn = _multiple_angle(int(n), *cs[x])
+        c, s = c * cn - s * sn, s * cn + c * sn
+    return c, s
+
+
 def fourier_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict[tuple[int, ...], tuple[PolyElement, PolyElement]]:
     """{k: (a_k, b_k)} of ``expr`` as sparse polynomials, zero pairs omitted."""
     gens = sorted(expr.free_symbols, key=lambda s: s.name)

@@ -35,7 +35,7 @@ from typing import Any, Callable, Iterable, Sequence
 
 import sympy as sp
 
-from solver.math.fourier import factor_list_fast
+from solver.math.fourier import factor_list_fast, ring_reader, ring_trig
 from solver.math.simplify import factor_within, tidy
 
 MAX_FAMILIES = 32
@@ -819,75 +819,29 @@ def _factor_half_tangent(e: sp.Expr, angles: list[sp.Symbol]) -> tuple[sp.Expr, 
     return tidy(const2), out
 
 
-def _trig_multiple(n: int, C: Any, S: Any) -> tuple[Any, Any]:
-    """(cos n x, sin n x) as sympy's expand_trig writes them, in the ring of C = cos x, S = sin x: cos n x = T_|n|(C);
-    sin n x = (−1)^((n−1)/2) T_n(S) for odd n, (−1)^(n/2−1) C U_{n−1}(S) for even n, and −sin(|n| x) for n < 0."""
-    a = abs(n)
-    t0, t1 = C.ring.one, C  # T_0, T_1 of C
-    for _ in range(a - 1):
-        t0, t1 = t1, 2 * C * t1 - t0
-    cos_n = t1 if a else C.ring.one
-    if a == 0:
-        return cos_n, C.ring.zero
-    if a % 2:
-        v0, v1 = C.ring.one, S  # T_0, T_1 of S
-        for _ in range(a - 1):
-            v0, v1 = v1, 2 * S * v1 - v0
-        sin_n = (-1) ** ((a - 1) // 2) * v1
-    else:
-        u0, u1 = C.ring.one, 2 * S  # U_0, U_1 of S
-        for _ in range(a - 2):
-            u0, u1 = u1, 2 * S * u1 - u0
-        sin_n = (-1) ** (a // 2 - 1) * C * u1
-    return cos_n, (sin_n if n > 0 else -sin_n)
-
-
 def _expanded_terms(e: sp.Expr, angles: list[sp.Symbol]
                     ) -> list[tuple[sp.Rational, list[int], list[int], dict[sp.Symbol, int]]] | None:
     """The terms of sp.expand(sp.expand_trig(e)) as :func:`_half_tangent_numerator` reads them (coefficient,
     exponents of cos x_i, of sin x_i, of the other symbols), computed in a polynomial ring of (cos x_i, sin x_i,
     symbols) over Q: each sin/cos of Σ n_j x_j (integers n_j, no constant) is expand_trig's polynomial (the
-    multiple-angle formulas of :func:`_trig_multiple`, the addition formulas), and the ring multiplies out what
+    multiple-angle and addition formulas: :func:`solver.math.fourier.ring_trig`), and the ring multiplies out what
     sympy's expand would. None for anything else (a constant in an argument, a radical, a symbol in a
     denominator, an angle outside sin/cos): the caller then expands with sympy."""
-    index = {x: i for i, x in enumerate(angles)}
     k = len(angles)
     params = sorted(e.free_symbols - set(angles), key=lambda s: s.name)
     R = sp.polys.rings.PolyRing([sp.Dummy() for _ in range(2 * k)] + params, sp.QQ, sp.polys.orderings.lex)
     C, S, P = R.gens[:k], R.gens[k:2 * k], dict(zip(params, R.gens[2 * k:]))
-    memo: dict[sp.Expr, tuple[Any, Any]] = {}
+    cs = {x: (C[i], S[i]) for i, x in enumerate(angles)}
 
-    def trig(arg: sp.Expr) -> tuple[Any, Any]:
-        if arg not in memo:
-            c, s_ = R.one, R.zero
-            for term in sp.Add.make_args(arg):
-                n, x = term.as_coeff_Mul()
-                if not (n.is_Integer and x in index):
-                    raise ValueError
-                cn, sn = _trig_multiple(int(n), C[index[x]], S[index[x]])
-                c, s_ = c * cn - s_ * sn, s_ * cn + c * sn
-            memo[arg] = (c, s_)
-        return memo[arg]
-
-    def conv(f: sp.Expr) -> Any:
-        if f.is_Rational:
-            return R(sp.QQ(int(f.p), int(f.q)))
-        if f.is_Add:
-            return sum((conv(a) for a in f.args), R.zero)
-        if f.is_Mul:
-            out = R.one
-            for a in f.args:
-                out *= conv(a)
-            return out
-        if f.is_Pow and f.exp.is_Integer and f.exp > 0:
-            return conv(f.base) ** int(f.exp)
+    def leaf(f: sp.Expr) -> Any:
         if isinstance(f, sp.cos):
-            return trig(f.args[0])[0]
+            return ring_trig(f.args[0], cs)[0]
         if isinstance(f, sp.sin):
-            return trig(f.args[0])[1]
+            return ring_trig(f.args[0], cs)[1]
         if f in P:
             return P[f]
         raise ValueError
+    conv = ring_reader(R, leaf)
 
     try:
         poly = conv(e)
