@@ -41,7 +41,7 @@ from pydantic import Field
 
 from solver.dynamics.model import derive, require_model
 from solver.math.equivalence import equivalent, exact_zero
-from solver.math.fourier import ring_reader
+from solver.math.fourier import ring_reader, ring_trig
 from solver.math.opcount import count_ops
 from solver.math.simplify import group_expanded, is_zero, tidy
 from solver.registry import PropertyVerdict, ask_kind, property_check
@@ -108,9 +108,9 @@ def canonical(expr: sp.Expr, state: set, square: str = "cos") -> sp.Expr:
 
 def _ring_canonical(expr: sp.Expr, state: set, square: str) -> sp.Expr | None:
     """:func:`canonical` computed in a sparse ring, for a polynomial over Q in symbols and sin/cos of integer
-    combinations of the state's angles: cos and sin of each angle are generators c, s, cos/sin of a combination the
-    real and imaginary parts of Π (c_j + i s_j)^k_j, and c² (``square`` "cos"; s² for "sin") is replaced by 1 − s²
-    (1 − c²) in every monomial; the representation being unique, its expanded sum is the one the expansions give.
+    combinations of the state's angles: cos and sin of each angle are generators c, s, cos/sin of a combination
+    their polynomial (:func:`solver.math.fourier.ring_trig`), and c² (``square`` "cos"; s² for "sin") is replaced
+    by 1 − s² (1 − c²) in every monomial; the representation being unique, its expanded sum is the one the expansions give.
     None for anything else (floats, other functions, an angle outside the state, a fraction in an argument)."""
     from math import comb as binomial
 
@@ -124,16 +124,11 @@ def _ring_canonical(expr: sp.Expr, state: set, square: str) -> sp.Expr | None:
     R, *gens = ring(syms + [v for a in angles for v in cs[a]], QQ)
     gen = dict(zip(syms + [v for a in angles for v in cs[a]], gens))
 
+    angle_cs = {a: (gen[c], gen[s]) for a, (c, s) in cs.items()}
+
     def trig(f: sp.Expr):  # type: ignore[no-untyped-def]
-        re, im = R.one, R.zero
-        for term in sp.Add.make_args(f.args[0]):
-            k, a = term.as_coeff_Mul()
-            if a not in cs or not k.is_Integer:
-                raise ValueError(f)
-            c, s = gen[cs[a][0]], gen[cs[a][1]] * (1 if k > 0 else -1)
-            for _ in range(abs(int(k))):
-                re, im = re * c - im * s, im * c + re * s
-        return re if isinstance(f, sp.cos) else im
+        c, s = ring_trig(f.args[0], angle_cs)   # (any form: the reduction below makes it unique)
+        return c if isinstance(f, sp.cos) else s
 
     def leaf(e: sp.Expr):  # type: ignore[no-untyped-def]
         if e.is_Symbol:
