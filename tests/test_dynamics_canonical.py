@@ -10,6 +10,7 @@ import pytest
 import sympy as sp
 
 import solver.dynamics.canonical as canonical
+import solver.dynamics.model as model
 from solver.dynamics.model import derive
 from solver.math import simplify
 from solver.spec import load_problem, load_problem_text
@@ -99,12 +100,18 @@ def test_canonical_path_prints_what_tidy_prints(name, monkeypatch):
     robot = load_problem(SPECS / name).robot
     fast = derive(robot)
     monkeypatch.setattr(canonical, "derive_canonical", lambda r: None)
+    monkeypatch.setattr(model, "_DERIVED", {})  # (derive keeps one model per robot: derived again here)
     simplify.tidy.cache_clear()
     slow = derive(robot)
     for field in ("T", "B", "C", "c", "S", "skew", "U", "g", "lhs"):
         assert getattr(fast, field) == getattr(slow, field), field
     for a, b in zip(fast.bodies, slow.bodies):
         assert (a.pc, a.vc, a.v2, a.T, a.U) == (b.pc, b.vc, b.v2, b.T, b.U)
+    # the report's velocity terms: split in the ring (canonical) = regrouped from the expressions (velocity_terms)
+    assert all(b.given("terms") for b in fast.bodies) and not any(b.given("terms") for b in slow.bodies)
+    fv, sv = model.ModelView(fast, robot), model.ModelView(slow, robot)
+    assert (fv.vc, fv.v2, fv.T2) == (sv.vc, sv.v2, sv.T2)
+    assert len(fv.T2[-1]) > 2  # several velocity monomials: the split is exercised
 
 
 def test_data_outside_the_algebra_take_the_general_path():
@@ -121,7 +128,6 @@ def test_large_model_report_defines_parameter_groupings_once(monkeypatch):
     B with the K_j substituted back is the model's B; the JSON keeps the full expressions."""
     import json
 
-    import solver.dynamics.model as model
     from solver.publish.render import render
     from solver.solve import solve_problem
     monkeypatch.setattr(model, "LARGE_MODEL", 50)

@@ -111,10 +111,19 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
     def mx(M: Mat) -> sp.Matrix:
         return sp.Matrix([[ex(x) for x in row] for row in M])
 
+    def terms(a) -> list[sp.Expr]:  # type: ignore[no-untyped-def]
+        """``a`` as solver.math.simplify.velocity_terms writes it: Σ_e a_e q̇^e, highest degree first."""
+        parts = A.by_monomial(a, dq)
+        order = sorted(parts, key=lambda e: (-sum(e), [-d for d in e]))
+        out = [A.expr(parts[e]) * sp.Mul(*[v ** d for v, d in zip(dq, e)]) for e in order]
+        return [t for t in out if t != 0]
+
     # per-body quantities are printed when a report, a check or --details first reads them
     energies = [BodyEnergy(body, Deferred(lambda P=P: sp.Matrix([ex(p) for p in P])),
                            Deferred(lambda vc=vc: sp.Matrix([ex(v) for v in vc])), Deferred(lambda v2=v2: ex(v2)),
-                           body.omega, Deferred(lambda T=T: ex(T)), Deferred(lambda U=U: ex(U)) if U is not None else None)
+                           body.omega, Deferred(lambda T=T: ex(T)), Deferred(lambda U=U: ex(U)) if U is not None else None,
+                           Deferred(lambda vc=vc, v2=v2, T=T: ([terms(v) for v in vc], terms(v2),
+                                                               terms(A.scale(T, 2)))))
                 for body, P, vc, v2, T, U in bodies]
     Bm = mx(B)
     C_out = [mx(Ck) for Ck in C] if C is not None else None

@@ -24,7 +24,9 @@ from solver.spec.robot import Body, Robot
 
 @dataclass
 class BodyEnergy(Resolving):
-    """One body's p_c, v_c, ‖v_c‖², ω, T_i and U_i (any of them may be given Deferred: printed when first read)."""
+    """One body's p_c, v_c, ‖v_c‖², ω, T_i and U_i (any of them may be given Deferred: printed when first read);
+    optionally the velocity terms of v_c, ‖v_c‖² and 2T_i as a report prints them (:func:`velocity_terms`), when
+    the derivation has them at hand (else the report computes them from the expressions)."""
 
     body: Body
     pc: sp.Matrix
@@ -33,6 +35,8 @@ class BodyEnergy(Resolving):
     omega: sp.Matrix
     T: sp.Expr
     U: sp.Expr | None
+    terms: tuple[list[list[sp.Expr]], list[sp.Expr], list[sp.Expr]] | None = field(  # (v_c, ‖v_c‖², 2T_i)
+        default=None, metadata={"json": False})
 
 
 @dataclass
@@ -270,15 +274,16 @@ class ModelView:
 
     @cached_property
     def vc(self) -> list[list[list[sp.Expr]]]:
-        return [[velocity_terms(x, self.robot.dq) for x in e.vc] for e in self.dm.bodies]
+        return [e.terms[0] if e.given("terms") else [velocity_terms(x, self.robot.dq) for x in e.vc]
+                for e in self.dm.bodies]
 
     @cached_property
     def v2(self) -> list[list[sp.Expr]]:
-        return [velocity_terms(e.v2, self.robot.dq) for e in self.dm.bodies]
+        return [e.terms[1] if e.given("terms") else velocity_terms(e.v2, self.robot.dq) for e in self.dm.bodies]
 
     @cached_property
     def T2(self) -> list[list[sp.Expr]]:
-        return [velocity_terms(2 * e.T, self.robot.dq) for e in self.dm.bodies]
+        return [e.terms[2] if e.given("terms") else velocity_terms(2 * e.T, self.robot.dq) for e in self.dm.bodies]
 
     @cached_property
     def rows(self) -> list[list[sp.Expr]]:

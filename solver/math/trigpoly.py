@@ -142,6 +142,21 @@ class TrigAlgebra:
                 for j in range(m)] for i in range(m)]
         return self.add(*[self.mul(A[0][j], adj[j][0]) for j in range(m)]), adj
 
+    def by_monomial(self, a: TrigPoly, v: list[sp.Symbol]) -> dict[tuple[int, ...], TrigPoly]:
+        """``a`` = Σ_e a_e(·) v^e split by the monomials of the generators ``v`` (exponents e in the order of v):
+        {e: a_e}, each a_e free of v."""
+        idx = [self.gens.index(x) for x in v]
+        parts: dict[tuple[int, ...], dict] = {}
+        for key, c in a.items():
+            for monom, coeff in c.items():
+                e = tuple(monom[i] for i in idx)
+                rest = list(monom)
+                for i in idx:
+                    rest[i] = 0
+                part = parts.setdefault(e, {}).setdefault(key, {})
+                part[tuple(rest)] = coeff
+        return {e: {key: self.R.from_dict(d) for key, d in part.items()} for e, part in parts.items()}
+
     def size(self, a: TrigPoly) -> int:
         """Number of monomials of ``a`` over all its Fourier coefficients."""
         return sum(len(c) for c in a.values())

@@ -961,7 +961,8 @@ class _Steps:
                 self.seen[id(obj)] = {"expr": str(obj), "latex": self.latex(obj)}
             return self.seen[id(obj)]
         if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-            return self._dict({f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)})
+            return self._dict({f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)
+                               if f.metadata.get("json", True)})  # (a printing aid, not data: json=False)
         if isinstance(obj, dict):
             return self._dict(obj)
         if isinstance(obj, (list, tuple)):
