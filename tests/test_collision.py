@@ -10,7 +10,7 @@ import pytest
 import sympy as sp
 from conftest import PROBLEMS, error_found_without_solving
 
-from solver.interaction.collision import first_order_filter, simulate_collision
+from solver.interaction.collision import first_order_filter, numeric_rank, simulate_collision
 from solver.dynamics.model import derive
 from solver.publish.render import render
 from solver.solve import all_results, solve_problem
@@ -447,3 +447,21 @@ def test_rational_nullspace_is_sympys_simplified_nullspace():
     assert rational_nullspace(sp.Matrix([[sp.sin(th), sp.sin(th)], [-sp.cos(th), -sp.cos(th)]])) == [sp.Matrix([-1, 1])]
     for M in (sp.Matrix([[sp.sin(q1) ** 2 + sp.cos(q1) ** 2, -1]]), sp.Matrix([[sp.sin(q1), a * sp.cos(q1), 1]])):
         assert rational_nullspace(M) == M.nullspace(simplify=True)
+
+
+def test_numeric_rank_exact_over_number_field_matches_simplify():
+    """The rank of exact matrices over QQ<θ> agrees with Gauss elimination using sympy's simplify as the zero test,
+    including rank drops hidden in radicals (√(2 + √3)·(√6 − √2)/2 = 1) and entries with π (the simplify path)."""
+    r2, r3, r6 = sp.sqrt(2), sp.sqrt(3), sp.sqrt(6)
+    cases = [
+        sp.Matrix([[-7 * r2 / 40, 3 * r2 / 40, 0], [13 * r2 / 40, 3 * r2 / 40, 0]]),
+        sp.Matrix([[r3 / 2, sp.Rational(1, 2), 0], [r3, 1, 0]]),
+        sp.Matrix([[sp.sqrt(2 + r3), 1], [1, (r6 - r2) / 2]]),
+        sp.Matrix([[r2 + r3, 1], [1, r3 - r2]]),
+        sp.Matrix([[sp.I, 1], [1, -sp.I]]),
+        sp.Matrix([[1, 2, 3], [2, 4, 6]]),
+        sp.Matrix([[sp.pi, 1], [2, 2 / sp.pi]]),
+        sp.zeros(2, 3),
+    ]
+    for M in cases:
+        assert numeric_rank(M) == M.rank(iszerofunc=lambda x: sp.simplify(x) == 0), M

@@ -421,9 +421,25 @@ def _num_matrix(M: sp.Matrix) -> sp.Matrix:
     return M.applyfunc(_num)
 
 
+def _algebraic_matrix(M: sp.Matrix) -> Any:
+    """M as a DomainMatrix over QQ or an algebraic number field QQ<θ> (entries rationals and radicals, I), where
+    arithmetic and zero tests are exact; None for other entries (π, e: no field sympy's domains decide in)."""
+    from sympy.polys.matrices import DomainMatrix
+    try:
+        dM = DomainMatrix.from_Matrix(M, extension=True)
+    except (sp.PolynomialError, NotImplementedError, ValueError, TypeError):
+        return None
+    K = dM.domain
+    return dM if K.is_ZZ or K.is_QQ or K.is_AlgebraicField else None
+
+
 def numeric_rank(M: sp.Matrix) -> int:
-    """Rank of a numeric matrix: exact for exact entries, from the singular values otherwise."""
+    """Rank of a numeric matrix: exact for exact entries (over their number field, else with sympy's simplify as
+    the zero test), from the singular values otherwise."""
     if _exact(M):
+        dM = _algebraic_matrix(M)
+        if dM is not None:
+            return int(dM.to_field().rank())
         return M.rank(iszerofunc=lambda x: sp.simplify(x) == 0)
     a = np.array(M.evalf(30).tolist(), dtype=float)
     if a.size == 0:
