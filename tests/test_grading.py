@@ -275,3 +275,23 @@ def test_same_polynomial_is_exact_both_ways() -> None:
     assert _same_polynomial((x + y) ** 2, x**2 + 2 * x * y + y**2)
     assert not _same_polynomial((x + y) ** 2, x**2 + y**2)
     assert not _same_polynomial(k / (x - y), k / (x + y))
+
+
+def test_same_polynomial_with_a_shared_point() -> None:
+    """reduce_conditions compares at one point of all the symbols of the set: the answers are those of the
+    pairwise points (the point only proves differences), also where it lacks a symbol or hits a pole."""
+    import sympy as sp
+
+    from solver.math.equivalence import _common_point, _same_polynomial
+    x, y, k, m = sp.symbols("x y k m", positive=True)
+    pairs = [((x + y) ** 2, x**2 + 2 * x * y + y**2), ((x + y) ** 2, x**2 + y**2), (k / (x - y), k / (x + y)),
+             (k * (m + 1), k * m + k), (m * x, x * m + y), (1 / (x - 1), 1 / (x - 1) + y - y)]
+    x0 = _common_point([x]).params[x]  # the value of x at a point whose first symbol is x: a pole of 1/(x - x0)
+    pairs += [(1 / (x - x0), 1 / (x - x0) + 0 * y), (k / (x - x0), k * x),
+              (y / (x - x0), (x * y - x0 * y) / (x - x0)**2)]
+    shared = _common_point([e for a, b in pairs for e in (a, b)])
+    for a, b in pairs:
+        want = _same_polynomial(a, b)
+        assert _same_polynomial(a, b, shared) == want
+        assert _same_polynomial(a, b, _common_point([x])) == want     # at the pole
+        assert _same_polynomial(a, b, _common_point([m])) == want     # symbols missing: decided by expansion

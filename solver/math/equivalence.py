@@ -421,13 +421,15 @@ def _power_of_symbol(x: sp.Expr) -> bool:
     return x.is_Symbol or (x.is_Pow and x.base.is_Symbol and x.exp.is_Integer)
 
 
-def _same_polynomial(a: sp.Expr, b: sp.Expr) -> bool:
+def _same_polynomial(a: sp.Expr, b: sp.Expr, at: RationalPoint | None = None) -> bool:
     """a ≡ b, by expanding a - b; first, cheaply, different exact values at one rational point prove a ≢ b
-    (used only where both values are rational numbers: polynomials and rational functions of the symbols)."""
+    (used only where both values are rational numbers: polynomials and rational functions of the symbols).
+    ``at``: the point (with its memo of values), shared by the comparisons of one set; by default one from the
+    symbols of a and b (any point gives the same answer: it only proves a difference)."""
     if a == b:
         return True
-    syms = sorted(a.free_symbols | b.free_symbols, key=lambda x: x.name)
-    at = RationalPoint({x: Fraction(97 + 31 * k, 89 + 7 * k) for k, x in enumerate(syms)}, {})
+    if at is None:
+        at = _common_point([a, b])
     try:  # (in Fractions, read from the trees: substituting and re-evaluating the expressions costs more)
         if at.value(a) != at.value(b):
             return False
@@ -436,12 +438,20 @@ def _same_polynomial(a: sp.Expr, b: sp.Expr) -> bool:
     return sp.expand(a - b) == 0
 
 
+def _common_point(exprs: list[sp.Expr]) -> RationalPoint:
+    """The rational point x_k = (97 + 31k)/(89 + 7k) for the symbols of ``exprs`` sorted by name."""
+    syms = sorted(set().union(*[e.free_symbols for e in exprs]), key=lambda x: x.name)
+    return RationalPoint({x: Fraction(97 + 31 * k, 89 + 7 * k) for k, x in enumerate(syms)}, {})
+
+
 def reduce_conditions(conditions: list[sp.Expr]) -> list[sp.Expr]:
     """A set of conditions c_i > 0, each normalized (:func:`normalize_condition`), without the ones that always
     hold, and without the factors of a condition that are themselves conditions of the set (positive then):
-    [k_d, k_d (k_f + 1) - m k_i] -> [k_d, k_d (k_f + 1) - m k_i], [k_d, k_d·(...)] -> [k_d, (...)]."""
+    [k_d, k_d (k_f + 1) - m k_i] -> [k_d, k_d (k_f + 1) - m k_i], [k_d, k_d·(...)] -> [k_d, (...)]. The
+    comparisons share one rational point: every condition and factor is evaluated once."""
     out = [normalize_condition(c) for c in conditions]
     out = [c for c in out if c != 1]
+    at = _common_point(out)
     changed = True
     while changed:
         changed = False
@@ -449,14 +459,14 @@ def reduce_conditions(conditions: list[sp.Expr]) -> list[sp.Expr]:
             factors = sp.Mul.make_args(c)
             if len(factors) < 2:
                 continue
-            keep = [f for f in factors if not any(j != i and _same_polynomial(f.as_base_exp()[0], o)
+            keep = [f for f in factors if not any(j != i and _same_polynomial(f.as_base_exp()[0], o, at)
                                                   for j, o in enumerate(out))]
             if len(keep) < len(factors):
                 out[i] = normalize_condition(sp.Mul(*keep)) if keep else sp.Integer(1)
                 changed = True
         uniq: list[sp.Expr] = []
         for c in out:
-            if c != 1 and not any(_same_polynomial(c, u) for u in uniq):
+            if c != 1 and not any(_same_polynomial(c, u, at) for u in uniq):
                 uniq.append(c)
         out = uniq
     return out
