@@ -103,8 +103,21 @@ def steady_velocity(loop: LinearLoop) -> sp.Matrix | None:
 def char_poly(loop: LinearLoop, s: sp.Symbol) -> sp.Expr:
     """det A(s), expanded and collected in powers of s."""
     A = loop.A(s)
-    d = A.det(method="berkowitz") if A.shape[0] > 1 else A[0, 0]
+    d = _det(sp.ImmutableMatrix(A)) if A.shape[0] > 1 else A[0, 0]
     return collect_s(d, s)
+
+
+@lru_cache(maxsize=64)
+def _det(A: sp.ImmutableMatrix) -> sp.Expr:
+    """det A (Berkowitz), memoized: the characteristic polynomial and the transfer functions of one loop (the
+    plant's P(s) and Q(s)/U(s), the closed loop's det A(s) and W(s)) need the same determinant."""
+    return A.det(method="berkowitz")
+
+
+@lru_cache(maxsize=64)
+def _adjugate(A: sp.ImmutableMatrix) -> sp.ImmutableMatrix:
+    """adj A (Berkowitz), memoized as :func:`_det`."""
+    return sp.ImmutableMatrix(A.adjugate())
 
 
 def collect_s(p: sp.Expr, s: sp.Symbol) -> sp.Expr:
@@ -123,7 +136,11 @@ def transfer(loop: LinearLoop, output: sp.Matrix, inputs: dict[sp.Symbol, sp.Exp
     (u, feed), = inputs.items()
     bu = -loop.r0.diff(u)
     A = loop.A(s)
-    X = A.adjugate() * bu / A.det(method="berkowitz") if A.shape[0] > 1 else bu / A[0, 0]
+    if A.shape[0] > 1:
+        Ai = sp.ImmutableMatrix(A)
+        X = _adjugate(Ai).as_mutable() * bu / _det(Ai)
+    else:
+        X = bu / A[0, 0]
     C = output.jacobian(loop.x)
     return (C * X).applyfunc(lambda e: rational(e + feed, s))
 
