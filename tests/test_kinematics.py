@@ -557,3 +557,19 @@ def test_jacobian_dot_entry_by_entry(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(sp.MatrixBase, "diff", refuse)
     assert geo.jacobian_dot(J, [q1, q2], [dq1, dq2]) == want
     assert want[0, 1] == -sp.sin(q1) * dq1
+
+
+def test_number_is_zero_agrees_with_simplify():
+    """The zero test of exact rank decisions gives simplify(e) == 0's answer: zeros written with radicals that do not
+    cancel as written, and non-zero numbers, some very close to zero."""
+    r2, r3, r6 = sp.sqrt(2), sp.sqrt(3), sp.sqrt(6)
+    zeros = [sp.Integer(0), (1 + r2) ** 2 - 3 - 2 * r2, r2 * r3 - r6, sp.sqrt(3 + 2 * r2) - 1 - r2,
+             (r2 / 2 + sp.Rational(7, 20)) * (r2 / 2) - sp.Rational(7, 20) * r2 / 2 - sp.Rational(1, 2),
+             sp.Mul(sp.sqrt(8), sp.Rational(1, 2), evaluate=False) - r2]
+    nonzeros = [sp.Rational(1, 7), r2 - sp.Rational(99, 70), (1 + r2) ** 2 - 3 - r2, sp.sqrt(3 + 2 * r2) - r2,
+                (r2 - 1) ** 20, -7 * r2 / 20 + sp.Rational(1, 10**12)]
+    for e in zeros + nonzeros:
+        assert geo.number_is_zero(e) == (sp.simplify(e) == 0), e
+    assert all(geo.number_is_zero(e) for e in zeros) and not any(geo.number_is_zero(e) for e in nonzeros)
+    # (r2 - 1)^40 ~ 5e-16 and tiny numbers of that kind are decided exactly, not by their magnitude
+    assert not geo.number_is_zero((r2 - 1) ** 60)
