@@ -115,6 +115,11 @@ def test_tidy_expanded_is_tidy_of_the_expansion():
              (sp.Float(0.1) * c1 + sp.Float(0.2)) * (sp.Float(0.3) * L * c1 + 1)]
     for _ in range(40):
         cases.append(sp.Mul(*[sp.Add(*rng.sample(pool, 3)) for _ in range(rng.randint(1, 3))]) ** rng.randint(1, 2))
+    zero = (c1**2 + s1**2 - 1, sp.sin(2 * q1) - 2 * s1 * c1, c12 - c1 * sp.cos(q2) + s1 * sp.sin(q2))  # ≡ 0
+    for _ in range(30):  # a symbol and an angle that cancel (printed from the tree, without expanding)
+        keep = sp.Mul(*[sp.Add(*rng.sample(pool[2:], 3)) for _ in range(rng.randint(1, 2))]) ** rng.randint(1, 2)
+        gone = rng.choice(zero) * sp.Mul(*[sp.Add(*rng.sample(pool, 3)) for _ in range(rng.randint(1, 2))]) * m2
+        cases.append(rng.choice([1, -1, sp.Rational(3, 2)]) * keep + gone)
     for e in cases:
         assert tidy_expanded(e) == tidy(sp.expand(e)), e
 

@@ -672,23 +672,36 @@ def tidy_expanded(expr: sp.Expr) -> sp.Expr:
 
 @lru_cache(maxsize=4096)
 def _tidy_expanded(expr: sp.Expr) -> sp.Expr:
-    form = fourier_form(expr)
+    form = _tree_form(expr)   # (also when a symbol or an angle cancels: see _tree_form)
     return fourier_expr(*form) if form is not None else tidy(sp.expand(expr))
 
 
 @lru_cache(maxsize=1024)
-def fourier_form(expr: sp.Expr) -> tuple[dict, list[sp.Symbol]] | None:
-    """(Fourier coefficients, angles) of a trigonometric polynomial, computed from its tree, when
-    :func:`tidy_expanded` prints it from them: fourier_expr(coeffs, angles) is then its canonical form. None for
-    anything else, and when an angle or a symbol cancels (tidy_expanded expands and tidies those). Memoized: the
-    result is shared, not to be changed."""
+def _tree_form(expr: sp.Expr) -> tuple[dict, list[sp.Symbol]] | None:
+    """(Fourier coefficients, angles) of a trigonometric polynomial, computed from its tree; None for anything
+    else. fourier_expr of them is tidy(sp.expand(expr)) also when a symbol or an angle cancels: the expanded sum
+    has the same coefficients, and fourier_expr reads a generator or an angle that no coefficient uses (an
+    exponent 0 in every monomial, a 0 in every k) nowhere: not in the order of the terms, the signs (_flip), the
+    factors (factor_small drops it) or the product form (cos⁰ sin⁰ = 1). Memoized: the result is shared, not to
+    be changed."""
     if not expr.free_symbols or expr.is_Atom:  # (floats: NotTrigPolynomial, sympy's rounded products then)
         return None
     angles = angle_symbols(expr)
     try:
-        coeffs = fourier_coefficients(expr, angles)
+        return fourier_coefficients(expr, angles), angles
     except NotTrigPolynomial:
         return None
+
+
+@lru_cache(maxsize=1024)
+def fourier_form(expr: sp.Expr) -> tuple[dict, list[sp.Symbol]] | None:
+    """(Fourier coefficients, angles) of a trigonometric polynomial, computed from its tree (:func:`_tree_form`),
+    when no angle or symbol cancels: its generators are then those of the expression. None for anything else.
+    Memoized: the result is shared, not to be changed."""
+    form = _tree_form(expr)
+    if form is None:
+        return None
+    coeffs, angles = form
     used = [x for j, x in enumerate(angles) if any(k[j] for k in coeffs)]
     if len(used) < len(angles):  # angles that cancelled: the form over those left, as from the sum
         return None
