@@ -39,7 +39,7 @@ from solver.math.fourier import factor_list_expr, ring_reader
 from solver.math.numeric import lambdify_np
 from solver.math.opcount import count_ops
 from solver.math.simplify import (angle_symbols, divide_power, factor_within, fourier_expr, fourier_form, is_zero,
-                                  tidy, tidy_expanded)
+                                  tidy, tidy_expanded, together)
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -379,7 +379,7 @@ def _num_den(e: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
     power, no fraction: together would only pull common factors out, which the expansion that follows undoes)."""
     if not any(p.exp.is_negative for p in e.atoms(sp.Pow)) and all(r.is_Integer for r in e.atoms(sp.Rational)):
         return e, sp.Integer(1)
-    return sp.fraction(sp.together(e))
+    return sp.fraction(together(e))
 
 
 def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
@@ -603,7 +603,7 @@ def rtidy(e: sp.Expr) -> sp.Expr:
     e = sp.sympify(e)
     if not e.free_symbols:
         return sp.nsimplify(e) if e.atoms(sp.Float) else sp.simplify(e)
-    num, den = sp.fraction(sp.together(e))
+    num, den = sp.fraction(together(e))
     return ratio(num, den)
 
 
