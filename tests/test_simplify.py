@@ -124,6 +124,27 @@ def test_tidy_expanded_is_tidy_of_the_expansion():
         assert tidy_expanded(e) == tidy(sp.expand(e)), e
 
 
+def test_fourier_sum_ops_bounds_the_printed_form():
+    """fourier_sum_ops counts the Fourier sum fourier_expr prints unless the product form is shorter: an upper bound
+    of count_ops of the printed form, reached whenever it is that sum."""
+    from solver.math.opcount import count_ops
+    from solver.math.simplify import fourier_expr, fourier_form, fourier_sum_ops
+    q1, q2, L, d = sp.symbols("q1 q2 L d")
+    rng = random.Random(11)
+    pool = [sp.cos(q1), sp.sin(q1), sp.cos(q1 + q2), sp.sin(q2), sp.cos(2 * q2), L, d, m1, sp.Integer(-3)]
+    reached = below = 0
+    for _ in range(40):
+        e = sp.Mul(*[sp.Add(*rng.sample(pool, 3)) for _ in range(rng.randint(1, 3))]) ** rng.randint(1, 2)
+        form = fourier_form(e)
+        if form is None:
+            continue
+        printed, bound = count_ops(fourier_expr(*form)), fourier_sum_ops(*form)
+        assert printed <= bound, e
+        reached += printed == bound
+        below += printed < bound
+    assert reached and below  # (both cases occur: the product form shorter, and not)
+
+
 def test_divide_out_cancels_and_declines_exactly():
     from solver.interaction.constraints import _divide_out
     q, L, d = sp.symbols("q L d")

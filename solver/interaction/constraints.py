@@ -38,8 +38,8 @@ from solver.kinematics.redundancy import generic_rank
 from solver.math.fourier import factor_list_expr, ring_reader
 from solver.math.numeric import lambdify_np
 from solver.math.opcount import count_ops
-from solver.math.simplify import (angle_symbols, divide_power, factor_within, fourier_expr, fourier_form, is_zero,
-                                  tidy, tidy_expanded, together)
+from solver.math.simplify import (angle_symbols, divide_power, factor_within, fourier_expr, fourier_form,
+                                  fourier_sum_ops, is_zero, tidy, tidy_expanded, together)
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -196,9 +196,9 @@ class _NotPolynomial(Exception):
 def _divide_symbols(n: sp.Expr, factors: list[tuple[sp.Symbol, int]],
                     form: tuple[dict, list] | None = None) -> tuple[sp.Expr, dict, bool]:
     """(n / Π f^j_f, {f: j_f}, tidy): for each symbol f of the denominator (exponent e) the largest j_f <= e with
-    f^j_f dividing n, divided out at once on the Fourier coefficients of n (least exponent of f over their
-    monomials; ``form``: :func:`fourier_form` of n when known), which gives the quotient in its tidy form
-    (tidy = True); one by one by :func:`_divide_out` (tidy = False) when n is not such a polynomial."""
+    f^j_f dividing n, divided out at once on the Fourier coefficients of n (:func:`_symbol_quotient`; ``form``:
+    :func:`fourier_form` of n when known), which gives the quotient in its tidy form (tidy = True); one by one by
+    :func:`_divide_out` (tidy = False) when n is not such a polynomial."""
     if not factors:
         return n, {}, True
     if form is None:
@@ -208,6 +208,15 @@ def _divide_symbols(n: sp.Expr, factors: list[tuple[sp.Symbol, int]],
         for f, e in factors:
             n, powers[f] = _divide_out(n, f, e)
         return n, powers, not any(powers.values())
+    quotient, powers = _symbol_quotient(form, factors)
+    return (n if quotient is None else fourier_expr(*quotient)), powers, True
+
+
+def _symbol_quotient(form: tuple[dict, list], factors: list[tuple[sp.Symbol, int]]
+                     ) -> tuple[tuple[dict, list] | None, dict]:
+    """(coefficients of n / Π f^j_f, {f: j_f}) for n with Fourier coefficients ``form`` (:func:`fourier_form`) and
+    symbols f of the denominator (exponent e): j_f = min(e, least exponent of f over the monomials of the
+    coefficients), for the f among their generators; the quotient None when every j_f is 0."""
     coeffs, angles = form
     R = next(iter(coeffs.values()))[0].ring
     monoms = [m for a, b in coeffs.values() for p in (a, b) for m in p.itermonoms()]
@@ -218,12 +227,12 @@ def _divide_symbols(n: sp.Expr, factors: list[tuple[sp.Symbol, int]],
             i = R.symbols.index(f)
             shift[i] = powers[f] = min([e] + [m[i] for m in monoms])
     if not any(shift):
-        return n, powers, True
+        return None, powers
 
     def down(p):  # type: ignore[no-untyped-def]
         return R.from_dict({tuple(a - b for a, b in zip(m, shift)): c for m, c in p.iterterms()})
 
-    return fourier_expr({k: (down(a), down(b)) for k, (a, b) in coeffs.items()}, angles), powers, True
+    return ({k: (down(a), down(b)) for k, (a, b) in coeffs.items()}, angles), powers
 
 
 def _divide_out(n: sp.Expr, f: sp.Expr, e: int) -> tuple[sp.Expr, int]:
@@ -388,22 +397,34 @@ def ratio(n: sp.Expr, d: sp.Expr) -> sp.Expr:
     power of a sum (δ², δ³ of the reduced model) stays a power of its factors: expanded, δ² would be a long sum."""
     n1, n2 = _num_den(sp.sympify(n))
     d1, d2 = _num_den(sp.sympify(d))
-    n = tidy_expanded(n1 * d2)
-    if n == 0:
+    num = n1 * d2
+    form = fourier_form(num)  # (its coefficients: the tidy numerator tidy_expanded(num) is printed where needed)
+    if form is None and tidy_expanded(num) == 0:  # (a form has a non-zero coefficient)
         return sp.Integer(0)
     mono = _monomial(n2 * d1)  # c Π bᵉ (sin q2⁷ sin(q1 + q2)): factored already, and shorter than its Fourier form
     powered = _sum_powers(n2 * d1) if mono is None else None  # δ² with δ a sum: kept a power, not expanded
     d = n2 * d1 if mono is not None else tidy_expanded(n2 * d1) if powered is None else \
         sp.Mul(powered[0], *(f ** e for f, e in powered[1]))
     if d == 1:
-        return n
+        return tidy_expanded(num)
     if d.is_number:
-        return tidy(n / d)
-    if count_ops(d) <= MAX_CANCEL_OPS and count_ops(n) <= MAX_CANCEL_OPS * 10:
+        return tidy(tidy_expanded(num) / d)
+    cancel = count_ops(d) <= MAX_CANCEL_OPS
+    if cancel:
         coeff, factors = mono or powered or factor_list_expr(d)  # (sympy's factor_list, faster)
+        symbols = [(f, e) for f, e in factors if f.is_Symbol]
+        quotient, powers = _symbol_quotient(form, symbols) if form is not None and symbols else (None, {})
+        # a numerator small enough (its tidy form, bounded by its Fourier sum when only the quotient is printed)
+        cancel = ((quotient is not None and fourier_sum_ops(*form) <= MAX_CANCEL_OPS * 10)
+                  or count_ops(tidy_expanded(num)) <= MAX_CANCEL_OPS * 10)
+    if not cancel:
+        n = tidy_expanded(num)
+    else:
         rest = sp.sympify(coeff)
-        n, powers, tidy_form = _divide_symbols(n, [(f, e) for f, e in factors if f.is_Symbol],
-                                               fourier_form(n1 * d2))  # (memoized: what tidy_expanded printed)
+        if form is None:
+            n, powers, tidy_form = _divide_symbols(tidy_expanded(num), symbols)
+        else:  # (the symbols divided out on the coefficients: the quotient printed, the numerator not)
+            n, tidy_form = (tidy_expanded(num) if quotient is None else fourier_expr(*quotient)), True
         divided = not tidy_form  # (n is tidy unless divided other than by _divide_symbols)
         for f, e in factors:
             j = powers.get(f, 0)

@@ -266,6 +266,31 @@ def fourier_expr(coeffs: dict, angles: list[sp.Symbol], nice=nice_poly) -> sp.Ex
     """The printed form of f = Σ a_k cos(k·x) + b_k sin(k·x) given by its coefficients {k: (a_k, b_k)}
     (polynomials, or sympy expressions with ``nice=_nice``): each coefficient through ``nice``, and the product
     form over single angles when shorter (only below the size LARGE)."""
+    fourier, nice, large = _fourier_sum(coeffs, angles, nice)
+    mixed = any(v < 0 or v > 1 for k in coeffs for v in k if any(k))
+    if mixed and not large:
+        if nice is nice_poly:
+            groups = product_groups(coeffs, angles)
+            if product_cost_bound(groups) >= count_ops(fourier):  # (it cannot be shorter: not printed)
+                return fourier
+            product = product_form(coeffs, angles, groups)
+        else:
+            product = _product_form(fourier, angles)
+        if count_ops(product) < count_ops(fourier):
+            return product
+    return fourier
+
+
+def fourier_sum_ops(coeffs: dict, angles: list[sp.Symbol]) -> int:
+    """count_ops of the Fourier sum of polynomial coefficients as :func:`fourier_expr` writes it: an upper bound of
+    count_ops(fourier_expr(coeffs, angles)) (the product form is printed only when shorter), without the product
+    form."""
+    return count_ops(_fourier_sum(coeffs, angles, nice_poly)[0])
+
+
+def _fourier_sum(coeffs: dict, angles: list[sp.Symbol], nice):  # type: ignore[no-untyped-def]
+    """(Σ nice(a_k) cos(k·x) + nice(b_k) sin(k·x), the ``nice`` used, large): :func:`fourier_expr`'s Fourier
+    form, each coefficient through ``nice`` (content and monomial only past the size LARGE)."""
     size = sum(len(a) + len(b) for a, b in coeffs.values()) if nice is nice_poly else 0
     used = sum(1 for j in range(len(angles)) if any(k[j] for k in coeffs))
     large = size > LARGE or (used > 3 and size > LARGE_MANY_ANGLES)
@@ -283,19 +308,7 @@ def fourier_expr(coeffs: dict, angles: list[sp.Symbol], nice=nice_poly) -> sp.Ex
             out.append(nice(a) * sp.cos(theta))
         if b:
             out.append(nice(b) * sp.sin(theta))
-    fourier = sp.Add(*out)
-    mixed = any(v < 0 or v > 1 for k in coeffs for v in k if any(k))
-    if mixed and not large:
-        if nice is nice_poly:
-            groups = product_groups(coeffs, angles)
-            if product_cost_bound(groups) >= count_ops(fourier):  # (it cannot be shorter: not printed)
-                return fourier
-            product = product_form(coeffs, angles, groups)
-        else:
-            product = _product_form(fourier, angles)
-        if count_ops(product) < count_ops(fourier):
-            return product
-    return fourier
+    return sp.Add(*out), nice, large
 
 
 def _nice_large(p):  # type: ignore[no-untyped-def]
