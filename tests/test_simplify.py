@@ -464,5 +464,69 @@ def test_offsets_and_roots_in_the_ring_are_the_laurent_coefficients(monkeypatch)
     with pytest.raises(S.NotTrigPolynomial):
         S._offset_coefficients(refused, [q1])
     assert S._offset_coefficients(sp.cos(q1 + sp.pi / 12), [q1]) is None   # √2 and √6
-    assert S._offset_coefficients((sp.sin(q1) ** 2 + sp.cos(q1) ** 2) / (p + r), [q1]) is None
     assert S._offset_coefficients(sp.cos(q1 + 1) * p, [q1]) is None
+    assert S._offset_coefficients(sp.sin(q1) ** 2 + m / (p + r), [q1]) is None   # a sum under angle-free terms only
+    with pytest.raises(S.NotTrigPolynomial):   # (sympy's expansion happens to collect its z⁻² terms to 0 here)
+        S._offset_coefficients((sp.sin(q1) ** 2 + sp.cos(q1) ** 2) / (p + r), [q1])
+
+
+def test_sum_denominators_with_trig_refused_before_expanding(monkeypatch):
+    """An inertia entry of a bar whose angular velocity has a rational factor (sin² and cos² of the roll angle over
+    ((D − 2d)² + (q₁ − q₂)²)², written once with −D + 2d): the general path expands the z-form and refuses it
+    (z lands in the expanded denominators); the ring path refuses it before expanding, and tidy gives the same
+    form either way."""
+    import solver.math.simplify as S
+    D, d, Iy, m, q1, q2, q3 = sp.symbols("D d Iy m q1 q2 q3")
+    X = ((D - 2 * d) ** 2 + (q1 - q2) ** 2) ** 2
+    cases = [Iy * (-D + 2 * d) ** 2 * sp.sin(q3) ** 2 / X + Iy * (D - 2 * d) ** 2 * sp.cos(q3) ** 2 / X + m / 4,
+             Iy * (D - 2 * d) ** 2 * sp.sin(q3) ** 2 / X + Iy * (D - 2 * d) ** 2 * sp.cos(q3) ** 2 / X + m,
+             m * sp.cos(q3) / (D + q1) + Iy * sp.sin(q3) / (D + q1) ** 2]
+    fast = []
+    for e in cases:
+        with pytest.raises(S.NotTrigPolynomial):
+            S._offset_coefficients(e, [q3])
+        fast.append(tidy(e))
+    tidy.cache_clear()
+    monkeypatch.setattr(S, "_offset_coefficients", lambda *args: None)
+    for e, f in zip(cases, fast):
+        with pytest.raises(S.NotTrigPolynomial):
+            S._laurent_coefficients(e, [q3])
+        assert sp.srepr(tidy(e)) == sp.srepr(f)
+    tidy.cache_clear()
+
+
+def test_trig_over_sum_is_the_expansion_before_collecting():
+    """_trig_over_sum (kinds of products read on the tree) against the expansion itself with every coefficient
+    made positive (so that no term cancels: the products before collection), sin/cos a symbol t and each negative
+    power of a sum a symbol w, on random sums of products and powers."""
+    from solver.math.simplify import _trig_over_sum
+    p, r, q = sp.symbols("p r q")
+    t, w = sp.symbols("t w", positive=True)
+    leaves = [x, y, sp.Integer(-2), sp.Rational(1, 3), sp.sin(q), sp.cos(2 * q), 1 / (p + r), (x + 1) ** -2, 1 / x]
+    sums = frozenset({p + r, x + 1})
+    rng = random.Random(7)
+
+    def tree(depth: int) -> sp.Expr:
+        if depth == 0 or rng.random() < 0.3:
+            return rng.choice(leaves)
+        k = rng.random()
+        if k < 0.4:
+            return sp.Add(*[tree(depth - 1) for _ in range(rng.randint(2, 3))])
+        if k < 0.8:
+            return sp.Mul(*[tree(depth - 1) for _ in range(rng.randint(2, 3))])
+        return tree(depth - 1) ** rng.randint(2, 3)
+
+    def slow(e: sp.Expr) -> bool:
+        e = e.replace(lambda u: u.is_Pow and u.exp.is_Integer and u.exp < 0 and u.base in sums,
+                      lambda u: w ** int(-u.exp))
+        e = e.replace(lambda u: isinstance(u, (sp.sin, sp.cos)), lambda u: t)
+        e = e.xreplace({n: abs(n) for n in e.atoms(sp.Rational)})
+        return any(u.has(t) and u.has(w) for u in sp.Add.make_args(sp.expand(e)))
+
+    seen = set()
+    for _ in range(150):
+        e = tree(3)
+        got = _trig_over_sum(e, sums)
+        assert got == slow(e), e
+        seen.add(got)
+    assert seen == {True, False}

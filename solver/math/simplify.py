@@ -189,12 +189,15 @@ def _offset_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict | None:
         return None
     inverse: dict[sp.Expr, sp.Dummy] = {}   # 1/m₂, 1/(a² + q₂²): a generator each, by the expanded base
     by_base: dict[sp.Expr, sp.Dummy] = {}   # the same by the base as written
+    sums: set[sp.Expr] = set()   # the bases as written whose expansion is a sum
     for p in expr.atoms(sp.Pow):
         if p.exp.is_Integer and p.exp < 0 and p.base not in by_base:
             key = p.base if p.base.is_Symbol else sp.expand(p.base)
             if not (key.is_Symbol or key.is_Add):
                 return None
             by_base[p.base] = inverse.setdefault(key, sp.Dummy("inv"))
+            if key.is_Add:
+                sums.add(p.base)
     gens = sorted(expr.free_symbols, key=lambda s: s.name)
     alg = _OffsetAlgebra(angles, gens + [_SQRT.setdefault(n, sp.Dummy(f"sqrt{n}")) for n in sorted(ns)]
                          + list(inverse.values()), by_base)
@@ -223,15 +226,16 @@ def _offset_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict | None:
             acc[tuple(m)] = acc.get(tuple(m), R.domain.zero) + c
         return R.from_dict({m: c for m, c in acc.items() if c})
 
-    tp = {key: r for key, c in tp.items() if (r := reduced(c))}
-    sums = [R.symbols.index(t) for b, t in inverse.items() if not b.is_Symbol]
     if sums:
         # sympy's expansion of the z-form writes a term z⁻ᵏ/(a² + q₂²) over one expanded denominator (the z inside it),
-        # which the general path refuses: so does this one, when such a term is left with k ≠ 0; a sum in a
-        # denominator of the constant term only is left to the general path (its expanded form is sympy's)
-        if any(m[i] for (k, _), c in tp.items() if any(k) for m in c.itermonoms() for i in sums):
+        # which the general path refuses: so does this one, wherever a product of the expansion, before like terms
+        # are collected, has a sine or cosine and such a denominator (whether sympy's collection would by chance
+        # cancel every such term is not looked for: refused before expanding); a sum in a denominator of terms
+        # without angles only is left to the general path (its expanded form is sympy's)
+        if _trig_over_sum(expr, frozenset(sums)):
             raise NotTrigPolynomial(expr)
         return None
+    tp = {key: r for key, c in tp.items() if (r := reduced(c))}
     back = list(R.symbols)
     for i, n in roots:
         back[i] = sp.sqrt(n)
@@ -243,6 +247,35 @@ def _offset_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict | None:
         a, b = out.get(k, (zero, zero))
         out[k] = (c.as_expr(*back), b) if kind == 0 else (a, c.as_expr(*back))
     return out
+
+
+def _trig_over_sum(expr: sp.Expr, sums: frozenset) -> bool:
+    """Whether a product of the expansion of ``expr`` (a sum of products of its leaves, before like terms are
+    collected) has both a sin/cos and a negative power of one of the bases ``sums``. Read on the tree: for each node
+    the kinds (sin/cos or not, such a denominator or not) of the products its expansion has, a product's kinds
+    the unions of one kind of each factor."""
+    memo: dict[sp.Expr, frozenset] = {}
+
+    def kinds(e: sp.Expr) -> frozenset:
+        hit = memo.get(e)
+        if hit is not None:
+            return hit
+        if isinstance(e, (sp.sin, sp.cos)) and e.free_symbols:
+            out = frozenset({(True, False)})
+        elif e.is_Add:
+            out = frozenset().union(*(kinds(a) for a in e.args))
+        elif e.is_Mul or (e.is_Pow and e.exp.is_Integer and e.exp > 0):
+            factors = e.args if e.is_Mul else [e.base] * min(int(e.exp), 3)   # (3 factors reach every union)
+            out = frozenset({(False, False)})
+            for f in factors:
+                out = frozenset((t1 or t2, d1 or d2) for t1, d1 in out for t2, d2 in kinds(f))
+        elif e.is_Pow and e.exp.is_Integer and e.exp < 0 and e.base in sums:
+            out = frozenset({(False, True)})
+        else:
+            out = frozenset({(False, False)})
+        memo[e] = out
+        return out
+    return (True, True) in kinds(expr)
 
 
 # Size limits of the printed form: a trigonometric polynomial with more monomials than LARGE (over all its
