@@ -410,3 +410,33 @@ def test_readable_factors_each_sum_of_parameters_once():
     assert first == 2 * a * m * (a + 2 * b) * ddq1 + 2 * a * m * (a + 2 * b) * dq1 ** 2
     assert second == sp.factor_terms(s) * ddq1
     assert P._factor_terms.cache_info().hits >= 2 and P._factor_terms.cache_info().misses == 1
+
+
+def test_split_rates_is_the_jacobian_and_the_value_at_rest():
+    """split_rates reads ∂e/∂q̈_j, the velocity terms and the rest off an expanded sum: node for node what the
+    jacobian, e − J q̈ expanded and its value at q̇ = 0 give, on random sums linear in q̈; None for a q̈² term."""
+    from solver.dynamics.parametrization import split_rates
+    q1, q2, dq1, dq2, ddq1, ddq2, a1, a2 = sp.symbols("q1 q2 dq1 dq2 ddq1 ddq2 a_1 a_2")
+    ddq, dq = [ddq1, ddq2], [dq1, dq2]
+    rng = random.Random(3)
+    pool = [sp.cos(q2), sp.sin(q1 + q2), q1, a1, a2, sp.Rational(-3, 2), 2]
+    for _ in range(40):
+        terms = []
+        for _ in range(rng.randint(1, 6)):
+            f = sp.Mul(*rng.sample(pool, rng.randint(1, 3)))
+            kind = rng.random()
+            f *= rng.choice(ddq) if kind < 0.4 else (rng.choice(dq) ** rng.randint(1, 2) * rng.choice([1] + dq)
+                                                     if kind < 0.8 else 1)
+            terms.append(f)
+        e = sp.expand(sp.Add(*terms))
+        got = split_rates(e, ddq, dq)
+        M = sp.Matrix([e])
+        J = M.jacobian(ddq)
+        rest = (M - J * sp.Matrix(ddq)).applyfunc(sp.expand)
+        g0 = rest.subs({v: 0 for v in dq})
+        want = (list(J), (rest - g0)[0], g0[0])
+        assert got is not None
+        assert [sp.srepr(x) for x in got[0]] == [sp.srepr(x) for x in want[0]]
+        assert sp.srepr(got[1]) == sp.srepr(want[1]) and sp.srepr(got[2]) == sp.srepr(want[2])
+    assert split_rates(sp.expand(a1 * ddq1 ** 2 + a2 * dq1), ddq, dq) is None
+    assert split_rates(a1 * sp.sin(dq1), ddq, dq) is None

@@ -373,6 +373,30 @@ def _group_by_state(e: sp.Expr, rate: list[sp.Symbol]) -> sp.Expr:
     return sp.Add(*[_factor_terms(sp.Add(*c)) * m for m, c in group_expanded(e, rate).items()])
 
 
+def split_rates(e: sp.Expr, ddq: list[sp.Symbol], dq: list[sp.Symbol]) -> tuple[list[sp.Expr], sp.Expr, sp.Expr] | None:
+    """An expanded sum e = Σ_j b_j q̈_j + c + g, linear in the accelerations, as ([∂e/∂q̈_j], c, g): c the terms
+    with velocities, g those without (the jacobian, e − J q̈ expanded and its value at q̇ = 0, read off the terms
+    of the sum, each written as those give it). None when an acceleration or a velocity is not a factor of a term
+    to the first power (an acceleration) or a natural power (a velocity)."""
+    acc, vel = set(ddq), set(dq)
+    b: list[list[sp.Expr]] = [[] for _ in ddq]
+    c: list[sp.Expr] = []
+    g: list[sp.Expr] = []
+    for term in sp.Add.make_args(e):
+        factors = sp.Mul.make_args(term)
+        rates = [f for f in factors if f.free_symbols & (acc | vel)]
+        if any(not (f in acc or (f.as_base_exp()[0] in vel and f.as_base_exp()[1].is_Integer)) for f in rates):
+            return None
+        hit = [f for f in rates if f in acc]
+        if len(hit) > 1:
+            return None
+        if hit:
+            b[ddq.index(hit[0])].append(sp.Mul(*[f for f in factors if f is not hit[0]]))
+        else:
+            (c if rates else g).append(term)
+    return [sp.Add(*x) for x in b], sp.Add(*c), sp.Add(*g)
+
+
 @lru_cache(maxsize=4096)
 def _factor_terms(e: sp.Expr) -> sp.Expr:
     """sp.factor_terms(e), memoized: the same sums of parameters multiply the monomials of many entries (Y, its
@@ -822,11 +846,17 @@ def solve_linear_parametrization(problem, options: LinearParametrizationAsk, ctx
     B_a = c_a = g_a = None
     if options.part == "model":
         full = (par.Y * asv).applyfunc(sp.expand)
-        B_a = full.jacobian(robot.ddq).applyfunc(lambda e: readable(e, state, rate))
-        rest = (full - full.jacobian(robot.ddq) * sp.Matrix(robot.ddq)).applyfunc(sp.expand)
-        g0 = rest.subs({v: 0 for v in robot.dq})
-        g_a = g0.applyfunc(lambda e: readable(e, state, rate))
-        c_a = (rest - g0).applyfunc(lambda e: readable(e, state, rate))
+        parts = [split_rates(e, list(robot.ddq), list(robot.dq)) for e in full]
+        if all(x is not None for x in parts):
+            B_a = sp.Matrix([[readable(e, state, rate) for e in x[0]] for x in parts])
+            g_a = sp.Matrix([readable(x[2], state, rate) for x in parts])
+            c_a = sp.Matrix([readable(x[1], state, rate) for x in parts])
+        else:
+            B_a = full.jacobian(robot.ddq).applyfunc(lambda e: readable(e, state, rate))
+            rest = (full - full.jacobian(robot.ddq) * sp.Matrix(robot.ddq)).applyfunc(sp.expand)
+            g0 = rest.subs({v: 0 for v in robot.dq})
+            g_a = g0.applyfunc(lambda e: readable(e, state, rate))
+            c_a = (rest - g0).applyfunc(lambda e: readable(e, state, rate))
     sol.step("regressor", Y=Y, a=a, asyms=asv, sym=sym, rows_a=rows_a, rows_a_split=[split_products(r) for r in pairs_a],
              part=options.part, label=label_args,
              B_a=B_a, c_a=c_a if c_a is not None and any(x != 0 for x in c_a) else None,
