@@ -385,7 +385,8 @@ def split_rates(e: sp.Expr, ddq: list[sp.Symbol], dq: list[sp.Symbol]) -> tuple[
     for term in sp.Add.make_args(e):
         factors = sp.Mul.make_args(term)
         rates = [f for f in factors if f.free_symbols & (acc | vel)]
-        if any(not (f in acc or (f.as_base_exp()[0] in vel and f.as_base_exp()[1].is_Integer)) for f in rates):
+        powers = [f.as_base_exp() for f in rates if f not in acc]
+        if any(not (x in vel and k.is_Integer and k > 0) for x, k in powers):
             return None
         hit = [f for f in rates if f in acc]
         if len(hit) > 1:

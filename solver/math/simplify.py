@@ -227,11 +227,11 @@ def _offset_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict | None:
         return R.from_dict({m: c for m, c in acc.items() if c})
 
     if sums:
-        # sympy's expansion of the z-form writes a term z⁻ᵏ/(a² + q₂²) over one expanded denominator (the z inside it),
-        # which the general path refuses: so does this one, wherever a product of the expansion, before like terms
-        # are collected, has a sine or cosine and such a denominator (whether sympy's collection would by chance
-        # cancel every such term is not looked for: refused before expanding); a sum in a denominator of terms
-        # without angles only is left to the general path (its expanded form is sympy's)
+        # sympy's expansion of the z-form writes a term z⁻ᵏ/(a² + q₂²) over one expanded denominator (the z inside
+        # it), which the general path refuses: so does this one, wherever a product of the expansion, before like
+        # terms are collected, has a sine or cosine and such a denominator (whether sympy's collection would by
+        # chance cancel every such term is not looked for: refused before expanding); a sum in a denominator of
+        # terms without angles only is left to the general path (its expanded form is sympy's)
         if _trig_over_sum(expr, frozenset(sums)):
             raise NotTrigPolynomial(expr)
         return None
