@@ -530,3 +530,21 @@ def test_trig_over_sum_is_the_expansion_before_collecting():
         assert got == slow(e), e
         seen.add(got)
     assert seen == {True, False}
+
+
+def test_tidy_splits_a_fraction_by_the_parameters_its_denominator_lacks():
+    """B₁₁ of the portal robot (2012-07-05-ex1): one fraction over ((q1 − q2)² + (D − 2d)²)² (the together route, the
+    angle q3 cancels) is written m1 + m3/4 + Iy (D − 2d)²/(...)², the parts of m1 and m3 cancelled; the same in
+    the rational path. Only where shorter: a numerator whose parts share no factor with the sum stays one fraction."""
+    from solver.math.opcount import count_ops
+    D, d, q1, q2, q3, Iy, m1, m3, a, b, x = sp.symbols("D d q1 q2 q3 Iy m1 m3 a b x")
+    den = ((D - 2 * d) ** 2 + (q1 - q2) ** 2) ** 2
+    b11 = Iy * (D - 2 * d) ** 2 * (sp.sin(q3) ** 2 + sp.cos(q3) ** 2) / den + m1 + m3 / 4
+    out = tidy(b11)
+    assert sp.cancel(out - (m1 + m3 / 4 + Iy * (D - 2 * d) ** 2 / den)) == 0
+    assert set(sp.Add.make_args(out)) >= {m1, m3 / 4} and count_ops(out) < 30
+    rational = (m1 * ((a + b) ** 2 + 1) + x * (a - b)) / ((a + b) ** 2 + 1)   # no angle: the rational path
+    got = tidy(rational)
+    assert sp.cancel(got - rational) == 0 and m1 in sp.Add.make_args(got)
+    kept = tidy((m1 * a + x * b) / (a ** 2 + b ** 2 + 1))   # nothing cancels: one fraction
+    assert sp.fraction(kept)[1] != 1 and len(sp.Add.make_args(kept)) == 1

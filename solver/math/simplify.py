@@ -702,10 +702,72 @@ def _rational(expr: sp.Expr) -> sp.Expr:
             n, d = n / c, base
         groups.setdefault(d, []).append(n)
     by_den = sp.Add(*[factor_within(sp.Add(*ns)) / d for d, ns in groups.items()])
+    split = _by_parameters(groups)
+    if split is not None and count_ops(split) < count_ops(by_den):
+        by_den = split
     if len(groups) == 1 or count_ops(expr) > 150:   # one denominator already, or too big to combine cheaply
         return by_den
     whole = factor_within(expr if _over_QQ(expr) else sp.cancel(expr))  # (the fast path needs no cancel)
     return by_den if count_ops(by_den) <= count_ops(whole) else whole
+
+
+def _shorter_split(x: sp.Expr) -> sp.Expr:
+    """x = n/d, or its split by the parameters d does not have (:func:`_by_parameters`) when that is shorter."""
+    n, d = sp.fraction(x)
+    split = _by_parameters({d: [n]}) if d.free_symbols else None
+    return split if split is not None and count_ops(split) < count_ops(x) else x
+
+
+def _by_parameters(groups: dict[sp.Expr, list[sp.Expr]]) -> sp.Expr | None:
+    """Σ_d N_d/d with each numerator split by the monomials μ of the symbols that d does not have, each part
+    cancelled against d: Σ μ·(c_μ/d), for the denominators d that are sums, where some c_μ shares a factor with d.
+    B₁₁ = (4D⁴m₁ + D⁴m₃ + 4D²I_y + ...)/(4((q₁ − q₂)² + (D − 2d)²)²) becomes m₁ + m₃/4 + I_y (D − 2d)²/((q₁ − q₂)² +
+    (D − 2d)²)². None where nothing cancels (or past a size). In the ring of the symbols, each part divided by the
+    factors of d by exact division (:func:`divide_power`)."""
+    from sympy.polys.rings import ring
+    out, split = [], False
+    for d, ns in groups.items():
+        n = sp.Add(*ns)
+        other = sorted(n.free_symbols - d.free_symbols, key=lambda s: s.name)
+        parts = None
+        bases = [f.as_base_exp() for f in sp.Mul.make_args(d) if not f.is_Number]
+        if other and count_ops(n) <= 600 and any(b.is_Add for b, _ in bases):
+            try:
+                gens = sorted(n.free_symbols | d.free_symbols, key=lambda s: s.name)
+                R = ring(gens, sp.QQ)[0]
+                parts = _parts_by(R(n), [gens.index(x) for x in other])
+                G = [(R(b), k) for b, k in bases]
+            except (sp.PolynomialError, TypeError, ValueError, ZeroDivisionError):
+                parts = None
+        cut = []
+        c0 = sp.Mul(*[f for f in sp.Mul.make_args(d) if f.is_Number])
+        if parts and len(parts) > 1:
+            for mu, c in parts.items():
+                left = []
+                for (b, k), (g, _) in zip(bases, G):
+                    c, j = divide_power(c, g, k) if not g.is_ground else (c, 0)
+                    left.append(b ** (k - j))
+                cut.append((mu, c, c0 * sp.Mul(*left)))
+        if not any(rest != d for _, _, rest in cut):  # (nothing cancelled)
+            out.append(factor_within(n) / d)
+            continue
+        split = True
+        for mu, c, rest in cut:
+            mono = sp.Mul(*[x ** k for x, k in zip(other, mu)])
+            out.append(mono * factor_within(c.as_expr() / rest))
+    return sp.Add(*out) if split else None
+
+
+def _parts_by(p, idx: list[int]) -> dict:
+    """A polynomial p of a ring as Σ_e c_e x^e over the generators of positions ``idx``: {e: c_e}, c_e free of them."""
+    R = p.ring
+    parts: dict[tuple, dict] = {}
+    for monom, coeff in p.iterterms():
+        rest = list(monom)
+        for i in idx:
+            rest[i] = 0
+        parts.setdefault(tuple(monom[i] for i in idx), {})[tuple(rest)] = coeff
+    return {e: R.from_dict(d) for e, d in parts.items()}
 
 
 def tidy_expanded(expr: sp.Expr) -> sp.Expr:
@@ -885,7 +947,7 @@ def tidy(expr: sp.Expr) -> sp.Expr:
         try:
             n, d = _fourier(num), _fourier(den)
             if not angle_symbols(n / d):
-                return factor_within(n / d)
+                return _shorter_split(factor_within(n / d))
             return n / d
         except NotTrigPolynomial:
             pass
