@@ -510,10 +510,11 @@ def _monomial(e: sp.Expr, R, index: dict, QQ):  # type: ignore[no-untyped-def]
     return R.term_new(tuple(exps), c)
 
 
-def _ring_generators(x: sp.Expr) -> list[sp.Expr] | None:
+def _ring_generators(x: sp.Expr, opaque_trig: bool = False) -> list[sp.Expr] | None:
     """:func:`_generators` of x (in sympy's order) when x is built of rationals, symbols, sin/cos of symbols, sums,
     products and integer powers only, in one walk of its tree; None for anything else (floats, other numbers and
-    functions, radicals: nothing :func:`_fraction` reads) and for an x without symbols."""
+    functions, radicals: nothing :func:`_fraction` reads) and for an x without symbols. ``opaque_trig``: also sin/cos
+    of any non-numeric argument (sin(q1 + q2)), each an independent generator as sympy's polys take it."""
     from sympy.polys.polyutils import _sort_gens
     bare: set = set()
     trig: set = set()
@@ -526,7 +527,7 @@ def _ring_generators(x: sp.Expr) -> list[sp.Expr] | None:
         elif e.is_Rational:
             continue
         elif isinstance(e, (sp.sin, sp.cos)):
-            if not e.args[0].is_Symbol:
+            if not (e.args[0].is_Symbol or (opaque_trig and not e.args[0].is_number)):
                 return None
             trig.add(e)
         elif e.is_Add or e.is_Mul or (e.is_Pow and e.exp.is_Integer):
@@ -581,12 +582,12 @@ def _factors(p) -> tuple:  # type: ignore[no-untyped-def]
 
 
 def _factor_rational(x: sp.Expr) -> sp.Expr | None:
-    """sp.factor(x) for a rational function with rational coefficients in its symbols: x = n / Π bᵏ over the
-    ring of its symbols (:func:`ring_fraction`, the bases of the denominators kept apart), n and each base b factored
+    """sp.factor(x) for a rational function with rational coefficients in its symbols and sines and cosines (of any
+    argument, opaque generators as in sympy): x = n / Π bᵏ over the ring of its generators (:func:`ring_fraction`, the bases of the denominators kept apart), n and each base b factored
     by :func:`fourier.factor_small` (factor_list_fast: gcds where linear in a generator), the irreducible factors
     common to the numerator and the denominator cancelled, in sympy's generator order; None for anything else."""
     from sympy.core.mul import _keep_coeff
-    nb = ring_fraction(x)
+    nb = ring_fraction(x, opaque_trig=True)
     if nb is None:
         return None
     n, bases = nb
@@ -1082,12 +1083,13 @@ def _algebraic_zero(expr: sp.Expr) -> bool | None:
         return None
 
 
-def ring_fraction(expr: sp.Expr) -> tuple | None:
+def ring_fraction(expr: sp.Expr, opaque_trig: bool = False) -> tuple | None:
     """(n, {b: k}) with expr = n / Π bᵏ over the ring of its generators with rational coefficients
     (:func:`_fraction`: read from the tree, nothing multiplied out but n); None for anything that is not a rational
-    function over QQ of its symbols and sines and cosines."""
+    function over QQ of its symbols and sines and cosines (of symbols; of any argument with ``opaque_trig``, each an
+    independent generator: no trigonometric identity is used)."""
     from sympy.polys.rings import ring
-    gens = _ring_generators(expr)
+    gens = _ring_generators(expr, opaque_trig)
     if gens is None:
         return None
     R = ring(tuple(gens), sp.QQ)[0]
