@@ -10,7 +10,8 @@ import pytest
 import sympy as sp
 from conftest import PROBLEMS, error_found_without_solving
 
-from solver.interaction.collision import first_order_filter, numeric_rank, simulate_collision
+from solver.interaction.collision import _factored, first_order_filter, numeric_rank, simulate_collision
+from solver.math.simplify import factor_within
 from solver.dynamics.model import derive
 from solver.publish.render import render
 from solver.solve import all_results, solve_problem
@@ -465,3 +466,26 @@ def test_numeric_rank_exact_over_number_field_matches_simplify():
     ]
     for M in cases:
         assert numeric_rank(M) == M.rank(iszerofunc=lambda x: sp.simplify(x) == 0), M
+
+
+def test_factored_is_factor_of_cancel():
+    """_factored(x) reads the factors of x directly; the same expression as factor_within(cancel(x))."""
+    import random
+    q1, q2, q3, l1, l2, r1, r2, r3 = sp.symbols("q1 q2 q3 l1 l2 r1 r2 r3")
+    atoms = [sp.sin(q1), sp.cos(q1 + q2), sp.sin(q1 + q2), sp.cos(q1 + q2 + q3), sp.sin(q2), l1, l2, r1, r2]
+    rng = random.Random(3)
+
+    def poly(k: int) -> sp.Expr:
+        return sum(rng.randint(-2, 2) * sp.Mul(*rng.sample(atoms, rng.randint(1, 3))) for _ in range(k))
+    cases = [(-l1 * r2 * sp.cos(q1) + l2 * r1 * sp.cos(q1 + q2)) / (l1 * l2 * sp.sin(q2)),
+             l1 * l2 * r3 * sp.sin(q2) / (l1 * r2 * sp.sin(q1) * sp.cos(q1 + q2 + q3) - l2 * r1 * sp.sin(q1 + q2)),
+             (r1 - r2) / (l1 * (r2 - r1)) + r3 / l2, sp.Rational(1, 2), sp.sqrt(2) * q1 / (q1 + q1 * q2)]
+    cases += [poly(rng.randint(1, 3)) * poly(2) / (poly(rng.randint(1, 3)) or 1) for _ in range(30)]
+    checked = 0
+    for x in cases:
+        if x.has(sp.zoo, sp.nan):
+            continue
+        assert sp.srepr(_factored(x)) == sp.srepr(factor_within(sp.cancel(x))), x
+        assert sp.srepr(_factored(x, together=True)) == sp.srepr(factor_within(sp.cancel(sp.together(x)))), x
+        checked += 1
+    assert checked > 25

@@ -27,7 +27,7 @@ from solver.dynamics.model import DynamicModel, derive, has_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.numeric import lambdify_np
 from solver.math.rigid import dh_chain
-from solver.math.simplify import factor_within, is_zero, tidy, tidy_matrix, velocity_terms, zero_or_simplified
+from solver.math.simplify import _factor_rational, factor_within, is_zero, tidy, tidy_matrix, velocity_terms, zero_or_simplified
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -299,13 +299,13 @@ def identify_with_location(point: sp.Matrix, q: list[sp.Symbol], F: sp.Matrix, r
         [sp.eye(link)[:, j] for j in range(link)]
     if len(combos) < m:
         return None
-    C = sp.Matrix.hstack(*combos).T.applyfunc(lambda x: factor_within(sp.cancel(x)))  # rows: ρ-free combinations
+    C = sp.Matrix.hstack(*combos).T.applyfunc(_factored)  # rows: ρ-free combinations
     A = (C * Ja.T).applyfunc(tidy)
     rows = last_independent(A, m)
     if not rows:
         return None
     A2, rhs = A.extract(rows, list(range(m))), (C * r[:link, 0]).extract(rows, [0])
-    Fs = (A2.adjugate() * rhs / tidy(A2.det())).applyfunc(lambda x: _tidy_quotient(factor_within(sp.cancel(x))))
+    Fs = (A2.adjugate() * rhs / tidy(A2.det())).applyfunc(lambda x: _tidy_quotient(_factored(x)))
     ks = [k for k in range(link) if not all(zero_or_simplified(x) for x in Jb[:, k])]
     if not ks:
         return None
@@ -314,7 +314,17 @@ def identify_with_location(point: sp.Matrix, q: list[sp.Symbol], F: sp.Matrix, r
     if zero_or_simplified(den):
         return None
     loc = (r[k] - (Ja[:, k].T * Fs)[0]) / den
-    return Fs, _tidy_quotient(factor_within(sp.cancel(sp.together(loc))))
+    return Fs, _tidy_quotient(_factored(loc, together=True))
+
+
+def _factored(x: sp.Expr, together: bool = False) -> sp.Expr:
+    """factor(cancel(x)) (of together(x) with ``together``): the canonical factors of the rational function x, read
+    from x directly when it is one over QQ of its symbols, sines and cosines (cancel and together only multiply
+    them out); through cancel otherwise."""
+    fast = _factor_rational(x)
+    if fast is not None:
+        return fast
+    return factor_within(sp.cancel(sp.together(x) if together else x))
 
 
 def collect_linear(e: sp.Expr, syms: list[sp.Symbol]) -> sp.Expr:
@@ -829,7 +839,7 @@ def _analyze(c: _Ctx, cc: ContactCase, r: sp.Matrix, K: sp.Matrix, dm: DynamicMo
             if cc.R is not None:
                 d["F_id_local"] = (cc.R.T * N).applyfunc(lambda x: _quotient(tidy(x), D))
     elif d["F_id"] is not None and cc.R is not None:
-        d["F_id_local"] = (cc.R.T * d["F_id"]).applyfunc(lambda x: _tidy_quotient(factor_within(sp.cancel(x))))
+        d["F_id_local"] = (cc.R.T * d["F_id"]).applyfunc(lambda x: _tidy_quotient(_factored(x)))
     if dm is not None and dm.G is None and cc.force_given:
         fric = dm.Fv * sp.Matrix(c.dq) if dm.Fv is not None else sp.zeros(n, 1)
         d["u_hold"] = tidy_matrix(dm.c + dm.g + fric - tau)
