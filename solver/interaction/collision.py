@@ -27,7 +27,8 @@ from solver.dynamics.model import DynamicModel, derive, has_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.numeric import lambdify_np
 from solver.math.rigid import dh_chain
-from solver.math.simplify import _factor_rational, factor_within, is_zero, tidy, tidy_matrix, velocity_terms, zero_or_simplified
+from solver.math.simplify import (factor_rational, factor_within, is_zero, tidy, tidy_matrix, velocity_terms,
+                                  zero_or_simplified)
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
 from solver.results import Curve, Figure, Panel, Solution
@@ -321,7 +322,7 @@ def _factored(x: sp.Expr, together: bool = False) -> sp.Expr:
     """factor(cancel(x)) (of together(x) with ``together``): the canonical factors of the rational function x, read
     from x directly when it is one over QQ of its symbols, sines and cosines (cancel and together only multiply
     them out); through cancel otherwise."""
-    fast = _factor_rational(x)
+    fast = factor_rational(x)
     if fast is not None:
         return fast
     return factor_within(sp.cancel(sp.together(x) if together else x))

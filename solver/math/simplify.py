@@ -418,7 +418,7 @@ def factor_within(x: sp.Expr, budget: float = FACTOR_BUDGET) -> sp.Expr:
     factors are pulled out (factor_terms). Memoized: the same coefficients recur across the asks of a problem."""
     try:
         with cpu_budget(budget):
-            fast = _factor_rational(x)
+            fast = factor_rational(x)
             return fast if fast is not None else sp.factor(x)
     except BudgetExceeded:
         return sp.factor_terms(x)
@@ -581,7 +581,7 @@ def _factors(p) -> tuple:  # type: ignore[no-untyped-def]
     return content, out
 
 
-def _factor_rational(x: sp.Expr) -> sp.Expr | None:
+def factor_rational(x: sp.Expr) -> sp.Expr | None:
     """sp.factor(x) for a rational function with rational coefficients in its symbols and sines and cosines (of any
     argument, opaque generators as in sympy): x = n / Π bᵏ over the ring of its generators (:func:`ring_fraction`, the bases of the denominators kept apart), n and each base b factored
     by :func:`fourier.factor_small` (factor_list_fast: gcds where linear in a generator), the irreducible factors
