@@ -121,7 +121,8 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
     # per-body quantities are printed when a report, a check or --details first reads them
     energies = [BodyEnergy(body, Deferred(lambda P=P: sp.Matrix([ex(p) for p in P])),
                            Deferred(lambda vc=vc: sp.Matrix([ex(v) for v in vc])), Deferred(lambda v2=v2: ex(v2)),
-                           body.omega, Deferred(lambda T=T: ex(T)), Deferred(lambda U=U: ex(U)) if U is not None else None,
+                           body.omega, Deferred(lambda T=T: ex(T)),
+                           Deferred(lambda U=U: ex(U)) if U is not None else None,
                            Deferred(lambda vc=vc, v2=v2, T=T: ([terms(v) for v in vc], terms(v2),
                                                                terms(A.scale(T, 2)))))
                 for body, P, vc, v2, T, U in bodies]

@@ -583,9 +583,10 @@ def _factors(p) -> tuple:  # type: ignore[no-untyped-def]
 
 def factor_rational(x: sp.Expr) -> sp.Expr | None:
     """sp.factor(x) for a rational function with rational coefficients in its symbols and sines and cosines (of any
-    argument, opaque generators as in sympy): x = n / Π bᵏ over the ring of its generators (:func:`ring_fraction`, the bases of the denominators kept apart), n and each base b factored
-    by :func:`fourier.factor_small` (factor_list_fast: gcds where linear in a generator), the irreducible factors
-    common to the numerator and the denominator cancelled, in sympy's generator order; None for anything else."""
+    argument, opaque generators as in sympy): x = n / Π bᵏ over the ring of its generators (:func:`ring_fraction`,
+    the bases of the denominators kept apart), n and each base b factored by :func:`fourier.factor_small`
+    (factor_list_fast: gcds where linear in a generator), the irreducible factors common to the numerator and the
+    denominator cancelled, in sympy's generator order; None for anything else."""
     from sympy.core.mul import _keep_coeff
     nb = ring_fraction(x, opaque_trig=True)
     if nb is None:
