@@ -562,3 +562,5 @@ def test_tidy_splits_a_fraction_by_the_parameters_its_denominator_lacks():
     assert sp.cancel(got - rational) == 0 and m1 in sp.Add.make_args(got)
     kept = tidy((m1 * a + x * b) / (a ** 2 + b ** 2 + 1))   # nothing cancels: one fraction
     assert sp.fraction(kept)[1] != 1 and len(sp.Add.make_args(kept)) == 1
+    floats = tidy((sp.Float(0.5) * m1 * (a + b) + sp.Float(0.3) * x) / (a + b) * (sp.sin(q3) ** 2 + sp.cos(q3) ** 2))
+    assert floats.has(sp.Float) and not floats.atoms(sp.Rational) - {sp.Integer(1), sp.Integer(-1)}  # floats kept

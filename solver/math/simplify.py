@@ -727,6 +727,8 @@ def _by_parameters(groups: dict[sp.Expr, list[sp.Expr]]) -> sp.Expr | None:
     (D − 2d)²)². None where nothing cancels (or past a size). In the ring of the symbols, each part divided by the
     factors of d by exact division (:func:`divide_power`)."""
     from sympy.polys.rings import ring
+    if any(d.has(sp.Float) or any(x.has(sp.Float) for x in ns) for d, ns in groups.items()):
+        return None  # (the ring over QQ would turn floats into fractions)
     out, split = [], False
     for d, ns in groups.items():
         n = sp.Add(*ns)
