@@ -739,7 +739,7 @@ def _by_parameters(groups: dict[sp.Expr, list[sp.Expr]]) -> sp.Expr | None:
             try:
                 gens = sorted(n.free_symbols | d.free_symbols, key=lambda s: s.name)
                 R = ring(gens, sp.QQ)[0]
-                parts = _parts_by(R(n), [gens.index(x) for x in other])
+                parts = parts_by(R(n), [gens.index(x) for x in other])
                 G = [(R(b), k) for b, k in bases]
             except (sp.PolynomialError, TypeError, ValueError, ZeroDivisionError):
                 parts = None
@@ -762,7 +762,7 @@ def _by_parameters(groups: dict[sp.Expr, list[sp.Expr]]) -> sp.Expr | None:
     return sp.Add(*out) if split else None
 
 
-def _parts_by(p, idx: list[int]) -> dict:
+def parts_by(p, idx: list[int]) -> dict:
     """A polynomial p of a ring as Σ_e c_e x^e over the generators of positions ``idx``: {e: c_e}, c_e free of them."""
     R = p.ring
     parts: dict[tuple, dict] = {}

@@ -17,7 +17,7 @@ from typing import Iterable
 import sympy as sp
 
 from solver.math.fourier import NotTrigPolynomial, TrigPoly, _Algebra
-from solver.math.simplify import fourier_expr
+from solver.math.simplify import fourier_expr, parts_by
 
 __all__ = ["TrigAlgebra", "NotTrigPolynomial"]
 
@@ -146,16 +146,11 @@ class TrigAlgebra:
         """``a`` = Σ_e a_e(·) v^e split by the monomials of the generators ``v`` (exponents e in the order of v):
         {e: a_e}, each a_e free of v."""
         idx = [self.gens.index(x) for x in v]
-        parts: dict[tuple[int, ...], dict] = {}
+        out: dict[tuple[int, ...], TrigPoly] = {}
         for key, c in a.items():
-            for monom, coeff in c.items():
-                e = tuple(monom[i] for i in idx)
-                rest = list(monom)
-                for i in idx:
-                    rest[i] = 0
-                part = parts.setdefault(e, {}).setdefault(key, {})
-                part[tuple(rest)] = coeff
-        return {e: {key: self.R.from_dict(d) for key, d in part.items()} for e, part in parts.items()}
+            for e, part in parts_by(c, idx).items():
+                out.setdefault(e, {})[key] = part
+        return out
 
     def size(self, a: TrigPoly) -> int:
         """Number of monomials of ``a`` over all its Fourier coefficients."""
