@@ -198,6 +198,9 @@ def _offset_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict | None:
             by_base[p.base] = inverse.setdefault(key, sp.Dummy("inv"))
             if key.is_Add:
                 sums.add(p.base)
+    trig_over_sum = bool(sums) and _trig_over_sum(expr, frozenset(sums))
+    if sums and not trig_over_sum:  # a sum in a denominator of terms without angles only: the general path (its
+        return None                 # expanded form is sympy's), the ring not built
     gens = sorted(expr.free_symbols, key=lambda s: s.name)
     alg = _OffsetAlgebra(angles, gens + [_SQRT.setdefault(n, sp.Dummy(f"sqrt{n}")) for n in sorted(ns)]
                          + list(inverse.values()), by_base)
@@ -226,15 +229,12 @@ def _offset_coefficients(expr: sp.Expr, angles: list[sp.Symbol]) -> dict | None:
             acc[tuple(m)] = acc.get(tuple(m), R.domain.zero) + c
         return R.from_dict({m: c for m, c in acc.items() if c})
 
-    if sums:
+    if trig_over_sum:
         # sympy's expansion of the z-form writes a term z⁻ᵏ/(a² + q₂²) over one expanded denominator (the z inside
         # it), which the general path refuses: so does this one, wherever a product of the expansion, before like
         # terms are collected, has a sine or cosine and such a denominator (whether sympy's collection would by
-        # chance cancel every such term is not looked for: refused before expanding); a sum in a denominator of
-        # terms without angles only is left to the general path (its expanded form is sympy's)
-        if _trig_over_sum(expr, frozenset(sums)):
-            raise NotTrigPolynomial(expr)
-        return None
+        # chance cancel every such term is not looked for: refused before expanding)
+        raise NotTrigPolynomial(expr)
     tp = {key: r for key, c in tp.items() if (r := reduced(c))}
     back = list(R.symbols)
     for i, n in roots:
