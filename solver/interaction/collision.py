@@ -27,7 +27,7 @@ from solver.dynamics.model import DynamicModel, derive, has_model
 from solver.kinematics.redundancy import generic_rank
 from solver.math.numeric import lambdify_np
 from solver.math.rigid import dh_chain
-from solver.math.simplify import (factor_rational, factor_within, is_zero, tidy, tidy_matrix, velocity_terms,
+from solver.math.simplify import (factor_within, is_zero, ring_fraction, tidy, tidy_matrix, velocity_terms,
                                   zero_or_simplified)
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
@@ -321,10 +321,9 @@ def identify_with_location(point: sp.Matrix, q: list[sp.Symbol], F: sp.Matrix, r
 def _factored(x: sp.Expr, together: bool = False) -> sp.Expr:
     """factor(cancel(x)) (of together(x) with ``together``): the canonical factors of the rational function x, read
     from x directly when it is one over QQ of its symbols, sines and cosines (cancel and together only multiply
-    them out); through cancel otherwise."""
-    fast = factor_rational(x)
-    if fast is not None:
-        return fast
+    them out, and factor_within then gives factor_rational(x), within its CPU budget); through cancel otherwise."""
+    if ring_fraction(x, opaque_trig=True) is not None:
+        return factor_within(x)
     return factor_within(sp.cancel(sp.together(x) if together else x))
 
 
