@@ -162,9 +162,30 @@ def test_report_renders_with_figure(tmp_path):
     paths = write_figures(sols, tmp_path / "r.md", "png")
     assert paths and all(x.exists() for x in paths)
     md = render(p, sols, "md")
-    assert "solve_ivp" in md and "settling time" in md
+    assert "Dormand–Prince 5(4) pair and adaptive steps" in md and "settling time" in md
     tex = render(p, sols, "tex")
-    assert "\\paragraph{Simulation.}" in tex
+    assert "\\paragraph{Simulation.}" in tex and "Dormand--Prince" in tex
+
+
+def test_methods_of_scipy_on_request_and_the_same_motion():
+    """method: LSODA integrates with scipy's solve_ivp and says so; the final error agrees with the default
+    integrator's (Dormand–Prince) to the tolerance."""
+    base = RPV + "  - kind: control_law\n    law: computed_torque\n    kp: 25\n    kd: 10\n" \
+        "  - kind: simulate\n    qd: ['1 + sin(t)', 0]\n    T: 2\n"
+    p1, s1, _ = run(base)
+    p2, s2, _ = run(base + "    method: LSODA\n")
+    assert "solve_ivp` (LSODA," in render(p2, s2, "md")
+    e1, e2 = (np.array(s.results["e_final"].value.tolist(), dtype=float).ravel() for s in (s1[1], s2[1]))
+    assert np.abs(e1 - e2).max() < 1e-5 and s1[1].results["nfev"].value != s2[1].results["nfev"].value
+
+
+def test_a_stiff_closed_loop_goes_to_lsoda_and_the_report_says_so():
+    """K_D = 1000, K_P = 25000: error poles at about −26 and −974, a stiff loop for an explicit method."""
+    text = RPV + "  - kind: control_law\n    law: computed_torque\n    kp: 25000\n    kd: 1000\n" \
+        "  - kind: simulate\n    q0: [0.5, 0.2]\n    qd: [1, 0]\n    T: 3\n"
+    p, sols, _ = run(text)
+    assert "proving stiff, with scipy's `solve_ivp` (LSODA)" in render(p, sols, "md")
+    assert fnum(sols[1].results["e_final_norm"].value) < 1e-6
 
 
 def test_latex_report_with_simulation_compiles(tmp_path):

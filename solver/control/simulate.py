@@ -5,7 +5,7 @@ the spec's robot with its numeric ``values`` (a regulation's ``assume:`` relatio
     B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u(t, q, q̇, â, ξ) + τ_ext(q),    â̇ = Γ Y_rᵀ s   (adaptive law only),
                                                                            ξ̇ = e         (PID regulation only),
 with τ_ext = Σ J(q)ᵀF the regulation's ``external:`` forces (0 otherwise),
-integrated with scipy's ``solve_ivp`` from (q₀, q̇₀, â₀, ξ₀ = 0) in chunks (the iterative law from the regulation's
+integrated by :func:`solver.math.ode.solve` (or scipy's ``solve_ivp``, method:) from (q₀, q̇₀, â₀, ξ₀ = 0) in chunks (the iterative law from the regulation's
 û₀, the same constant feedforward as its static iterates), within a budget of right-hand-side
 evaluations and wall seconds. The reference q_d(t) is any expression of t (constant, polynomial, sinusoidal, ...): its
 derivatives are taken exactly. Reported: the error e = q_d − q (or r_d − r) at the end and at its largest, the
@@ -56,7 +56,9 @@ class SimulateAsk(Strict):
                                                        "largest ‖e‖")
     max_steps: int = Field(200000, ge=100, le=5000000, description="budget of right-hand-side evaluations")
     wall: float = Field(30.0, gt=0, le=600, description="budget of wall seconds")
-    method: Literal["RK45", "LSODA", "Radau", "DOP853"] = Field("LSODA", description="solve_ivp method")
+    method: Literal["auto", "RK45", "LSODA", "Radau", "DOP853"] = Field(
+        "auto", description="integrator: auto (Dormand-Prince 5(4), scipy's LSODA once the closed loop proves "
+                            "stiff) or a method of scipy's solve_ivp")
     rtol: float = Field(1e-7, gt=0, le=1e-2, description="relative tolerance of the integrator")
     iterations: int = Field(20, ge=1, le=200, description="regulation law: iterative: the largest number of "
                                                          "iterations, each a motion of T seconds with a constant "
@@ -255,6 +257,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     a0 = _floats(problem, options, ctx, "ahat0", len(ahat), vals) if ahat else []
     y0 = np.array(q0 + dq0 + a0 + [0.0] * len(xi), dtype=float)
     budget = {"nfev": 0, "deadline": time.monotonic() + options.wall}
+    used = {"method": options.method}  # auto: DOPRI5 until a chunk proves stiff, then LSODA for the rest
     ffv, u0_from = np.zeros(0), None
     if ff:    # û₀: the regulation ask's (its u0, or g − τ_ext at its q0), else g − τ_ext at the simulation's q(0)
         u0_from = ("given" if getattr(ask.options, "u0", None) is not None else
@@ -290,7 +293,6 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
             out.append(np.array(f_xi(*a), dtype=float).ravel())
         return np.concatenate(out)
 
-    from scipy.integrate import solve_ivp
     T = _number(problem, options, ctx, "T", vals)
     settle = _number(problem, options, ctx, "settle", vals) if options.settle is not None else None
     if settle is not None and not settle > 0:
@@ -317,15 +319,14 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
         for a, b in zip(chunks[:-1], chunks[1:]):
             sel = grid[(grid > a) & (grid <= b)]
             try:
-                r = solve_ivp(rhs, (a, b), y, method=options.method, t_eval=sel if len(sel) else None,
-                              rtol=options.rtol, atol=options.rtol * 1e-2)
+                r = _integrate(rhs, (a, b), y, used, sel if len(sel) else None, options.rtol)
             except _Budget:
                 completed = False
                 break
             if not r.success:
                 completed = False
                 break
-            y = r.y[:, -1] if len(sel) == 0 else _final(rhs, a, b, y, r, options)
+            y = r.y[:, -1] if len(sel) == 0 else _final(rhs, b, r, used, options.rtol)
             ts += list(r.t)
             ys += list(r.y.T)
             FF += [ffv.copy()] * len(r.t)
@@ -389,7 +390,7 @@ def solve_simulate(problem, options: SimulateAsk, ctx) -> Solution:  # type: ign
     sol.step("simulate", ask=idx + 1, kind=ask.kind, law=getattr(ask.options, "law", ""), ref=sp.Matrix(ref),
              tracked=sp.Matrix(tracked), q0=sp.Matrix(q0), **({"q0_from": q0_from} if q0_from else {}),
              dq0=sp.Matrix(dq0), a0=sp.Matrix(a0) if a0 else None,
-             T=T, method=options.method, setv=list(setv.items()), completed=completed,
+             T=T, method=used["method"], setv=list(setv.items()), completed=completed,
              t_end=float(Ts[-1]), nfev=budget["nfev"], e_final=float(en[-1]), e_max=float(en.max()),
              settling=settling, band=band, adaptive=bool(ahat), n=n, m=m,
              umax=[float(x) for x in np.abs(U).max(axis=0)], ahat_final=_column(A[-1]) if ahat else None,
@@ -434,13 +435,27 @@ def sign_changes(e: np.ndarray, rel: float = 1e-3) -> int:
     return int(np.count_nonzero(s[1:] != s[:-1]))
 
 
-def _final(rhs, a, b, y, r, options):  # type: ignore[no-untyped-def]
+def _integrate(rhs, span: tuple[float, float], y: np.ndarray, used: dict, t_eval, rtol: float):  # type: ignore[no-untyped-def]
+    """One chunk of the simulation with ``used["method"]``: auto is :func:`solver.math.ode.solve` (DOPRI5), which
+    hands a stiff chunk to LSODA; from then on every chunk goes to LSODA directly ("LSODA (stiff)"). The other
+    methods are scipy's solve_ivp's."""
+    method = used["method"]
+    if method == "auto":
+        from solver.math.ode import solve
+        r = solve(rhs, span, y, t_eval=t_eval, rtol=rtol, atol=rtol * 1e-2)
+        if r.method == "LSODA":
+            used["method"] = "LSODA (stiff)"
+        return r
+    from scipy.integrate import solve_ivp
+    return solve_ivp(rhs, span, y, method="LSODA" if method == "LSODA (stiff)" else method, t_eval=t_eval,
+                     rtol=rtol, atol=rtol * 1e-2)
+
+
+def _final(rhs, b: float, r, used: dict, rtol: float):  # type: ignore[no-untyped-def]
     """The state at b (t_eval ends at b when b is on the grid; else integrate the remaining bit)."""
     if abs(r.t[-1] - b) < 1e-12:
         return r.y[:, -1]
-    from scipy.integrate import solve_ivp
-    r2 = solve_ivp(rhs, (r.t[-1], b), r.y[:, -1], method=options.method, rtol=options.rtol, atol=options.rtol * 1e-2)
-    return r2.y[:, -1]
+    return _integrate(rhs, (r.t[-1], b), r.y[:, -1], used, None, rtol).y[:, -1]
 
 
 def _numbers(xs: list, values: dict) -> Optional[list[float]]:

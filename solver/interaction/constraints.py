@@ -1564,7 +1564,7 @@ def _show(x: sp.Expr) -> str:
 
 # ------------------------------------------------------------------------------------------------ simulation
 def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> None:  # type: ignore[no-untyped-def]
-    """The figure of λ(t), q(t) and h(q(t)) along the motion of B q̈ + n = G u + Aᵀλ(q, q̇, u) (solve_ivp)."""
+    """The figure of λ(t), q(t) and h(q(t)) along the motion of B q̈ + n = G u + Aᵀλ(q, q̇, u) (:func:`solver.math.ode.solve`)."""
     opts = spec.options.simulate
     assert opts is not None
     n, q, dq = spec.n, spec.q, spec.dq
@@ -1662,10 +1662,10 @@ def constrained_rhs(f: dict, n: int, k: int):  # type: ignore[no-untyped-def]
 
 def simulate_constrained(f: dict, n: int, k: int, x0: list[float], T: float, points: int):  # type: ignore[no-untyped-def]
     """(t, X (2n x points), λ (k x points)) of the constrained motion from x0 over [0, T]."""
-    from scipy.integrate import solve_ivp
+    from solver.math.ode import solve
     rhs, lam_of = constrained_rhs(f, n, k)
     grid = np.linspace(0.0, T, points)
-    out = solve_ivp(rhs, (0.0, T), x0, t_eval=grid, rtol=1e-9, atol=1e-11, method="LSODA")
+    out = solve(rhs, (0.0, T), x0, t_eval=grid, rtol=1e-9, atol=1e-11)
     X = out.y
     if X.shape[1] < len(grid):  # stopped early (singular B or A B⁻¹ Aᵀ): plot what was integrated
         grid = out.t
