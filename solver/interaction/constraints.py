@@ -541,8 +541,33 @@ def _short_denominator(d: sp.Expr) -> sp.Expr:
     paired = _paired_sines(d)
     if paired is not None:
         return paired
+    if _trig_linear(d):
+        return d
     short = factor_within(sp.trigsimp(tidy_expanded(d)))
     return short if count_ops(short) <= count_ops(d) else d
+
+
+def _trig_linear(d: sp.Expr) -> bool:
+    """A product whose factors are free of sines and cosines, powers of sin x or cos x (x a symbol), or sums each
+    of whose terms holds at most one sine or cosine (of a symbol), to the first power: L (a cos q₂ + b sin q₂),
+    (p₁² + p₂²) sin q₂. No identity of trigsimp's (sin² + cos² = 1, products to sums or to angle sums) applies to
+    such a factor: it is its own shortest form."""
+    def atom(f: sp.Expr) -> bool:
+        return isinstance(f, (sp.sin, sp.cos)) and f.args[0].is_Symbol
+
+    for f in sp.Mul.make_args(d):
+        base, ex = f.as_base_exp()
+        if not base.has(sp.sin, sp.cos):
+            continue
+        if atom(base) and ex.is_Integer and ex > 0:
+            continue
+        if not (base.is_Add and ex == 1):
+            return False
+        for term in base.args:
+            trig = [g for g in sp.Mul.make_args(term) if g.has(sp.sin, sp.cos)]
+            if len(trig) > 1 or (trig and not atom(trig[0])):
+                return False
+    return True
 
 
 def factor_terms(e: sp.Expr) -> sp.Expr:
