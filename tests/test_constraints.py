@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 import sympy as sp
-from conftest import check_and_solve
+from conftest import PROBLEMS, check_and_solve
 from scipy.integrate import solve_ivp
 
 from solver.dynamics.model import derive
@@ -1193,3 +1193,18 @@ def test_factor_terms_without_common_factors_matches_sympy():
     assert C._coprime_terms(list(cases[0].args)) is True
     assert C._coprime_terms(list(sp.Add.make_args(3 * (2 * a + 2 * b) * x + y))) is False
     assert C._coprime_terms(list(cases[2].args)) is False
+
+
+@pytest.mark.parametrize("name, G", [("2017-07-11-ex2", False), ("2022-02-03-ex3", True)])
+def test_static_equilibrium_sentence_names_the_input_map_only_when_there_is_one(name, G):
+    """Without an input map (G = I) the equilibrium condition reads Fᵀ(u − g) = 0 and λ = Eᵀ(g − u_eq); with
+    one, Fᵀ(G u − g) = 0, in Markdown and LaTeX alike."""
+    p = load_problem(PROBLEMS / f"{name}.yaml")
+    sols = solve_problem(p)
+    md, tex = render(p, sols, "md"), render(p, sols, "tex")
+    if G:
+        assert "F^T(G u - g) = 0" in md and "F^T(G u - g) = 0" in tex and "F^T G\\,u = F^T g" in md
+    else:
+        assert "F^T(u - g) = 0" in md and "F^T(u - g) = 0" in tex
+        assert "G u" not in md.split("Static equilibrium")[1].split("**")[1]
+        assert "E^T(g - u_{eq})" in md and "E^T(g - u_{eq})" in tex and "F^T G" not in tex
