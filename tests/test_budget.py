@@ -39,6 +39,30 @@ def test_a_swallowed_exception_fires_again():
     assert swallowed == 1 and time.process_time() - t < 2
 
 
+def test_an_exception_swallowed_by_a_finalizer_is_not_reported(monkeypatch):
+    """The budget runs out inside a __del__ (as in a gc or weakref callback): Python swallows the exception and
+    reports it to sys.unraisablehook (pytest turns that into a warning); the budget drops that report, raises again
+    after _REFIRE, and passes other unraisable exceptions on."""
+    import sys
+    seen: list = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda info: seen.append(info.exc_value))
+
+    class Slow:
+        def __del__(self) -> None:
+            _spin(0.5)
+
+    class Broken:
+        def __del__(self) -> None:
+            raise ValueError("not the budget's")
+    with pytest.raises(BudgetExceeded):
+        with cpu_budget(0.1):
+            Broken()
+            Slow()
+            _spin(5)
+    assert [type(e) for e in seen] == [ValueError]
+    assert sys.unraisablehook is not None and sys.unraisablehook.__name__ == "<lambda>"
+
+
 def test_finishing_in_time_leaves_no_timer():
     with cpu_budget(5):
         _spin(0.05)

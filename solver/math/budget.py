@@ -11,11 +11,13 @@ Nested budgets: the timer runs for the tightest one. When it expires, the budget
 raises BudgetExceeded: an inner budget cut short by its outer one lets an `_Exhausted` (a BaseException, which
 `except BudgetExceeded` and `except Exception` handlers do not catch) pass up to the outer one, so a loop of inner
 budgets cannot outlive the outer budget. An exception swallowed on its way (a gc callback, a ``__del__``) is raised
-again 50 ms of CPU later.
+again 50 ms of CPU later; Python's report of the swallowed one ("Exception ignored in ...", sys.unraisablehook,
+a warning under pytest) is dropped, as it is no error.
 """
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -66,6 +68,12 @@ def cpu_budget(seconds: float) -> Iterator[None]:
         limit, owner = seconds, depth
     _owners.append(owner)
     fired = _fired
+    report = sys.unraisablehook
+
+    def unraisable(info: Any) -> None:  # a finalizer swallowed the budget's exception: raised again (_REFIRE)
+        if not isinstance(info.exc_value, (BudgetExceeded, _Exhausted)):
+            report(info)
+    sys.unraisablehook = unraisable
     signal.setitimer(signal.ITIMER_PROF, limit)
     try:
         yield
@@ -75,6 +83,7 @@ def cpu_budget(seconds: float) -> Iterator[None]:
         raise
     finally:
         left, _ = signal.setitimer(signal.ITIMER_PROF, 0)  # disarmed first: a re-fire cannot hit the clean-up
+        sys.unraisablehook = report
         _owners.pop()
         signal.signal(signal.SIGPROF, old)
         if nested:  # the outer budget goes on, less what this one used
