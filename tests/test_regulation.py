@@ -4,6 +4,7 @@ predicted equilibrium, also a different one when the gains are below the α cond
 2004-03-25 and a PR robot no exercise uses; the iterative scheme converges within the predicted iterations; α;
 the property checks; spec errors; the reports; the encoded exam problems."""
 import json
+import math
 import shutil
 import subprocess
 
@@ -319,6 +320,33 @@ def test_iterative_scheme_2018_02_05_numbers():
     assert q[:4] == pytest.approx([0.8942, 1.0318, 1.0458, 1.0471], abs=1e-4)
     assert u[:4] == pytest.approx([76.4904, 84.1916, 84.888, 84.9510], abs=2e-3)
     assert res["iterations_actual"].value == 3
+
+
+def test_iterative_scheme_with_symbolic_beta_and_epsilon():
+    """β and ε may be parameters without values: ρ = β/(1 − β), ê₁ = ρ‖e₀‖ symbolic, and the first iteration
+    with ‖e_i‖ < ε is given by i > 1 + ln(ε/ê₁)/ln ρ (checked at β = 1/5, ε = 0.01: i_min = 4, the printed
+    value)."""
+    text = PENDULUM.replace("g0: g0}", "g0: g0, b: contraction parameter, eps: accuracy}") + \
+        regulation("iterative", qd="[pi/3]", kp=500, kd=45, q0="[0]", epsilon="eps", beta="b")
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    res = all_results(sols)
+    b, eps = p.names["b"], p.names["eps"]
+    assert res["beta"].value == b and sp.simplify(res["rho"].value - b / (1 - b)) == 0
+    step = next(st for st in sols[0].steps if st.name == "iterative")
+    bound = step.data["i_formula"].xreplace({b: sp.Rational(1, 5), eps: sp.Rational(1, 100)})
+    assert math.floor(float(bound)) + 1 == 4
+    md = render(p, sols, "md")
+    assert "is guaranteed from the first iteration $i >" in md and "iterations" not in res
+
+
+@pytest.mark.parametrize("beta, words", [("1/2 + m", "beta must be in (0, 1/2), got m + 1/2"),
+                                         ("-d", "beta must be in (0, 1/2), got -d"),
+                                         ("q1/10", "beta must be in (0, 1/2)")])
+def test_symbolic_beta_known_out_of_range_is_an_error(beta, words):
+    text = PENDULUM.replace("values: {m: 10, d: 1, I0: 10/3, g0: 9.81}", "values: {I0: 10/3, g0: 9.81}") + \
+        regulation("iterative", qd="[pi/3]", kp=500, kd=45, beta=beta)
+    assert words in error_found_without_solving(text)
 
 
 def test_iterative_scheme_simulated_within_the_predicted_iterations():

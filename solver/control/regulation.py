@@ -567,9 +567,16 @@ class _Regulation:
         return sp.Matrix(xs)
 
     def _positive(self, key: str, upper: Optional[float] = None) -> sp.Expr:
-        """The ask's scalar ``key``: a number (parameters with values allowed) > 0, and < ``upper``."""
+        """The ask's scalar ``key``: > 0 and < ``upper``; a number (parameters with values allowed), or symbolic,
+        of parameters only, when nothing it is known to be contradicts that (the report then states the
+        condition: β < ½, ε > 0)."""
         x = sp.nsimplify(self.ctx.expr(key))
         v = self._num(x)
+        state = set(self.q + self.dq + self.ddq)
+        if v is None and x.free_symbols and not x.free_symbols & state and x.is_real is not False:
+            x_v = sp.sympify(x).xreplace(self.values)
+            if x_v.is_positive is not False and (upper is None or (x_v - upper).is_nonnegative is not True):
+                return x
         if v is None or not v > 0 or (upper is not None and not v < upper):
             what = "a positive number" if upper is None else f"in (0, {sp.nsimplify(upper)})"
             raise UserError(f"{key} must be {what}, got {x}", self.place(key),
@@ -1085,7 +1092,7 @@ class _Regulation:
         self.add("rho", rho, "scalar", label="\\beta/(1-\\beta)")
         data: dict = {"beta": beta, "rho": rho, "alpha": alpha, "kmin": kmin, "given_beta": beta_opt is not None}
         an, kn, bn = self._num(alpha), self._num(kmin), self._num(beta)
-        if beta_opt is not None and an is not None and kn is not None and not bn * kn > an:
+        if beta_opt is not None and an is not None and kn is not None and bn is not None and not bn * kn > an:
             raise UserError(f"beta = {beta_opt} is too small: beta*K_P,m = {bn * kn:.6g} must exceed alpha = "
                             f"{an:.6g}", self.place("beta"), f"use beta > {an / kn:.6g}, or omit beta:")
         if o.q0 is not None:
@@ -1107,7 +1114,9 @@ class _Regulation:
                 eps = self.read["eps"]
                 en, rn, e1n = self._num(eps), self._num(rho), self._num(e1)
                 data["eps"] = eps
-                if rn is not None and e1n is not None:
+                if en is None or rn is None or e1n is None:  # ρ^(i−1) ê₁ < ε from i > 1 + ln(ε/ê₁)/ln ρ on
+                    data["i_formula"] = 1 + sp.log(eps / e1) / sp.log(rho)
+                else:
                     if not rn < 1:
                         data["no_contraction"] = True
                     else:
