@@ -1635,7 +1635,7 @@ def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> No
     k, T, points = spec.k, float(opts.time), opts.points
     qlabels = [problem.latex_names.get(s, s.name) for s in q]
     caption = (f"Constrained motion from $q_0$ under the given inputs (full model with $\\lambda(q,\\dot q,u)$, "
-               f"solve\\_ivp, {T:g} s): multipliers $\\lambda(t)$, coordinates $q(t)$"
+               f"{T:g} s): multipliers $\\lambda(t)$, coordinates $q(t)$"
                + (", constraint drift $h(q(t))$." if fh else ".")
                + ("" if not unit else " Parameters without a numeric value set to 1 ("
                   + ", ".join(f"${problem.latex_names.get(s, s.name)}$" for s in unit) + ")."))
@@ -1656,7 +1656,7 @@ def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> No
              for key, raw, vals in (("q0", opts.q0, q0), ("dq0", opts.dq0, dq0))}
     written = any(isinstance(x, str) for x in shown["q0"] + shown["dq0"])  # (decimals: their entries as written)
     sol.step("simulation", T=T, q0=sp.Matrix(q0), dq0=sp.Matrix(dq0), u=sp.Matrix(u_t), unit=unit, t=t, k=k,
-             holonomic=fh is not None,
+             holonomic=fh is not None, G=dm.G,
              **({"q0_shown": shown["q0"], "dq0_shown": shown["dq0"]} if written else {}))
 
 
