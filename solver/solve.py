@@ -19,10 +19,12 @@ MAX_PARALLEL_ASKS = 30000  # ask numbers are queued in one pipe write (2 bytes e
 
 
 def solve_problem(problem: Problem, solved: Callable[[int, Solution], None] | None = None, jobs: int = 1,
-                  figures: bool = False) -> list[Solution]:
+                  figures: bool = False, early: Callable[[int, Solution], None] | None = None) -> list[Solution]:
     """One :class:`Solution` per ask of ``problem`` (only the modules of its ask kinds are imported);
     ``solved(k, solution)`` is called, in the order of the asks, as soon as asks 1..k are solved (the CLI's
-    painter draws their figures while the next asks are solved).
+    painter draws their figures while the next asks are solved). With helpers, ``early(k, solution)`` is called
+    for an ask k solved before an earlier one: its solution as solved from the problem as loaded, which the
+    merge keeps unless its names clash (then ``solved`` gives another solution object for k).
 
     Every ask is solved from the problem as loaded: the names an ask registers (its fresh symbols, its inputs)
     are merged into the problem in the order of the asks once it is solved (:class:`_Names`), so that asks can
@@ -33,7 +35,7 @@ def solve_problem(problem: Problem, solved: Callable[[int, Solution], None] | No
     n = len(problem.asks)
     names = _Names(problem)
     if jobs > 1 and 3 <= n <= MAX_PARALLEL_ASKS and hasattr(os, "fork"):
-        out = _parallel(problem, names, solved, jobs, figures)
+        out = _parallel(problem, names, solved, jobs, figures, early)
     else:
         out = []
         with without_units():
@@ -228,7 +230,7 @@ def _take(queue: int) -> int | None:
 
 
 def _parallel(problem: Problem, names: _Names, solved: Callable[[int, Solution], None] | None, jobs: int,
-              figures: bool) -> list[Solution]:
+              figures: bool, early: Callable[[int, Solution], None] | None = None) -> list[Solution]:
     """The asks shared between this process and ``jobs`` − 1 helpers forked once the first ask is solved (they
     inherit the problem, every import and what the first ask derived). The queue is a pipe holding the ask
     numbers: each process reads the next one when it is free, so that a long ask does not hold the others back.
@@ -243,17 +245,29 @@ def _parallel(problem: Problem, names: _Names, solved: Callable[[int, Solution],
     os.write(queue_w, b"".join(k.to_bytes(2, "big") for k in range(n)))
     os.close(queue_w)
     helpers: dict[int, tuple[int, bytearray]] = {}  # result pipe -> (pid, bytes received)
+    told: set[int] = set()  # the asks given to ``early``
+
+    def tell() -> None:  # the asks solved ahead of an earlier one, to ``early``
+        if early is None:
+            return
+        for j in range(len(out) + 1, n):
+            res = got[j]
+            if res is not None and res[0] is not None and j not in told:
+                told.add(j)
+                early(j + 1, res[0])
 
     def report(final: bool = False) -> None:  # merge asks in order as they arrive; the callback for each
         while len(out) < n and (got[len(out)] is not None or final):
             k = len(out)
             while got[k] is None and helpers:  # in a helper: wait for it
                 receive(next(iter(helpers)), block=True)
+                tell()
             if got[k] is None:  # a helper could not send it (it does not pickle, the helper was killed)
                 got[k] = names.attempt(k)
             out.append(names.settle(k, *got[k]))  # type: ignore[misc]
             if solved is not None:
                 solved(k + 1, out[-1])
+        tell()
 
     def receive(fd: int, block: bool) -> None:
         pid, buf = helpers[fd]

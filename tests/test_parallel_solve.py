@@ -95,6 +95,41 @@ def test_clashing_names_are_solved_again_in_order(monkeypatch, write, jobs):
     assert problem.names["x"] == x and problem.names["xc"] == xc
 
 
+def test_asks_solved_ahead_of_a_slow_one_are_given_early(monkeypatch):
+    """With helpers, an ask this process solves while a helper is still on an earlier one goes to ``early`` at
+    once (the CLI draws its figures then), with the solution object the merge keeps; ``solved`` still comes in
+    order. The helper's first ask is the slow one: this process solves all the others meanwhile."""
+    import os
+    import time
+    parent, slept = os.getpid(), []
+
+    def asks(problem, k: int) -> Solution:
+        slow = os.getpid() != parent and not slept
+        if slow:
+            slept.append(k)
+            time.sleep(1.5)
+        elif k:   # (this process leaves the helper time to take an ask)
+            time.sleep(0.1)
+        sol = Solution("fake")
+        sol.add("k", sp.Integer(k), "number")
+        sol.add("slow", sp.Integer(int(slow)), "number")
+        return sol
+    monkeypatch.setattr(solve_mod, "_solve_ask", asks)
+    problem = load_problem(MANY_ASKS)
+    events: list[tuple[str, int, Solution]] = []
+    sols = solve_mod.solve_problem(problem, lambda k, s: events.append(("solved", k, s)), jobs=2,
+                                   early=lambda k, s: events.append(("early", k, s)))
+    n = len(problem.asks)
+    assert [s.results["k"].value for s in sols] == list(range(n))
+    assert [k for what, k, _ in events if what == "solved"] == list(range(1, n + 1))
+    (j,) = [k for k, s in enumerate(sols, 1) if s.results["slow"].value == 1]   # the helper's (1-based)
+    early = {k: s for what, k, s in events if what == "early"}
+    assert j < n - 1 and set(early) == set(range(j + 1, n + 1))     # every ask after it, none twice
+    at_j = next(i for i, (what, k, _) in enumerate(events) if what == "solved" and k == j)
+    assert all(i < at_j for i, (what, _, _) in enumerate(events) if what == "early")
+    assert all(sols[k - 1] is s for k, s in early.items())
+
+
 def test_cli_jobs_write_the_same_report_and_figures(tmp_path):
     outs = []
     for j in ("1", "2"):

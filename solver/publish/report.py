@@ -27,15 +27,23 @@ def solve_job(spec: Path, fmt: str, output: Path | None, fragment: bool, templat
             from solver.spec import load_problem
         problem = load_problem(spec)
         figures: list[Path] = []
+        sent: dict[int, Solution] = {}  # asks whose figures went to the painter ahead of an earlier ask
+
+        def early(k: int, solution: Solution) -> None:  # solved before an earlier ask: its figures drawn now
+            assert painter is not None and output is not None
+            sent[k] = solution
+            figures.extend(painter.send([solution], output, fmt, first=k))
 
         def solved(k: int, solution: Solution) -> None:  # its figures drawn while the next asks are solved
             assert painter is not None and output is not None
             last = k == len(problem.asks)
-            figures.extend(painter.send([solution], output, fmt, first=k, last=last))
+            todo = [] if sent.get(k) is solution else [solution]  # (a clash at the merge: solved again)
+            figures.extend(painter.send(todo, output, fmt, first=k, last=last))
             if last and not figures:  # nothing to draw: do not wait for the warm-up
                 painter.cancel()
-        solutions = solve_problem(problem, solved if painter and output else None, jobs=jobs or cores(),
-                                  figures=painter is not None)
+        drawing = painter is not None and output is not None
+        solutions = solve_problem(problem, solved if drawing else None, jobs=jobs or cores(),
+                                  figures=painter is not None, early=early if drawing else None)
         text = render(problem, solutions, fmt, fragment=fragment, template_dir=templates, details=details)
         if painter:
             painter.wait()
