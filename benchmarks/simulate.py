@@ -2,7 +2,8 @@
 known), simulated for 10 s with the `simulate` ask. Prints the seconds of the symbolic design (model, regressor,
 law) and of the simulation, and the wall seconds per simulated second; with --figure PATH draws the simulation.
 
-    python benchmarks/simulate.py [--repeat 3] [--T 10] [--figure docs/figures/simulate_adaptive.png]
+    python benchmarks/simulate.py [--repeat 3] [--T 10] [--method auto|LSODA|RK45|...]
+                                  [--figure docs/figures/simulate_adaptive.png]
 """
 from __future__ import annotations
 
@@ -34,6 +35,7 @@ asks:
     q0: [0.2, 0, 0]
     T: {T}
     points: 500
+    method: {method}
 """
 
 
@@ -42,13 +44,14 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--T", type=float, default=10.0)
     ap.add_argument("--figure", type=Path, default=None)
+    ap.add_argument("--method", default="auto", help="the simulate ask's integrator")
     a = ap.parse_args()
     from solver.registry import load_all
     from solver.spec import load_problem_text
     kinds = load_all()
     best_law = best_sim = float("inf")
     for _ in range(a.repeat):
-        p = load_problem_text(SPEC.replace("{T}", str(a.T)))
+        p = load_problem_text(SPEC.replace("{T}", str(a.T)).replace("{method}", a.method))
         t0 = time.perf_counter()
         law = kinds["control_law"].solve(p, p.asks[0].options, p.asks[0].ctx)
         t1 = time.perf_counter()
@@ -57,7 +60,9 @@ def main() -> None:
         best_law, best_sim = min(best_law, t1 - t0), min(best_sim, t2 - t1)
     r = sim.results
     p_coef = len(law.results["a_adapt"].value)
-    print(f"coefficients p = {p_coef}; completed = {r['completed'].value}; evaluations = {r['nfev'].value}")
+    used = next(st.data["method"] for st in sim.steps if st.name == "simulate")
+    print(f"coefficients p = {p_coef}; completed = {r['completed'].value}; evaluations = {r['nfev'].value} "
+          f"({used})")
     print(f"|e(T)| = {float(r['e_final_norm'].value):.3g}, max |e| = {float(r['e_max_norm'].value):.3g}, "
           f"settling = {float(r['settling_time'].value):.3g} s")
     print(f"symbolic design (model, regressor, law) [s]: {best_law:.2f}")

@@ -6,7 +6,7 @@ accepted when the RMS norm of the embedded error estimate h Σ eᵢkᵢ / (atol 
 1, the next step h·min(10, max(0.2, 0.9·err^(-1/5))); values at the requested times from the continuous
 extension of order 4, y(t + θh) = y + h Σᵢ kᵢ Σⱼ Pᵢⱼ θʲ. A stiff problem (h|λ| beyond the method's stability
 region, λ estimated as ‖k₇ − k₆‖/‖y₇ − y₆‖: h|λ| > 2.5 on 15 accepted steps, or the steps held at h|λ| > 1 once
-3000 evaluations are spent) is handed to scipy's LSODA."""
+300 evaluations are spent) is handed to scipy's LSODA."""
 from __future__ import annotations
 
 from collections import deque
@@ -34,7 +34,7 @@ P = np.array([  # continuous extension (Shampine): row i, the coefficients of θ
     [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423]])
 STIFF_STEPS = 15       # accepted steps with h|λ| > STIFF_H_LAMBDA: Hairer & Wanner's test (3.25 there; this step
 STIFF_H_LAMBDA = 2.5   # control settles at h|λ| ≈ 2.8 on a stiff problem, just inside the stability region)
-STIFF_WORK = 3000      # past these evaluations, steps held at h|λ| > 1 (the median of the last 50) are stiff too:
+STIFF_WORK = 300       # past these evaluations, steps held at h|λ| > 1 (the median of the last 50) are stiff too:
 STIFF_WINDOW = 50      # at tight tolerances the error estimate holds a stiff problem's steps at h|λ| ≈ 1.4
 
 
