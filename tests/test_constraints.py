@@ -1208,3 +1208,21 @@ def test_static_equilibrium_sentence_names_the_input_map_only_when_there_is_one(
         assert "F^T(u - g) = 0" in md and "F^T(u - g) = 0" in tex
         assert "G u" not in md.split("Static equilibrium")[1].split("**")[1]
         assert "E^T(g - u_{eq})" in md and "E^T(g - u_{eq})" in tex and "F^T G" not in tex
+
+
+def test_values_at_a_state_exact_when_they_read_well_decimals_otherwise():
+    """At an `at:` state: short exact values stay (2 − √51/10, acos(7/10), √3/12 (6 a4 + a1 q̇2²): the surd a
+    common factor); long ones with surds inside become decimals with the symbols kept; a matrix with a decimal
+    entry shows its other irrational numbers as decimals too (2022-01-11-ex3's u(0) = (185.8, 28.65))."""
+    from solver.interaction.constraints import _num
+    a1, a4, dq2, u2 = sp.symbols("a1 a4 dq2 u2")
+    s51 = sp.sqrt(51)
+    for keep in (2 - s51 / 10, sp.acos(sp.Rational(7, 10)), sp.sqrt(3) * (6 * a4 + a1 * dq2 ** 2) / 12):
+        assert _num(keep) == keep
+    long = (5000 * s51 * u2 + 624897 * s51 + 28767825) / (500 * (7 * s51 + 255))
+    out = _num(long)
+    assert out.atoms(sp.Float) and out.free_symbols == {u2} and not out.atoms(sp.Pow)
+    assert float((out - long).subs(u2, 3)) == pytest.approx(0, abs=1e-9)
+    M = _num(sp.Matrix([long.subs(u2, 1), 5 * sp.sqrt(1326) / 663, sp.Rational(3, 4)]))
+    assert M[0].is_Float and M[1].is_Float and M[2] == sp.Rational(3, 4)
+    assert float(M[1]) == pytest.approx(float(5 * sp.sqrt(1326) / 663), rel=1e-14)

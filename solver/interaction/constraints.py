@@ -1461,14 +1461,32 @@ def _equilibrium(spec: _Spec, red: Reduction, dm, G: sp.Matrix, u: list[sp.Symbo
     return {"s": sol, "lam": lam, "lam0": lam0, "M": M, "b": b, "g": g.applyfunc(rtidy)}
 
 
+AT_EXACT_OPS = 12  # a value at a state with radicals stays exact up to this size (√3/2 (a4 + a5)); a number up
+                   # to half of it (2 - √51/10, acos(7/10))
+
+
+def _surds(e: sp.Expr) -> bool:
+    """e holds numbers that are neither rational nor a common factor (√51 in (5000√51 u₂ + 28767825)/(500(7√51 +
+    255)), acos(7/10), π in a sum): written exactly, such a value reads worse than its decimals; √3/12 (6a₄ + a₁)
+    reads well."""
+    rest = factor_terms(e).as_independent(*e.free_symbols, as_Add=False)[1] if e.free_symbols else e
+    return any(a.is_number and not a.is_Rational for a in rest.atoms(sp.Pow, sp.Function, sp.NumberSymbol))
+
+
 def _num(e: Any) -> Any:
     """A value at a state for the report and the grader: exact when short (√3/2 (a4 + a5)), otherwise with
     15-digit floats (also as the coefficients of the symbols left, e.g. the inputs), whole ones as integers."""
-    if isinstance(e, sp.MatrixBase):
-        return e.applyfunc(_num)
+    if isinstance(e, sp.MatrixBase):  # (one style per matrix: irrational numbers as decimals beside decimals)
+        out = e.applyfunc(_num)
+        if any(x.atoms(sp.Float) for x in out):
+            out = out.applyfunc(lambda x: sp.Float(x.evalf(15), 15) if x.is_number and not x.is_Rational
+                                and not x.atoms(sp.Float) else x)
+        return out
     if not isinstance(e, sp.Expr) or e.is_Rational:
         return e
-    if not e.atoms(sp.Float) and count_ops(e) <= 40:
+    ops = count_ops(e)
+    short = AT_EXACT_OPS if e.free_symbols else AT_EXACT_OPS // 2
+    if not e.atoms(sp.Float) and (ops <= short or (ops <= 40 and not _surds(e))):
         return e
     if e.is_number:
         return sp.Float(e.evalf(15), 15)
@@ -1483,8 +1501,8 @@ def _num(e: Any) -> Any:
 def _evaluate(M: sp.Matrix, subs: dict) -> sp.Matrix:
     """M at a state: exact when the values are exact (radicals simplified), entries tidied."""
     out = M.xreplace(subs)
-    return out.applyfunc(lambda x: _num(sp.nsimplify(x) if x.is_number and not x.atoms(sp.Float)
-                                        else (rtidy(x) if x.free_symbols else x)))
+    return _num(out.applyfunc(lambda x: sp.nsimplify(x) if x.is_number and not x.atoms(sp.Float)
+                              else (rtidy(x) if x.free_symbols else x)))
 
 
 def _implied(problem, spec: _Spec) -> dict[sp.Symbol, sp.Expr]:  # type: ignore[no-untyped-def]
