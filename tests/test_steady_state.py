@@ -835,13 +835,18 @@ def test_equilibria_family_of_a_repeated_row_and_a_solver_failure():
 def test_equilibria_in_angle_sums():
     """g depending on the angles only through sums (q1 + q2, 2q1 + 2q2) is solved in φ = T q (T unimodular, the
     other angles kept free) and written back: a sin²(q1 + q2) + b > 0 took 20 s in sympy's solve to say "no
-    solution"; a c123 on a 3R gives the two families q1 + q2 + q3 = ±π/2. g of q1 and q1 + q2 is left alone."""
+    solution"; a c123 on a 3R gives the two families q1 + q2 + q3 = ±π/2. g of q1 and q1 + q2 is solved in the
+    absolute angles (one new angle per argument); g of q1, q2 and q1 + q2 (more arguments than angles) and g of
+    the single angles are left alone."""
     from solver.dynamics.equilibria import angle_sums, conditional_equilibria
     q1, q2, q3 = sp.symbols("q1 q2 q3", real=True)
     a, b = sp.symbols("a b", positive=True)
     ch = angle_sums([a * sp.cos(2 * q1 + 2 * q2) + b], [q1, q2])
     assert ch.forms == [q1 + q2] and ch.kept == [q2] and abs(ch.T.det()) == 1
-    assert angle_sums([a * sp.cos(q1) + b * sp.cos(q1 + q2), b * sp.cos(q1 + q2)], [q1, q2]) is None
+    absolute = angle_sums([a * sp.cos(q1) + b * sp.cos(q1 + q2), b * sp.cos(q1 + q2)], [q1, q2])
+    assert absolute.forms == [q1, q1 + q2] and absolute.kept == []
+    assert angle_sums([a * sp.cos(q1) + b * sp.cos(q1 + q2), b * sp.sin(q2)], [q1, q2]) is None
+    assert angle_sums([a * sp.cos(q1) + b * sp.sin(q2)], [q1, q2]) is None
     assert angle_sums([a * sp.cos(q1 * q2)], [q1, q2]) is None
     assert conditional_equilibria(sp.Matrix([a * sp.sin(q1 + q2) ** 2 + b] * 2), [q1, q2]) == ([], [], False, [])
     configs, conditions, every, _ = conditional_equilibria(sp.Matrix([a * sp.cos(q1 + q2 + q3)] * 3), [q1, q2, q3])
@@ -871,3 +876,25 @@ def test_ring_rows_are_the_expanded_trigonometric_rows(monkeypatch):
     monkeypatch.undo()
     for other in (sp.Float(0.5) * sp.sin(q1), sp.cos(q1 + sp.pi / 4), sp.sin(q1 + al)):
         assert E._ring_rows([other], cs) is None
+
+
+def test_equilibria_under_a_constant_input_in_absolute_angles():
+    """A 2R in a vertical plane with a constant torque ū2 at joint 2: g of q1 and q1 + q2 decouples in the absolute
+    angles (cos(q1 + q2) = ū2/(d2 m2 g0), then cos q1); the four equilibria are written with one square root each
+    (sympy's solve in c1, s1, c2, s2 gave nested radicals after minutes). Each satisfies g(q) = (0, ū2) at random
+    parameter values where it exists; angles in (−π, π]."""
+    from solver.dynamics.equilibria import conditional_equilibria
+    q1, q2 = sp.symbols("q1 q2", real=True)
+    a, b, u = sp.symbols("a b u", positive=True)    # a = g0 (d1 m1 + l1 m2), b = g0 d2 m2
+    g = sp.Matrix([a * sp.cos(q1) + b * sp.cos(q1 + q2), b * sp.cos(q1 + q2) - u])
+    configs, conditions, every, requires = conditional_equilibria(g, [q1, q2])
+    assert len(configs) == 4 and not every and not requires
+    nested = [p for c in configs for x in c for p in x.atoms(sp.Pow) if p.exp == sp.Rational(1, 2)
+              and any(r.exp == sp.Rational(1, 2) for r in p.base.atoms(sp.Pow))]
+    assert not nested
+    point = {a: 3.0, b: 2.0, u: 1.2}
+    for c in configs:
+        vals = {q1: float(c[0].subs(point)), q2: float(c[1].subs(point))}
+        assert max(abs(float(x.subs(point).subs(vals))) for x in g) < 1e-12
+    exact = {a: 3, b: 2, u: 1}
+    assert all(-sp.pi < sp.N(x.subs(exact)) <= sp.pi for c in configs for x in c)

@@ -216,8 +216,9 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
 @dataclass
 class AngleSums:
     """New angles φ = T θ (T unimodular: a bijection of the torus) when the rows depend on the angles θ only through
-    r < len(θ) independent integer combinations: φ_1..φ_r are those combinations, the others are angles of θ kept
-    as they are (free in every solution)."""
+    r ≤ len(θ) independent integer combinations: φ_1..φ_r are those combinations, the others are angles of θ kept
+    as they are (free in every solution). With r = len(θ) (the absolute angles q1, q1 + q2, ... of a planar arm)
+    every argument is one new angle and the equations decouple."""
     T: sp.Matrix
     sums: list[sp.Symbol]     # φ_1..φ_r (dummies)
     forms: list[sp.Expr]      # their combinations of the angles
@@ -240,9 +241,11 @@ def _angle_form(arg: sp.Expr, angles: list[sp.Symbol]) -> Optional[tuple[int, ..
 
 def angle_sums(rows: list[sp.Expr], angles: list[sp.Symbol]) -> Optional[AngleSums]:
     """The change to angle sums (:class:`AngleSums`) when the sin/cos arguments of the rows span fewer than
-    len(angles) directions (g = g(q1 + q2) on a 2R: a family along q1 − q2 ... of equilibria); None otherwise or
-    when the arguments are not integer combinations of the angles. The kept angles are the last ones that complete
-    the combinations to a unimodular T."""
+    len(angles) directions (g = g(q1 + q2) on a 2R: a family along q1 − q2 ... of equilibria), or exactly
+    len(angles) directions, one per argument, not all single angles (g of q1 and q1 + q2 on a 2R in a vertical
+    plane: cos φ2 = ū2/(m2 d2 g0) alone, then φ1); None otherwise or when the arguments are not integer
+    combinations of the angles. The kept angles are the last ones that complete the combinations to a unimodular
+    T."""
     if len(angles) < 2:
         return None
     forms: list[tuple[int, ...]] = []
@@ -257,13 +260,14 @@ def angle_sums(rows: list[sp.Expr], angles: list[sp.Symbol]) -> Optional[AngleSu
             k = tuple(c // d for c in k)
             if k not in forms:
                 forms.append(k)
+    forms.sort(key=lambda k: (sum(1 for c in k if c), [-abs(c) for c in k]))   # q1, q1 + q2, q1 + q2 + q3, ...
     basis: list[list[int]] = []
     for k in forms:
         if sp.Matrix(basis + [list(k)]).rank() > len(basis):
             basis.append(list(k))
-    if not basis or len(basis) == len(angles):
-        return None
     n = len(angles)
+    if not basis or (len(basis) == n and (len(forms) > n or all(sum(map(abs, k)) == 1 for k in forms))):
+        return None   # (as many directions as angles: a change only when each argument becomes one new angle)
     unit = sp.eye(n).tolist()
     rows, kept = list(basis), []
     for j in reversed(range(n)):   # the last angles that complete the rank
@@ -295,9 +299,18 @@ def _in_sums(rows: list[sp.Expr], q: list[sp.Symbol], angles: list[sp.Symbol], c
     for c in configs:
         vals = dict(zip(new + others, c))
         theta = (Tinv * sp.Matrix([vals[x] for x in new])).xreplace(fwd)
-        at = dict(zip(angles, theta))
-        out.append(sp.Matrix([tidy(at[x]) if x in at else tidy(vals[x].xreplace(fwd)) for x in q]))
+        at = dict(zip(angles, (_principal(tidy(x)) for x in theta)))
+        out.append(sp.Matrix([at[x] if x in at else tidy(vals[x].xreplace(fwd)) for x in q]))
+    out.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in m])
     return out, [c.xreplace(fwd) for c in conditions], every
+
+
+def _principal(a: sp.Expr) -> sp.Expr:
+    """A numeric angle in (−π, π] (θ = T⁻¹φ of angles in (−π, π] may leave it: 3π/2, −π); others as they are."""
+    if not a.is_number or not a.is_real:
+        return a
+    turns = sp.ceiling((a - sp.pi) / (2 * sp.pi))
+    return a - 2 * sp.pi * turns if turns.is_Integer and turns != 0 else a
 
 
 def _atan2_reduced(y: sp.Expr, x: sp.Expr) -> sp.Expr:
