@@ -19,7 +19,7 @@ Laws (gains: scalars, diagonal lists or matrices), e_F = F_d − F_c, ξ̇ = e_F
 
 For a linear closed loop the report gives the transfer functions, the characteristic polynomial, the Routh
 conditions, the equilibrium (steady-state force and position), free motion, gain design for given poles, and a
-simulation (scipy) against the predicted steady state.
+simulation (exact steps of the matrix exponential, `linear.simulate`) against the predicted steady state.
 """
 from __future__ import annotations
 
