@@ -5,9 +5,9 @@ the spec's robot with its numeric ``values`` (a regulation's ``assume:`` relatio
     B(q) q̈ + c(q, q̇) + g(q) + F_v q̇ = G u(t, q, q̇, â, ξ) + τ_ext(q),    â̇ = Γ Y_rᵀ s   (adaptive law only),
                                                                            ξ̇ = e         (PID regulation only),
 with τ_ext = Σ J(q)ᵀF the regulation's ``external:`` forces (0 otherwise),
-integrated by :func:`solver.math.ode.solve` (or scipy's ``solve_ivp``, method:) from (q₀, q̇₀, â₀, ξ₀ = 0) in chunks (the iterative law from the regulation's
-û₀, the same constant feedforward as its static iterates), within a budget of right-hand-side
-evaluations and wall seconds. The reference q_d(t) is any expression of t (constant, polynomial, sinusoidal, ...): its
+integrated by :func:`solver.math.ode.solve` (or scipy's ``solve_ivp``, ``method:``) from (q₀, q̇₀, â₀, ξ₀ = 0)
+in chunks (the iterative law from the regulation's û₀, the same constant feedforward as its static iterates),
+within a budget of right-hand-side evaluations and wall seconds. The reference q_d(t) is any expression of t (constant, polynomial, sinusoidal, ...): its
 derivatives are taken exactly. Reported: the error e = q_d − q (or r_d − r) at the end and at its largest, the
 settling time (the instant after which ‖e‖ stays below ``settle``), the largest inputs, the final estimates; figures of
 errors, inputs and estimates.
@@ -435,7 +435,8 @@ def sign_changes(e: np.ndarray, rel: float = 1e-3) -> int:
     return int(np.count_nonzero(s[1:] != s[:-1]))
 
 
-def _integrate(rhs, span: tuple[float, float], y: np.ndarray, used: dict, t_eval, rtol: float):  # type: ignore[no-untyped-def]
+def _integrate(rhs, span: tuple[float, float], y: np.ndarray, used: dict, t_eval,  # type: ignore[no-untyped-def]
+               rtol: float):
     """One chunk of the simulation with ``used["method"]``: auto is :func:`solver.math.ode.solve` (DOPRI5), which
     hands a stiff chunk to LSODA; from then on every chunk goes to LSODA directly ("LSODA (stiff)"). The other
     methods are scipy's solve_ivp's."""

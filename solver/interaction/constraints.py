@@ -1607,7 +1607,8 @@ def _show(x: sp.Expr) -> str:
 
 # ------------------------------------------------------------------------------------------------ simulation
 def _simulation(problem, spec: _Spec, sol: Solution, dm, nvec, G, u, Adot) -> None:  # type: ignore[no-untyped-def]
-    """The figure of λ(t), q(t) and h(q(t)) along the motion of B q̈ + n = G u + Aᵀλ(q, q̇, u) (:func:`solver.math.ode.solve`)."""
+    """The figure of λ(t), q(t) and h(q(t)) along the motion of B q̈ + n = G u + Aᵀλ(q, q̇, u)
+    (:func:`solver.math.ode.solve`)."""
     opts = spec.options.simulate
     assert opts is not None
     n, q, dq = spec.n, spec.q, spec.dq
