@@ -880,21 +880,28 @@ def test_ring_rows_are_the_expanded_trigonometric_rows(monkeypatch):
 
 def test_equilibria_under_a_constant_input_in_absolute_angles():
     """A 2R in a vertical plane with a constant torque ū2 at joint 2: g of q1 and q1 + q2 decouples in the absolute
-    angles (cos(q1 + q2) = ū2/(d2 m2 g0), then cos q1); the four equilibria are written with one square root each
-    (sympy's solve in c1, s1, c2, s2 gave nested radicals after minutes). Each satisfies g(q) = (0, ū2) at random
-    parameter values where it exists; angles in (−π, π]."""
+    angles (cos(q1 + q2) = ū2/(d2 m2 g0), then cos q1); the four equilibria are written with arc cosines,
+    q1 = ±(π − acos(ū2/a)) (sympy's solve in c1, s1, c2, s2 gave nested radicals after minutes), with the conditions
+    a ≥ ū2, b ≥ ū2. Each satisfies g(q) = (0, ū2) at parameter values where it exists; angles in (−π, π]. An angle
+    whose cosine alone is fixed, a cos q1 = x (x of any sign), is ±acos(x/a) with a² − x² ≥ 0."""
     from solver.dynamics.equilibria import conditional_equilibria
     q1, q2 = sp.symbols("q1 q2", real=True)
     a, b, u = sp.symbols("a b u", positive=True)    # a = g0 (d1 m1 + l1 m2), b = g0 d2 m2
     g = sp.Matrix([a * sp.cos(q1) + b * sp.cos(q1 + q2), b * sp.cos(q1 + q2) - u])
     configs, conditions, every, requires = conditional_equilibria(g, [q1, q2])
     assert len(configs) == 4 and not every and not requires
-    nested = [p for c in configs for x in c for p in x.atoms(sp.Pow) if p.exp == sp.Rational(1, 2)
-              and any(r.exp == sp.Rational(1, 2) for r in p.base.atoms(sp.Pow))]
-    assert not nested
+    assert all(x.atoms(sp.acos) and not any(p.exp.is_Rational and p.exp.q == 2 for p in x.atoms(sp.Pow))
+               for c in configs for x in c)
+    assert set(conditions) == {sp.GreaterThan(a - u, 0), sp.GreaterThan(b - u, 0)}
+    assert sorted(sp.simplify(c[0] - sp.pi + sp.acos(u / a)) * sp.simplify(c[0] + sp.pi - sp.acos(u / a))
+                  for c in configs) == [0] * 4
     point = {a: 3.0, b: 2.0, u: 1.2}
     for c in configs:
         vals = {q1: float(c[0].subs(point)), q2: float(c[1].subs(point))}
         assert max(abs(float(x.subs(point).subs(vals))) for x in g) < 1e-12
     exact = {a: 3, b: 2, u: 1}
     assert all(-sp.pi < sp.N(x.subs(exact)) <= sp.pi for c in configs for x in c)
+    x = sp.Symbol("x", real=True)
+    one, cond, _, _ = conditional_equilibria(sp.Matrix([a * sp.cos(q1) - x]), [q1])
+    assert set(c[0] for c in one) == {sp.acos(x / a), -sp.acos(x / a)}
+    assert [sp.expand(c.lhs) for c in cond] == [a ** 2 - x ** 2]

@@ -187,7 +187,8 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
                             "the parameters)")
     configs, conditions = [], []
     for s in sols:
-        vals = []
+        vals, raw = [], []   # (raw: the cosines and sines, whose radicands are the conditions also where the
+        #                      angle is written without them, acos(x/c))
         free = [x for x in angles if _is_free(s, *cs[x])]
         subs = [_free_angle(s, x, *cs[x]) for x in free]
         for x in q:
@@ -198,13 +199,14 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
                 c, sn = _in_free_angles(c, subs), _in_free_angles(sn, subs)
                 if clean and any(_parametric_root(v, q) for v in (c, sn)):
                     raise Unclean(x)
+                raw += [c, sn]
                 vals.append(_atan2_angle(tidy(_atan2_reduced(sn, c))) if not (c.is_number and sn.is_number)
                             else sp.atan2(sn, c))
             else:
                 vals.append(tidy(_in_free_angles(sp.sympify(s.get(x, x)), subs)))
         if any(v.has(sp.I) for v in vals):
             continue
-        for v in vals:
+        for v in vals + raw:
             for p in v.atoms(sp.Pow):
                 if p.exp == sp.Rational(1, 2) and not p.base.is_nonnegative:
                     conditions.append(sp.GreaterThan(p.base, 0))
@@ -409,16 +411,31 @@ def _in_free_angles(e: sp.Expr, subs: list[Optional[tuple]]) -> sp.Expr:
 
 
 def _atan2_angle(e: sp.Expr) -> sp.Expr:
-    """atan2(±sin a, ±cos a) written as a, π − a, −a, a + π (equal modulo 2π)."""
+    """atan2(±sin a, ±cos a) written as a, π − a, −a, a + π (equal modulo 2π); atan2(±√(c² − x²), x) with c > 0
+    as ±acos(x/c) (c² − x² a perfect square difference: an angle whose cosine alone is fixed)."""
     def angle(y: sp.Expr, x: sp.Expr) -> Optional[sp.Expr]:
         sy, ay = (-1, -y) if y.could_extract_minus_sign() else (1, y)
         sx, ax = (-1, -x) if x.could_extract_minus_sign() else (1, x)
         if not (isinstance(ay, sp.sin) and isinstance(ax, sp.cos) and ay.args[0] == ax.args[0]):
-            return None
+            return _acos(sy, ay, x)
         a = ay.args[0]
         return {(1, 1): a, (1, -1): sp.pi - a, (-1, 1): -a, (-1, -1): a + sp.pi}[(sy, sx)]
 
     return e.replace(lambda f: isinstance(f, sp.atan2) and angle(*f.args) is not None, lambda f: angle(*f.args))
+
+
+def _acos(sign: int, root: sp.Expr, x: sp.Expr) -> Optional[sp.Expr]:
+    """sign·acos(x/c) for atan2(sign·√R, x) when R + x² = c² with c > 0 (by the symbols' assumptions); None
+    otherwise (or when R is too large to factor quickly)."""
+    if not (root.is_Pow and root.exp == sp.Rational(1, 2)) or sp.count_ops(root.base) > 60 or x.is_number:
+        return None
+    c = sp.sqrt(sp.factor(sp.expand(root.base + x ** 2)))
+    if any(p.exp.is_Rational and p.exp.q == 2 for p in c.atoms(sp.Pow)) or not c.is_positive:
+        return None   # (not a perfect square, or of unknown sign)
+    arg = tidy(x / c)
+    if arg.could_extract_minus_sign():   # acos(−z) = π − acos z (printed without a sign inside the function)
+        return sign * (sp.pi - sp.acos(-arg))
+    return sign * sp.acos(arg)
 
 
 def _same_value(a: sp.Expr, b: sp.Expr, periodic: bool) -> bool:
