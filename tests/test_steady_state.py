@@ -905,3 +905,54 @@ def test_equilibria_under_a_constant_input_in_absolute_angles():
     one, cond, _, _ = conditional_equilibria(sp.Matrix([a * sp.cos(q1) - x]), [q1])
     assert set(c[0] for c in one) == {sp.acos(x / a), -sp.acos(x / a)}
     assert [sp.expand(c.lhs) for c in cond] == [a ** 2 - x ** 2]
+
+
+VERTICAL_2R = """
+id: steady-2r
+title: steady motions of a 2R in a vertical plane under constant torques
+symbols: {m1: m1, m2: m2, d1: d1, d2: d2, l1: l1, l2: l2, I1: I1, I2: I2, g0: g0, u2: u2}
+robot:
+  joints: [R, R]
+  gravity: [0, -g0]
+  dh:
+    table:
+      - {a: l1, alpha: 0, d: 0, theta: q1}
+      - {a: l2, alpha: 0, d: 0, theta: q2}
+    links:
+      - {mass: m1, com: [d1 - l1, 0, 0], inertia: [0, 0, I1]}
+      - {mass: m2, com: [d2 - l2, 0, 0], inertia: [0, 0, I2]}
+asks:
+"""
+
+
+def test_steady_motions_of_a_vertical_2r_in_absolute_angles():
+    """steady: velocity under ū = (0, ū2) on a 2R in a vertical plane: no angle can rotate (g would vary), and the
+    rest subset is solved in the absolute angles q1, q1 + q2 like the equilibria (it took 3 minutes and printed
+    nested radicals): the same four configurations, v̄ = 0, each satisfying c + g = G ū."""
+    ask = "  - kind: equilibria\n    input: {u1: 0, u2: u2}\n    steady: velocity\n"
+    p, sols, res = run(VERTICAL_2R + ask)
+    steady = res["steady_state"].value
+    assert len(steady) == 4 and res["steady_velocity"].value == [sp.Matrix([0, 0])]
+    assert all(x.atoms(sp.acos) for m in steady for x in m)
+    dm = derive(p.robot)
+    point = {p.names[k]: v for k, v in dict(m1=3, m2=2, d1=0.4, d2=0.3, l1=0.8, g0=9.81, u2=2.5).items()}
+    for m in steady:
+        at = dict(zip(p.robot.q, [float(x.subs(point)) for x in m]))
+        rows = (dm.g - sp.Matrix([0, p.names["u2"]])).subs(point).subs(at)
+        assert max(abs(float(r)) for r in rows) < 1e-9
+
+
+def test_input_solved_for_with_an_angle_sum_family():
+    """solve_for: [u1] at rest with ū2 given: u1 drops out and only q1 + q2 = ±acos(ū2/(d2 m2 g0)) is fixed (q2
+    free), written so instead of atan2 of radicals in q2 with |cos q2|; ū1 = g1(q) along the family."""
+    p, sols, res = run(VERTICAL_2R + "  - kind: equilibria\n    input: {u2: u2}\n    solve_for: [u1]\n")
+    q1, q2 = p.robot.q
+    eqs = res["equilibria"].value
+    d2, m2, g0, u2 = (p.names[k] for k in ("d2", "m2", "g0", "u2"))
+    assert len(eqs) == 2 and all(m[1] == q2 for m in eqs)
+    assert {sp.simplify(m[0] + q2) for m in eqs} == {sp.acos(u2 / (d2 * g0 * m2)), -sp.acos(u2 / (d2 * g0 * m2))}
+    g1 = derive(p.robot).g[0]
+    for m, u in zip(eqs, res["equilibrium_input"].value):
+        at = {q1: m[0], q2: sp.Rational(1, 3)}
+        point = {p.names[k]: v for k, v in dict(m1=3, m2=2, d1=0.4, d2=0.3, l1=0.8, g0=9.81, u2=2.5).items()}
+        assert abs(float((g1.subs(at) - u[0].subs(q2, sp.Rational(1, 3))).subs(point))) < 1e-9

@@ -630,6 +630,24 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
             continue  # an equation of the parameters alone that cannot hold (m g0 l = 0 for a rotating angle)
         requires, eqs = split
         still = [a for a in angles if a not in rotating and any(a in x.free_symbols for x in eqs)]
+        free_v = [d for x, d in zip(q, dq) if d not in given_v and d not in stay]
+        summed = _in_angle_sums(eqs, still, others + free_v) if len(still) > 1 else None
+        if summed is not None:   # (the angles enter only through as many sums, one per argument: decoupled)
+            values, conds = summed
+            conditions += conds
+            for val in values:
+                qs = [val.get(x, x) for x in q]
+                vs = [tidy(sp.sympify(val.get(d, vel[x].xreplace(stay)))) for x, d in zip(q, dq)]
+                if any(vs[q.index(a)] == 0 for a in rotating):
+                    continue
+                at = {x: v for x, v in zip(q, qs) if x != v} | {d: v for d, v in zip(dq, vs)}
+                us = [tidy(sp.expand_trig(sp.expand(su.get(w, w), trig=True)).subs(at)) if w in unknown_u
+                      else sp.sympify(w) for w in u]
+                if any(x.has(sp.I) for x in qs + vs + us):
+                    continue
+                _add_motion(motions, SteadyMotion(sp.Matrix(qs), sp.Matrix(vs), sp.Matrix(us), requires), names,
+                            angles)
+            continue
         poly, cs2 = _to_polynomial(eqs, still)
         unknowns = ([x for a in still for x in cs2[a]] + others
                     + [d for x, d in zip(q, dq) if d not in given_v and d not in stay])
@@ -671,15 +689,40 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                 for p in x.atoms(sp.Pow):
                     if p.exp == sp.Rational(1, 2) and not p.base.is_nonnegative:
                         conditions.append(sp.GreaterThan(p.base, 0))
-            m = SteadyMotion(sp.Matrix(qs), sp.Matrix(vs), sp.Matrix(us), requires)
-            twin = next((o for o in motions if same_configurations(_stacked(m), _stacked(o), names, set(angles))),
-                        None)
-            if twin is None:
-                motions.append(m)
-            elif not requires:
-                twin.requires = []   # also found without conditions
+            _add_motion(motions, SteadyMotion(sp.Matrix(qs), sp.Matrix(vs), sp.Matrix(us), requires), names,
+                        angles)
     motions.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in list(m.v) + list(m.q)])
     return motions, list(dict.fromkeys(conditions)), angles, partial
+
+
+def _add_motion(motions: list[SteadyMotion], m: SteadyMotion, names: list, angles: list[sp.Symbol]) -> None:
+    """m appended unless the same motion is listed (angles modulo 2π); a twin found also without conditions
+    loses its conditions."""
+    twin = next((o for o in motions if same_configurations(_stacked(m), _stacked(o), names, set(angles))), None)
+    if twin is None:
+        motions.append(m)
+    elif not m.requires:
+        twin.requires = []   # also found without conditions
+
+
+def _in_angle_sums(eqs: list[sp.Expr], still: list[sp.Symbol], unknowns: list[sp.Symbol]
+                   ) -> Optional[tuple[list[dict], list[sp.Expr]]]:
+    """The solutions of eqs = 0 for the angles ``still`` and the other ``unknowns`` when the angles enter only
+    through integer combinations that :func:`angle_sums` changes to (fewer than the angles: the others free; as
+    many, one per argument: decoupled), solved by :func:`conditional_equilibria` in those combinations.
+    ([{unknown: value}], an unknown mapped to itself being arbitrary, conditions), or None to solve as before (no
+    such change, every value a solution, a condition on the parameters, or sympy failing)."""
+    if angle_sums(eqs, still) is None:
+        return None
+    present = set().union(*(e.free_symbols for e in eqs))
+    xs = still + [x for x in unknowns if x in present]
+    try:
+        configs, conditions, every, requires = conditional_equilibria(sp.Matrix(eqs), xs)
+    except NotSolved:
+        return None
+    if every or requires:
+        return None
+    return [dict(zip(xs, c)) for c in configs], conditions
 
 
 def _stacked(m: SteadyMotion) -> sp.Matrix:
