@@ -632,7 +632,7 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
         still = [a for a in angles if a not in rotating and any(a in x.free_symbols for x in eqs)]
         free_v = [d for x, d in zip(q, dq) if d not in given_v and d not in stay]
         summed = _in_angle_sums(eqs, still, others + free_v) if len(still) > 1 else None
-        if summed is not None:   # (the angles enter only through as many sums, one per argument: decoupled)
+        if summed is not None:   # (the angles enter only through integer combinations: solved in them)
             values, conds = summed
             conditions += conds
             for val in values:
