@@ -1223,6 +1223,8 @@ def test_values_at_a_state_exact_when_they_read_well_decimals_otherwise():
     out = _num(long)
     assert out.atoms(sp.Float) and out.free_symbols == {u2} and not out.atoms(sp.Pow)
     assert float((out - long).subs(u2, 3)) == pytest.approx(0, abs=1e-9)
+    short = -2 * s51 * (625 * u2 - 20601) / (125 * (7 * s51 + 255))   # few operations, a surd sum below
+    assert _num(short).atoms(sp.Float) and not _num(short).atoms(sp.Pow)
     M = _num(sp.Matrix([long.subs(u2, 1), 5 * sp.sqrt(1326) / 663, sp.Rational(3, 4)]))
     assert M[0].is_Float and M[1].is_Float and M[2] == sp.Rational(3, 4)
     assert float(M[1]) == pytest.approx(float(5 * sp.sqrt(1326) / 663), rel=1e-14)

@@ -1473,6 +1473,11 @@ def _surds(e: sp.Expr) -> bool:
     return any(a.is_number and not a.is_Rational for a in rest.atoms(sp.Pow, sp.Function, sp.NumberSymbol))
 
 
+def _surd_denominator(e: sp.Expr) -> bool:
+    """e divides by a sum holding an irrational number (125(7√51 + 255)): not short, however few its operations."""
+    return any(p.exp.is_negative and p.base.is_Add and _surds(p.base) for p in e.atoms(sp.Pow))
+
+
 def _num(e: Any) -> Any:
     """A value at a state for the report and the grader: exact when short (√3/2 (a4 + a5)), otherwise with
     15-digit floats (also as the coefficients of the symbols left, e.g. the inputs), whole ones as integers."""
@@ -1486,7 +1491,7 @@ def _num(e: Any) -> Any:
         return e
     ops = count_ops(e)
     short = AT_EXACT_OPS if e.free_symbols else AT_EXACT_OPS // 2
-    if not e.atoms(sp.Float) and (ops <= short or (ops <= 40 and not _surds(e))):
+    if not e.atoms(sp.Float) and not _surd_denominator(e) and (ops <= short or (ops <= 40 and not _surds(e))):
         return e
     if e.is_number:
         return sp.Float(e.evalf(15), 15)
@@ -1570,13 +1575,17 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
         add("F_at", F_at, "matrix", label="F\\big|_{*}")
         data["F"] = F_at
         eq = _equilibrium(spec, red, dm, G, u, {k: v for k, v in subs.items() if k not in dq})
-        if eq["s"].exists:
-            add("u_eq_at", eq["s"].u.applyfunc(_num), "vector", label="u_{eq}\\big|_{*}")
+        if eq["s"].exists:   # (the values as the results give them, in the report too)
+            s_ = eq["s"]
+            eq["s"] = dataclasses.replace(s_, u=_num(s_.u), u_min=_num(s_.u_min) if s_.u_min is not None else None)
+            eq["lam"] = _num(eq["lam"])
+            add("u_eq_at", eq["s"].u, "vector", label="u_{eq}\\big|_{*}")
             if eq["s"].u_min is not None:
-                add("u_eq_min_at", eq["s"].u_min.applyfunc(_num), "vector", label="u_{eq,\\min}\\big|_{*}")
-            add("lambda_eq_at", eq["lam"].applyfunc(_num), "vector", label="\\lambda_{eq}\\big|_{*}")
+                add("u_eq_min_at", eq["s"].u_min, "vector", label="u_{eq,\\min}\\big|_{*}")
+            add("lambda_eq_at", eq["lam"], "vector", label="\\lambda_{eq}\\big|_{*}")
         if eq["lam0"] is not None:
-            add("u_eq_lambda0_at", eq["lam0"].applyfunc(_num), "vector", label="u_{eq}\\big|_{*}\\ (\\lambda = 0)")
+            eq["lam0"] = _num(eq["lam0"])
+            add("u_eq_lambda0_at", eq["lam0"], "vector", label="u_{eq}\\big|_{*}\\ (\\lambda = 0)")
         data["eq"] = eq
         res = sol.results.get("u_dv" + spec.options.suffix)
         if res is not None:
