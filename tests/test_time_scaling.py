@@ -390,3 +390,43 @@ def test_torques_shown_only_when_each_row_fits_the_page():
         p = load_problem(PROBLEMS / f"{name}.yaml")
         text = render(p, solve_problem(p), "tex")
         assert ("The time-optimal torques:" in text) is shown, name
+
+
+FRICTION_1R = """
+id: ts-friction
+title: time scaling with viscous friction
+symbols:
+  m: mass of the link
+  d: distance of the center of mass from the joint axis
+  I: inertia of the link about the joint axis
+  g0: gravity acceleration
+  U: maximum absolute motor torque
+  fv: viscous friction coefficient
+values: {m: 3, d: 0.5, I: 1, g0: 9.81, U: 25, fv: 2}
+robot:
+  joints: [R]
+  coordinates: [theta]
+  model: {B: "[[I]]", U: "-m*g0*d*cos(theta)"}
+  friction: {viscous: [fv]}
+asks:
+  - kind: time_scaling
+    find: scaling
+    motion: {law: bang_bang, T: 1, initial: {q: 0}, final: {q: pi}}
+    torque_max: U
+"""
+
+
+def test_uniform_scaling_with_viscous_friction_explains_the_friction_term():
+    """With F_v q̇ the scaled torque is a/k² + f/k + g: the report writes that form (not the frictionless one), and
+    k solves the quadratic in 1/k at the binding instant: at t = 1/2 of the bang-bang motion a = 4πI, f = 2π f_v,
+    g = m g0 d, so 1/k = (−f + √(f² + 4a(U − g)))/(2a), k ≈ 1.874."""
+    p = load_problem_text(FRICTION_1R)
+    sols = solve_problem(p)
+    res = all_results(sols)
+    a, f, g, U = 4 * np.pi * 1, 2 * np.pi * 2, 3 * 9.81 * 0.5, 25
+    k = 2 * a / (-f + np.sqrt(f * f + 4 * a * (U - g)))
+    assert float(res["k"].value.xreplace(p.values)) == pytest.approx(k, rel=1e-9)
+    md, tex = render(p, sols, "md"), render(p, sols, "tex")
+    for text in (md, tex):
+        assert "+ \\frac{F_v\\dot q}{k} + g(q)" in text and "friction by $1/k$" in text
+        assert "would scale by" not in text

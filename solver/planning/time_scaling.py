@@ -576,7 +576,9 @@ class _Job:
         self.add("T_scaled", simplified(data["k"] * motion.T), label="T' = k T")
         self.add("tau_scaled_peak", sp.Matrix(data["scaled"]), label="\\tau_i(k t_i^*)")
         rows = self.at_rows(pieces, times)
-        self.sol.step("scaling", **data, peaks=peaks, U=U, rows=rows, names=motion.names, T=motion.T)
+        friction = any(x != 0 for pc in pieces for x in pc.friction)
+        self.sol.step("scaling", **data, peaks=peaks, U=U, rows=rows, names=motion.names, T=motion.T,
+                      friction=friction)
         kf = data["k_float"] if np.isfinite(data["k_float"]) else None
         marks = None
         if kf is not None:
