@@ -225,6 +225,10 @@ def test_a_term_wider_than_the_page_is_broken_inside_its_parentheses():
     assert term_parts(a * b, tex) == [tex(a * b)]
     assert term_parts(sp.sin(q1) ** 40 * sp.cos(q2) ** 40 * a**7 * b**9 * D**3 * Iy**5 * m3**2, tex) == [
         tex(sp.sin(q1) ** 40 * sp.cos(q2) ** 40 * a**7 * b**9 * D**3 * Iy**5 * m3**2)]  # no sum: one part
+    # a fraction already wider than the page before a short sum: no break inside the sum (2018-03-27-ex1's
+    # "\Big(I_p \\ + d_p^2 m_p\Big)"), one part
+    wide = dq1**2 * (Iy + d**2 * m3) / (4 * A * X**2)
+    assert term_parts(wide, tex) == [tex(wide)]
 
 
 @pytest.mark.skipif(not shutil.which("pdflatex"), reason="pdflatex not installed")
