@@ -354,3 +354,16 @@ def test_long_expressions_print_each_shared_subexpression_once(monkeypatch):
     printed.clear()
     R._fast_str(u3)   # (without a memo: everything again)
     assert num in printed
+
+
+def test_an_even_power_of_a_sum_prints_without_a_leading_minus():
+    """(−D + 2d)² is printed (D − 2d)² (2012-07-05-ex1's B), (π/3 − q1)² as (q1 − π/3)²; a base that prints
+    without a leading minus and an odd power are left as they are."""
+    from solver.publish.render import Latex
+    tex = Latex({}, {})
+    D, d, q1, x, xd = sp.symbols("D d q1 x x_d")
+    assert tex((2 * d - D) ** 2) == "\\left(D - 2 d\\right)^{2}"
+    assert tex(250 * (sp.pi / 3 - q1) ** 2) == "250 \\left(q_{1} - \\frac{\\pi}{3}\\right)^{2}"
+    assert tex((xd - x) ** 2) == "\\left(x - x_{d}\\right)^{2}"
+    assert tex(sp.sin(D - d) * (D - d) ** 2).count("\\left(D - d\\right)^{2}") == 1   # printed so already
+    assert tex((2 * d - D) ** 3).startswith("\\left(- D + 2 d\\right)^{3}")  # odd: the sign matters

@@ -116,6 +116,14 @@ class _Printer(_Memo, LatexPrinter):
             return (1.5, _STR.doprint(f))
         return (5, _STR.doprint(f))
 
+    def _print_Pow(self, expr: sp.Expr) -> str:
+        """An even power of a sum that would print with a leading minus, (−D + 2d)², as (D − 2d)²."""
+        b, e = expr.as_base_exp()
+        if b.is_Add and e.is_Integer and e > 0 and e.is_even and self._print(b).startswith("-") \
+                and not self._print(-b).startswith("-"):
+            expr = sp.Pow(-b, e, evaluate=False)
+        return super()._print_Pow(expr)
+
     def _print_Mul(self, expr: sp.Expr) -> str:
         coeff, rest = expr.as_coeff_Mul()
         factors = sp.Mul.make_args(rest)
