@@ -206,13 +206,16 @@ def conditional_equilibria(g: sp.Matrix, q: list[sp.Symbol], clean: bool = False
                 vals.append(tidy(_in_free_angles(sp.sympify(s.get(x, x)), subs)))
         if any(v.has(sp.I) for v in vals):
             continue
-        for v in vals + raw:
-            for p in v.atoms(sp.Pow):
-                if p.exp == sp.Rational(1, 2) and not p.base.is_nonnegative:
-                    conditions.append(sp.GreaterThan(p.base, 0))
+        conditions += _radicand_conditions(vals + raw)
         configs.append(sp.Matrix(vals))
     configs.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in m])
     return distinct_configurations(configs, q, set(angles)), list(dict.fromkeys(conditions)), False, requires
+
+
+def _radicand_conditions(values: list[sp.Expr]) -> list[sp.Expr]:
+    """b ≥ 0 for each square root √b in the values whose radicand b is not known to be ≥ 0."""
+    return [sp.GreaterThan(p.base, 0) for v in values for p in v.atoms(sp.Pow)
+            if p.exp == sp.Rational(1, 2) and not p.base.is_nonnegative]
 
 
 @dataclass
@@ -609,6 +612,23 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
     motions: list[SteadyMotion] = []
     conditions: list[sp.Expr] = []
     names = list(q) + list(dq) + [w if w in unknown_u else sp.Dummy() for w in u]   # a slot equal to its name is free
+
+    def keep(rotating: list, su: dict, requires: list, qs: list, vs: list, trig: dict, raw: list,
+             radicals: bool) -> None:
+        """The motion (q̄, v̄) with its inputs listed, unless an angle counted as rotating is at rest in it or a
+        value is complex; with ``radicals``, the radicands of its values (and of the cosines and sines ``raw``)
+        as conditions."""
+        if any(vs[q.index(a)] == 0 for a in rotating):
+            return  # found with that angle at rest
+        at = {x: v for x, v in zip(q, qs) if x not in trig and x != v} | {d: v for d, v in zip(dq, vs)}
+        us = [tidy(sp.expand_trig(sp.expand(su.get(w, w), trig=True)).subs(trig).subs(at))
+              if w in unknown_u else sp.sympify(w) for w in u]
+        if any(x.has(sp.I) for x in qs + vs + us + raw):
+            return
+        if radicals:
+            conditions.extend(_radicand_conditions(qs + vs + us + raw))
+        _add_motion(motions, SteadyMotion(sp.Matrix(qs), sp.Matrix(vs), sp.Matrix(us), requires), names, angles)
+
     for rotating in subsets:
         stay = {vel_sym(a, q, dq): sp.Integer(0) for a in angles
                 if a not in rotating and vel_sym(a, q, dq) not in given_v}
@@ -632,21 +652,12 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
         still = [a for a in angles if a not in rotating and any(a in x.free_symbols for x in eqs)]
         free_v = [d for x, d in zip(q, dq) if d not in given_v and d not in stay]
         summed = _in_angle_sums(eqs, still, others + free_v) if len(still) > 1 else None
-        if summed is not None:   # (the angles enter only through integer combinations: solved in them)
-            values, conds = summed
+        if summed is not None:   # (the angles enter only through integer combinations: solved in them, with
+            values, conds = summed   # their conditions)
             conditions += conds
             for val in values:
-                qs = [val.get(x, x) for x in q]
                 vs = [tidy(sp.sympify(val.get(d, vel[x].xreplace(stay)))) for x, d in zip(q, dq)]
-                if any(vs[q.index(a)] == 0 for a in rotating):
-                    continue
-                at = {x: v for x, v in zip(q, qs) if x != v} | {d: v for d, v in zip(dq, vs)}
-                us = [tidy(sp.expand_trig(sp.expand(su.get(w, w), trig=True)).subs(at)) if w in unknown_u
-                      else sp.sympify(w) for w in u]
-                if any(x.has(sp.I) for x in qs + vs + us):
-                    continue
-                _add_motion(motions, SteadyMotion(sp.Matrix(qs), sp.Matrix(vs), sp.Matrix(us), requires), names,
-                            angles)
+                keep(rotating, su, requires, [val.get(x, x) for x in q], vs, {}, [], radicals=False)
             continue
         poly, cs2 = _to_polynomial(eqs, still)
         unknowns = ([x for a in still for x in cs2[a]] + others
@@ -677,20 +688,7 @@ def steady_motions(rows: sp.Matrix, rhs: sp.Matrix, q: list[sp.Symbol], dq: list
                 else:
                     qs.append(tidy(_in_free_angles(sp.sympify(s.get(x, x)), subs)))
             vs = [tidy(_in_free_angles(sp.sympify(s.get(d, vel[x].xreplace(stay))), subs)) for x, d in zip(q, dq)]
-            if any(vs[q.index(a)] == 0 for a in rotating):
-                continue  # found with that angle at rest
-            at = {x: v for x, v in zip(q, qs) if x not in trig and x != v} | {d: v for d, v in zip(dq, vs)}
-            us = [tidy(sp.expand_trig(sp.expand(su.get(w, w), trig=True)).subs(trig).subs(at))
-                  if w in unknown_u else sp.sympify(w) for w in u]
-            allv = qs + vs + us
-            if any(x.has(sp.I) for x in allv + raw):
-                continue
-            for x in allv + raw:
-                for p in x.atoms(sp.Pow):
-                    if p.exp == sp.Rational(1, 2) and not p.base.is_nonnegative:
-                        conditions.append(sp.GreaterThan(p.base, 0))
-            _add_motion(motions, SteadyMotion(sp.Matrix(qs), sp.Matrix(vs), sp.Matrix(us), requires), names,
-                        angles)
+            keep(rotating, su, requires, qs, vs, trig, raw, radicals=True)
     motions.sort(key=lambda m: [float(sp.N(x)) if x.is_number else 0.0 for x in list(m.v) + list(m.q)])
     return motions, list(dict.fromkeys(conditions)), angles, partial
 
