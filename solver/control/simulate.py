@@ -7,10 +7,10 @@ the spec's robot with its numeric ``values`` (a regulation's ``assume:`` relatio
 with τ_ext = Σ J(q)ᵀF the regulation's ``external:`` forces (0 otherwise),
 integrated by :func:`solver.math.ode.solve` (or scipy's ``solve_ivp``, ``method:``) from (q₀, q̇₀, â₀, ξ₀ = 0)
 in chunks (the iterative law from the regulation's û₀, the same constant feedforward as its static iterates),
-within a budget of right-hand-side evaluations and wall seconds. The reference q_d(t) is any expression of t (constant, polynomial, sinusoidal, ...): its
-derivatives are taken exactly. Reported: the error e = q_d − q (or r_d − r) at the end and at its largest, the
-settling time (the instant after which ‖e‖ stays below ``settle``), the largest inputs, the final estimates; figures of
-errors, inputs and estimates.
+within a budget of right-hand-side evaluations and wall seconds. The reference q_d(t) is any expression of t
+(constant, polynomial, sinusoidal, ...): its derivatives are taken exactly. Reported: the error e = q_d − q (or
+r_d − r) at the end and at its largest, the settling time (the instant after which ‖e‖ stays below ``settle``), the
+largest inputs, the final estimates; figures of errors, inputs and estimates.
 """
 from __future__ import annotations
 

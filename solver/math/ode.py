@@ -88,7 +88,7 @@ def solve(f: Callable[[float, np.ndarray], Sequence[float]], t_span: tuple[float
             out_y.append(y.copy())
             j += 1
     if t1 == t0:
-        return OdeResult(np.array(out_t), np.array(out_y).T.reshape(len(y), -1), True, "", 0)
+        return _result(out_t, out_y, y, True, "the interval is empty", 0)
     t = t0
     k = np.empty((7, len(y)))
     k[0] = np.asarray(f(t, y), dtype=float)

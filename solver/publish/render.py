@@ -534,7 +534,7 @@ def term_parts(t: Any, tex: Callable[[Any], str], width: int = 70) -> list[str]:
     rest = sp.Mul(*factors)
     head = (f"\\frac{{{tex(rest)}}}{{{tex(d)}}}" if d != 1 else "" if rest == 1
             else f"\\left({tex(rest)}\\right)" if rest.is_Add else tex(rest))
-    if visible_length(head) > width:  # the factor before A fills the line already: no break inside a short A
+    if visible_length(head) > width:  # the factor before A overfills the line already: breaking A cannot help
         return [text]
     inner[0] = ("- " if neg else "") + head + "\\Big(" + inner[0]
     inner[-1] += "\\Big)"
