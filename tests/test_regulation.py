@@ -340,6 +340,21 @@ def test_iterative_scheme_with_symbolic_beta_and_epsilon():
     assert "is guaranteed from the first iteration $i >" in md and "iterations" not in res
 
 
+@pytest.mark.parametrize("kp, eps", [(150, "eps"), (60, "eps"), (60, "0.01")])
+def test_iterative_scheme_without_contraction(kp, eps):
+    """β = α/K_P,m ≥ ½ on the 2018-02-05 pendulum (α = m g0 d = 98.1): K_P = 150 gives ρ = α/(K_P − α) ≈ 1.89,
+    K_P = 60 < α gives ρ ≈ −2.57 (β > 1). No iteration count is given, not even as a formula (symbolic ε), and no
+    negative "bound" on a norm: the report says the gains do not contract."""
+    text = PENDULUM.replace("g0: g0}", "g0: g0, eps: accuracy}") + \
+        regulation("iterative", qd="[pi/3]", kp=kp, kd=45, q0="[0]", epsilon=eps)
+    p = load_problem_text(text)
+    sols = solve_problem(p)
+    step = next(st for st in sols[0].steps if st.name == "iterative")
+    assert not 0 <= float(step.data["rho"].xreplace(p.values)) < 1
+    assert step.data.get("no_contraction") and "i_formula" not in step.data and "imin" not in step.data
+    assert "do not guarantee a contraction" in render(p, sols, "md")
+
+
 @pytest.mark.parametrize("beta, words", [("1/2 + m", "beta must be in (0, 1/2), got m + 1/2"),
                                          ("-d", "beta must be in (0, 1/2), got -d"),
                                          ("q1/10", "beta must be in (0, 1/2)")])

@@ -1114,20 +1114,19 @@ class _Regulation:
                 eps = self.read["eps"]
                 en, rn, e1n = self._num(eps), self._num(rho), self._num(e1)
                 data["eps"] = eps
-                if en is None or rn is None or e1n is None:  # ρ^(i−1) ê₁ < ε from i > 1 + ln(ε/ê₁)/ln ρ on
+                if rn is not None and not 0 <= rn < 1:   # β ≥ ½ (ρ ≥ 1, or ρ < 0 when β > 1: K_P,m < α)
+                    data["no_contraction"] = True
+                elif en is None or rn is None or e1n is None:  # ρ^(i−1) ê₁ < ε from i > 1 + ln(ε/ê₁)/ln ρ on
                     data["i_formula"] = 1 + sp.log(eps / e1) / sp.log(rho)
                 else:
-                    if not rn < 1:
-                        data["no_contraction"] = True
-                    else:
-                        imin = iterations_needed(e1n, rn, en)
-                        rho_v, e1_v = sp.sympify(rho).xreplace(self.values), sp.sympify(e1).xreplace(self.values)
-                        bounds = [tidy(e0n.xreplace(self.values))] + [sp.nsimplify(e1_v * rho_v ** k) if not
-                                                                       (e1_v * rho_v).atoms(sp.Float) else
-                                                                       e1_v * rho_v ** k for k in range(imin)]
-                        self.add("iterations", sp.Integer(imin), "number", label="i_{\\min}")
-                        self.add("error_bounds", bounds, "list", label="\\hat e_i")
-                        data.update(imin=imin, bounds=bounds, rho_v=rho_v)
+                    imin = iterations_needed(e1n, rn, en)
+                    rho_v, e1_v = sp.sympify(rho).xreplace(self.values), sp.sympify(e1).xreplace(self.values)
+                    bounds = [tidy(e0n.xreplace(self.values))] + [sp.nsimplify(e1_v * rho_v ** k) if not
+                                                                   (e1_v * rho_v).atoms(sp.Float) else
+                                                                   e1_v * rho_v ** k for k in range(imin)]
+                    self.add("iterations", sp.Integer(imin), "number", label="i_{\\min}")
+                    self.add("error_bounds", bounds, "list", label="\\hat e_i")
+                    data.update(imin=imin, bounds=bounds, rho_v=rho_v)
             if self.all_numeric(g, self.qd, q0, u0, self.kp, allow=tuple(self.q)):
                 self._iterate(q0, u0, data)
         self.sol.step("iterative", **data)
