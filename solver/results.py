@@ -10,22 +10,43 @@ from typing import Any, Callable, Optional
 
 class Deferred:
     """A value computed when first read, in an attribute of a :class:`Resolving` object: per-body quantities are
-    printed only when a report, a check or ``--details`` reads them."""
+    printed only when a report, a check or ``--details`` reads them. ``optional``: a quantity of a part the ask
+    does not show, which a helper process does not compute to send it (:func:`sending_optional`)."""
 
-    __slots__ = ("make",)
+    __slots__ = ("make", "optional")
 
-    def __init__(self, make: Callable[[], Any]) -> None:
+    def __init__(self, make: Callable[[], Any], optional: bool = False) -> None:
         self.make = make
+        self.optional = optional
+
+
+class NotSent:
+    """In place of an optional :class:`Deferred` that a helper did not compute (reading it is a bug: the caller
+    needed it and did not ask the helpers for the optional quantities)."""
+
+    __slots__ = ()
+
+
+_SEND_OPTIONAL = [True]
+
+
+def sending_optional(send: bool) -> None:
+    """Whether pickling this process's :class:`Resolving` objects computes their optional deferred values (True)
+    or leaves them out (False: the receiver reads none of them, e.g. a report that does not show their part)."""
+    _SEND_OPTIONAL[0] = send
 
 
 class Resolving:
-    """An attribute holding a :class:`Deferred` is computed on first read and kept; pickling computes them all."""
+    """An attribute holding a :class:`Deferred` is computed on first read and kept; pickling computes them all
+    (the optional ones only while :func:`sending_optional` is on)."""
 
     def __getattribute__(self, name: str) -> Any:
         value = object.__getattribute__(self, name)
         if type(value) is Deferred:
             value = value.make()
             object.__setattr__(self, name, value)
+        elif type(value) is NotSent:
+            raise RuntimeError(f"{type(self).__name__}.{name} was not sent by the helper that solved it")
         return value
 
     def given(self, name: str) -> bool:
@@ -33,7 +54,9 @@ class Resolving:
         return object.__getattribute__(self, name) is not None
 
     def __getstate__(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in object.__getattribute__(self, "__dict__")}
+        raw = object.__getattribute__(self, "__dict__")
+        return {k: NotSent() if type(v) is Deferred and v.optional and not _SEND_OPTIONAL[0] else getattr(self, k)
+                for k, v in raw.items()}
 
 
 @dataclass

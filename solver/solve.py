@@ -10,7 +10,7 @@ from typing import Callable
 
 from solver.math.nounits import without_units
 from solver.registry import get_kind
-from solver.results import Solution
+from solver.results import Solution, sending_optional
 from solver.sandbox import HEADER, stop, write_message
 from solver.spec.errors import UserError
 from solver.spec.problem import Problem
@@ -19,7 +19,8 @@ MAX_PARALLEL_ASKS = 30000  # ask numbers are queued in one pipe write (2 bytes e
 
 
 def solve_problem(problem: Problem, solved: Callable[[int, Solution], None] | None = None, jobs: int = 1,
-                  figures: bool = False, early: Callable[[int, Solution], None] | None = None) -> list[Solution]:
+                  figures: bool = False, early: Callable[[int, Solution], None] | None = None,
+                  optional: bool = True) -> list[Solution]:
     """One :class:`Solution` per ask of ``problem`` (only the modules of its ask kinds are imported);
     ``solved(k, solution)`` is called, in the order of the asks, as soon as asks 1..k are solved (the CLI's
     painter draws their figures while the next asks are solved). With helpers, ``early(k, solution)`` is called
@@ -31,11 +32,13 @@ def solve_problem(problem: Problem, solved: Callable[[int, Solution], None] | No
     be solved in any order, by any process, with the same solutions. ``jobs`` > 1 (POSIX, three asks or more):
     the asks after the first are shared with up to ``jobs`` − 1 forked helper processes (:func:`_parallel`).
     ``figures``: the helpers sample the figures of their asks (the caller draws them); otherwise a helper's
-    figures have no panels."""
+    figures have no panels. ``optional=False``: the helpers leave out the optional deferred results (those of
+    the parts an ask does not show) instead of computing them to send them: for a report, or JSON without
+    ``--details``, which read none of them."""
     n = len(problem.asks)
     names = _Names(problem)
     if jobs > 1 and 3 <= n <= MAX_PARALLEL_ASKS and hasattr(os, "fork"):
-        out = _parallel(problem, names, solved, jobs, figures, early)
+        out = _parallel(problem, names, solved, jobs, figures, early, optional)
     else:
         out = []
         with without_units():
@@ -230,7 +233,8 @@ def _take(queue: int) -> int | None:
 
 
 def _parallel(problem: Problem, names: _Names, solved: Callable[[int, Solution], None] | None, jobs: int,
-              figures: bool, early: Callable[[int, Solution], None] | None = None) -> list[Solution]:
+              figures: bool, early: Callable[[int, Solution], None] | None = None,
+              optional: bool = True) -> list[Solution]:
     """The asks shared between this process and ``jobs`` − 1 helpers forked once the first ask is solved (they
     inherit the problem, every import and what the first ask derived). The queue is a pipe holding the ask
     numbers: each process reads the next one when it is free, so that a long ask does not hold the others back.
@@ -293,7 +297,7 @@ def _parallel(problem: Problem, names: _Names, solved: Callable[[int, Solution],
                 pid = os.fork()
                 if pid == 0:  # a helper: never returns
                     os.close(res)
-                    _helper(problem, names, queue, res_w, figures)
+                    _helper(problem, names, queue, res_w, figures, optional)
                 os.close(res_w)
                 helpers[res] = (pid, bytearray())
             while (k := _take(queue)) is not None:
@@ -322,10 +326,11 @@ def _unpack(buf: bytearray, got: list) -> None:
         got[k] = result
 
 
-def _helper(problem: Problem, names: _Names, queue: int, res: int, figures: bool) -> None:
+def _helper(problem: Problem, names: _Names, queue: int, res: int, figures: bool, optional: bool = True) -> None:
     """A forked helper: solve asks from the queue and send them (see :func:`_parallel`); exits without cleanup."""
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        sending_optional(optional)
         _die_with_parent()
         while (k := _take(queue)) is not None:
             sol, regs = names.attempt(k)

@@ -1228,3 +1228,70 @@ def test_values_at_a_state_exact_when_they_read_well_decimals_otherwise():
     M = _num(sp.Matrix([long.subs(u2, 1), 5 * sp.sqrt(1326) / 663, sp.Rational(3, 4)]))
     assert M[0].is_Float and M[1].is_Float and M[2] == sp.Rational(3, 4)
     assert float(M[1]) == pytest.approx(float(5 * sp.sqrt(1326) / 663), rel=1e-14)
+
+
+# ------------------------------------------------------------------ the terms of an unshown reduced model (lazy)
+DEFERRED_TERMS = ["reduced_inertia", "FtBFdot", "Ftn", "Ftu", "EtBF", "EtBFdot", "Etn", "Etu", "reduced_model",
+                  "vdot", "lambda_reduced"]
+
+
+def test_terms_of_an_unshown_reduced_model_are_computed_when_read():
+    """show without reduced_model: its terms are not computed by the solve (Deferred, JSON only with --details);
+    read, they equal the terms of the ask that shows them, and u_dv (its check) and the report do not need them."""
+    import json
+
+    from solver.results import Deferred
+    text = R2C + "    dv_d: 0.3\n    show: [reduced, u_dv]\n"
+    p, sols, res = solved(text)
+    full = solved(R2C + "    dv_d: 0.3\n")[2]
+    for name in DEFERRED_TERMS:
+        r = res[name]
+        assert r.detail and type(object.__getattribute__(r, "value")) is Deferred, name
+    assert res["u_dv_check"].value is True
+    assert "F^T B F" not in render(p, sols, "md")
+    plain, details = json.loads(render(p, sols, "json")), json.loads(render(p, sols, "json", details=True))
+    assert not set(DEFERRED_TERMS) & set(plain["results"])
+    for name in DEFERRED_TERMS:
+        assert sp.simplify(res[name].value - full[name].value) == 0 if res[name].kind == "scalar" else \
+            (res[name].value - full[name].value).applyfunc(sp.simplify) == sp.zeros(*full[name].value.shape)
+        assert details["results"][name]["expr"] == str(full[name].value)
+
+
+def test_check_of_the_inputs_fails_for_other_inputs_or_multipliers(monkeypatch):
+    """u_dv_check tests the residual of the constrained model in double precision: an input off by 10⁻³ on one
+    joint, or a multiplier off by 10⁻³, fails it."""
+    import solver.interaction.constraints as C
+    orig = C._inputs_check
+    for bump in ("u", "lam"):
+        def wrong(sm, redx, u, u_dv, dv_d, lam_d, bump=bump):
+            if bump == "u":
+                u_dv = u_dv + sp.Matrix([sp.Rational(1, 1000)] + [0] * (len(u_dv) - 1))
+            else:
+                lam_d = lam_d + sp.Matrix([sp.Rational(1, 1000)] * lam_d.rows)
+            return orig(sm, redx, u, u_dv, dv_d, lam_d)
+        monkeypatch.setattr(C, "_inputs_check", wrong)
+        res = all_results(solve_problem(load_problem_text(R3_K2)))
+        assert res["u_dv_check"].value is False, bump
+
+
+def test_equilibrium_at_the_state_is_the_symbolic_one_substituted(monkeypatch):
+    """At an `at:` state the equilibrium is the symbolic one with the state substituted (its pivot determinants
+    are not 0 there); solved again at the state otherwise (here forced), with the same values."""
+    import solver.interaction.constraints as C
+    q0 = start_k2()
+    state = ", ".join(f"q{i + 1}: {float(x):.17g}" for i, x in enumerate(q0)) + ", dq1: 0, dq2: 0, dq3: 0"
+    text = R3_K2 + f"    at: {{{state}}}\n"
+    names = ["u_eq_at", "u_eq_min_at", "lambda_eq_at", "u_eq_lambda0_at"]
+    calls = []
+    orig = C._equilibrium
+    monkeypatch.setattr(C, "_equilibrium", lambda *a: calls.append(a[-1] is not None) or orig(*a))
+    fast = all_results(solve_problem(load_problem_text(text)))
+    assert calls == [False]                       # the symbolic one only
+    monkeypatch.setattr(C, "_equilibrium", lambda *a: (calls.append(a[-1] is not None), orig(*a)[0], None)[1:])
+    slow = all_results(solve_problem(load_problem_text(text)))   # (no determinants: not known to hold there)
+    assert calls == [False, False, True]          # solved again at the state
+    u = list(load_problem_text(text).robot.inputs)
+    pick = dict(zip(u, [1.3, -0.7, 2.1]))
+    for name in names:
+        a, b = (np.array(sp.Matrix([r[name].value]).xreplace(pick).evalf(), float) for r in (fast, slow))
+        assert np.allclose(a, b, rtol=1e-12, atol=1e-12), name

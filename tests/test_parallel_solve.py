@@ -154,3 +154,46 @@ def test_check_of_one_file_shares_its_asks():
     r = subprocess.run([sys.executable, "-m", "solver", "check", str(SHARED_NAMES)], cwd=ROOT, capture_output=True,
                        text=True, timeout=600)
     assert r.returncode == 0 and r.stdout.strip() == f"{SHARED_NAMES}: ok", r.stdout + r.stderr
+
+
+LAZY = ("id: lazy\ntitle: t\nsymbols: {m1: m1, m2: m2, d1: d1, d2: d2, l1: l1, I1: I1, I2: I2, g0: g0, r: r}\n"
+        + R2_ROBOT + "asks:\n  - kind: dynamic_model\n    plots: false\n"
+        + "".join(f"""  - kind: constrained_dynamics
+    h: (l1*cos(q1) + l1*cos(q1 + q2))^2 + (l1*sin(q1) + l1*sin(q1 + q2))^2 - {c}*r^2
+    multiplier: false
+    show: [reduced, u_dv]
+    suffix: _{c}
+""" for c in (1, 2, 3)))
+
+
+def test_helpers_leave_out_the_optional_results_only_when_told(write):
+    """The terms of an unshown reduced model are computed by a helper to send them (verify, grading, --details
+    read them), unless ``optional=False`` (a report): then they come as NotSent, which raise when read; the
+    asks this process solved keep them deferred."""
+    from solver.results import Deferred, NotSent
+    path = write(LAZY)
+    names = [f"reduced_model_{c}" for c in (1, 2, 3)]
+    one = solve_mod.all_results(solve_mod.solve_problem(load_problem(path)))
+    sent = solve_mod.all_results(solve_mod.solve_problem(load_problem(path), jobs=2))
+    assert [sent[x].value for x in names] == [one[x].value for x in names]
+    left = solve_mod.all_results(solve_mod.solve_problem(load_problem(path), jobs=2, optional=False))
+    kinds = [type(object.__getattribute__(left[x], "value")) for x in names]
+    assert NotSent in kinds and set(kinds) <= {NotSent, Deferred}
+    for x, kind in zip(names, kinds):
+        if kind is NotSent:
+            with pytest.raises(RuntimeError, match="not sent"):
+                left[x].value
+        else:
+            assert left[x].value == one[x].value
+
+
+def test_cli_json_details_with_helpers_has_the_optional_results(write):
+    import json
+    path = write(LAZY)
+    problem = load_problem(path)
+    expected = render(problem, solve_mod.solve_problem(problem), "json", details=True)
+    r = subprocess.run([sys.executable, "-m", "solver", "solve", str(path), "-f", "json", "--details", "-j", "2"],
+                       cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == expected.strip()
+    assert "reduced_model_3" in json.loads(r.stdout)["results"]

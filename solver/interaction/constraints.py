@@ -26,7 +26,7 @@ import math
 import random
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Any, Literal, Optional, Union
+from typing import Any, Callable, Literal, Optional, Union
 
 import numpy as np
 import sympy as sp
@@ -42,7 +42,7 @@ from solver.math.simplify import (angle_symbols, divide_power, factor_within, fo
                                   fourier_sum_ops, is_zero, tidy, tidy_expanded, together)
 from solver.math.sweep import numeric_values
 from solver.registry import PropertyVerdict, ask_kind, property_check
-from solver.results import Curve, Figure, Panel, Solution
+from solver.results import Curve, Deferred, Figure, Panel, Resolving, Solution
 from solver.spec.errors import UserError
 from solver.spec.expr import as_written, shape_of
 from solver.spec.models import Strict
@@ -93,7 +93,8 @@ class ConstrainedDynamicsAsk(Strict):
     show: list[Literal["model", "constraints", "multiplier", "reduced", "reduced_model", "u_dv", "equilibrium",
                        "at", "simulation"]] = Field(
         ["model", "constraints", "multiplier", "reduced", "reduced_model", "u_dv", "equilibrium", "at", "simulation"],
-        description="which parts to explain in the report (the results are computed anyway)")
+        description="which parts to explain in the report (the results are computed anyway, except the terms of "
+                    "an unshown reduced_model: computed when read, in JSON with --details)")
     suffix: str = Field("", pattern=r"^[A-Za-z0-9_]*$",
                         description="appended to every result name (several asks in one problem)")
 
@@ -719,11 +720,21 @@ def multiplier(B: sp.Matrix, nvec: sp.Matrix, Gu: sp.Matrix, A: sp.Matrix, Adot:
 
 def multiplier_numeric(B: sp.Matrix, nvec: sp.Matrix, Gu: sp.Matrix, A: sp.Matrix, Adot: sp.Matrix,
                        dq: sp.Matrix) -> sp.Matrix:
-    """λ = (A B⁻¹ Aᵀ)⁻¹ (A B⁻¹ (n − G u) − Ȧ q̇) at a state (u may stay symbolic: it enters linearly)."""
+    """λ = (A B⁻¹ Aᵀ)⁻¹ (A B⁻¹ (n − G u) − Ȧ q̇) at a state (u may stay symbolic: it enters linearly); in 30-digit
+    floats when the state leaves sines or cosines of numbers (cos(3/10): nothing exact to gain, and the exact
+    inverse would be simplified for minutes)."""
+    if _transcendental(B, nvec, Gu, A, Adot):
+        B, nvec, Gu, A, Adot, dq = (M.evalf(30) for M in (B, nvec, Gu, A, Adot, dq))
     Binv = B.inv()
     W = A * Binv * A.T
     return (W.inv() * (A * Binv * (nvec - Gu) - Adot * dq)).applyfunc(
         lambda x: rtidy(x) if x.free_symbols and not x.atoms(sp.Float) else sp.expand(x))
+
+
+def _transcendental(*exprs: sp.Basic) -> bool:
+    """Some expression (or matrix entry) holds the sine, cosine or tangent of a number other than a rational
+    multiple of π (which sympy would have evaluated): cos(3/10) at a state given in decimals."""
+    return any(f.args[0].is_number for e in exprs for f in e.atoms(sp.sin, sp.cos, sp.tan))
 
 
 def choose_complement(A: sp.Matrix, q: list[sp.Symbol]) -> tuple[sp.Matrix, list[int], sp.Expr]:
@@ -758,8 +769,9 @@ def selected_coordinates(D: sp.Matrix) -> list[int] | None:
 
 
 @dataclass
-class Reduction:
-    """[A; D]⁻¹ = [E F] (E = N_E/det, F = N_F/det) and the terms of the reduced model, in (q, q̇) and in (q, v)."""
+class Reduction(Resolving):
+    """[A; D]⁻¹ = [E F] (E = N_E/det, F = N_F/det) and the terms of the reduced model, in (q, q̇) and in (q, v);
+    those from FtBF to lam may be :class:`Deferred` (computed when read)."""
 
     D: sp.Matrix
     AD: sp.Matrix
@@ -791,17 +803,20 @@ class Reduction:
     singular: list[sp.Matrix] = field(default_factory=list)
     singular_every: bool = False
     singular_done: bool = False
+    equilibrium: tuple[dict[str, Any], tuple[sp.Expr, ...] | None] | None = field(
+        default=None, metadata={"json": False})  # _equilibrium's symbolic result and where it holds
 
 
 def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None, Gu: sp.Matrix, A: sp.Matrix,
                  D: sp.Matrix, q: list[sp.Symbol], dq: list[sp.Symbol], ddq: list[sp.Symbol], v: sp.Matrix,
-                 dv: sp.Matrix, frozen: dict[sp.Symbol, sp.Expr] | None = None) -> Reduction:
+                 dv: sp.Matrix, frozen: dict[sp.Symbol, sp.Expr] | None = None, defer: bool = False) -> Reduction:
     """The reduced model with the complement D (see the module doc), n = c + g + F_v q̇. ``frozen``: q_b -> q_b,d
     and q̇_b -> 0 substituted in the reduced terms (on the constraint: Fᵀn is n_a(q_a, q_b,d, q̇_a, 0)).
 
     Everything is written over powers of δ = det [A; D]: E = N_E/δ, F = N_F/δ, Ḟ = (Ṅ_F δ − N_F δ̇)/δ²; along the
     constraint q̇ = N_F v/δ, so (with primes for Ṅ_F, δ̇ evaluated at q̇ = N_F v) Ḟ v = (Ṅ_F' δ − N_F δ̇') v/δ³ and
-    δ² n = δ² g + δ F_v N_F v + c(q, N_F v), whence numerators that are polynomials."""
+    δ² n = δ² g + δ F_v N_F v + c(q, N_F v), whence numerators that are polynomials. ``defer``: the terms of the
+    reduced model (FᵀBF ... λ) computed when first read (optional: a part the report does not show)."""
     k = A.rows
     AD = A.col_join(D)
     det = tidy_expanded(AD.det())
@@ -824,25 +839,31 @@ def reduce_model(B: sp.Matrix, c: sp.Matrix, g: sp.Matrix, Fv: sp.Matrix | None,
     nvec = c + g + (Fv * dqv if Fv is not None else sp.zeros(B.rows, 1))
     Bz, NFz, NEz, detz, NFdotz = z(B), z(NF), z(NE), z(det), z(NFdot)
     BF = over(Bz * NFz, detz)
-    FtBF = over(NFz.T * Bz * NFz, detz ** 2)
-    FtBFdot, EtBFdot = over(NFz.T * Bz * NFdotz, detz ** 3), over(NEz.T * Bz * NFdotz, detz ** 3)
-    Ftn, Ftu, Etn, Etu = over(z(NF.T * nvec), detz), over(z(NF.T * Gu), detz), over(z(NE.T * nvec), detz), \
-        over(z(NE.T * Gu), detz)
-    EtBF = over(NEz.T * Bz * NFz, detz ** 2)
     # along the constraint: q̇ = N_F v/δ
     w = NF * v
     on_w = dict(zip(dq, w))
     Fdv = z((NFd.xreplace(on_w) * det - NF * detd.xreplace(on_w)) * v)          # δ³ Ḟ v
     n2 = z(det ** 2 * g + (det * Fv * w if Fv is not None else sp.zeros(B.rows, 1)) + c.xreplace(on_w))  # δ² n
     Gz = z(Gu)
-    model = over(detz ** 2 * NFz.T * Bz * NFz * dv + NFz.T * Bz * Fdv + detz * NFz.T * n2
-                 - detz ** 3 * NFz.T * Gz, detz ** 4)
-    lam = over(detz ** 2 * NEz.T * Bz * NFz * dv + NEz.T * Bz * Fdv + detz * NEz.T * n2
-               - detz ** 3 * NEz.T * Gz, detz ** 4)
-    vdot = None
-    if NF.cols == 1:  # one pseudo-velocity: v̇ = Fᵀ(Gu − n − BḞv)/FᵀBF (for more, a linear system in v̇)
+
+    def later(make: Callable[[], sp.Matrix]) -> sp.Matrix | Deferred:
+        return Deferred(make, optional=True) if defer else make()
+
+    FtBF = later(lambda: over(NFz.T * Bz * NFz, detz ** 2))
+    FtBFdot = later(lambda: over(NFz.T * Bz * NFdotz, detz ** 3))
+    EtBFdot = later(lambda: over(NEz.T * Bz * NFdotz, detz ** 3))
+    Ftn, Ftu = later(lambda: over(z(NF.T * nvec), detz)), later(lambda: over(z(NF.T * Gu), detz))
+    Etn, Etu = later(lambda: over(z(NE.T * nvec), detz)), later(lambda: over(z(NE.T * Gu), detz))
+    EtBF = later(lambda: over(NEz.T * Bz * NFz, detz ** 2))
+    model = later(lambda: over(detz ** 2 * NFz.T * Bz * NFz * dv + NFz.T * Bz * Fdv + detz * NFz.T * n2
+                               - detz ** 3 * NFz.T * Gz, detz ** 4))
+    lam = later(lambda: over(detz ** 2 * NEz.T * Bz * NFz * dv + NEz.T * Bz * Fdv + detz * NEz.T * n2
+                             - detz ** 3 * NEz.T * Gz, detz ** 4))
+
+    def vdot_() -> sp.Matrix:  # one pseudo-velocity: v̇ = Fᵀ(Gu − n − BḞv)/FᵀBF (for more, a linear system in v̇)
         M = tidy_expanded((NFz.T * Bz * NFz)[0])   # δ² FᵀBF
-        vdot = over(detz ** 3 * NFz.T * Gz - detz * NFz.T * n2 - NFz.T * Bz * Fdv, M * detz ** 2)
+        return over(detz ** 3 * NFz.T * Gz - detz * NFz.T * n2 - NFz.T * Bz * Fdv, M * detz ** 2)
+    vdot = later(vdot_) if NF.cols == 1 else None
     on_v = dict(zip(dq, F * v))
     return Reduction(D, AD, det, E, F, v, dv, v_def, dv_def, Fdot, qddot, BF, FtBF, FtBFdot, Ftn, Ftu, EtBF,
                      EtBFdot, Etn, Etu, on_v, model, vdot, lam, NF, Fdv, n2)
@@ -864,6 +885,8 @@ class Inputs:
     free: list[sp.Symbol]
     u_min: sp.Matrix | None
     exists: bool
+    dets: tuple[sp.Expr, ...] = field(default=(), metadata={"json": False})  # u (u_min) holds where det M_p
+                                                                             # (det M Mᵀ) is not 0
 
 
 def _powers(d: sp.Expr) -> tuple[sp.Integer, dict[sp.Expr, int]]:
@@ -938,7 +961,8 @@ def solve_inputs(M: sp.Matrix, b: sp.Matrix, u: list[sp.Symbol]) -> Inputs:
         MMt = (M * M.T).applyfunc(tidy_expanded)
         d = tidy_expanded(MMt.det())
         u_min = over(M.T * (MMt.adjugate() if r > 1 else sp.eye(1)) * b, d)
-    return Inputs(sp.Matrix(sol), [u[j] for j in free], u_min, True)
+    dets = (det,) + ((d,) if u_min is not None else ())
+    return Inputs(sp.Matrix(sol), [u[j] for j in free], u_min, True, dets)
 
 
 # ------------------------------------------------------------------------------------------------ the ask
@@ -1207,14 +1231,20 @@ class Atoms:
         return self._visit(sp.sympify(M))
 
     def restore(self, obj: Any) -> Any:
-        """``obj`` (sympy objects, dataclasses, dicts, lists) with the parameters put back."""
+        """``obj`` (sympy objects, dataclasses, dicts, lists) with the parameters put back; a :class:`Deferred`
+        (value or field) stays one."""
         if not self.back:
             return obj
         if isinstance(obj, (sp.Basic, sp.MatrixBase)):
             return obj.xreplace(self.back)
+        if type(obj) is Deferred:
+            return Deferred(lambda: self.restore(obj.make()), obj.optional)
         if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-            return dataclasses.replace(obj, **{f.name: self.restore(getattr(obj, f.name))
-                                               for f in dataclasses.fields(obj) if f.init})
+            def field_of(name: str) -> Any:  # (a deferred field not computed: restored when read)
+                raw = object.__getattribute__(obj, name)
+                return Deferred(lambda: self.restore(getattr(obj, name)), raw.optional) if type(raw) is Deferred \
+                    else self.restore(raw)
+            return dataclasses.replace(obj, **{f.name: field_of(f.name) for f in dataclasses.fields(obj) if f.init})
         if isinstance(obj, dict):
             return {self.restore(k): self.restore(v) for k, v in obj.items()}
         if isinstance(obj, (list, tuple)):
@@ -1291,7 +1321,15 @@ def solve_constrained_dynamics(problem, options: ConstrainedDynamicsAsk, ctx) ->
     sol = Solution("constrained_dynamics", title=options.title or "Constrained dynamics")
     atoms = Atoms(set(problem.symbols.values()))
 
-    def add(name: str, value: Any, kind: str | None = None, label: str = "") -> None:
+    def add(name: str, value: Any, kind: str | None = None, label: str = "",
+            shape: tuple[int, int] | None = None) -> None:
+        """A result; a Deferred matrix (restored when computed, its ``shape`` given) computed when read: JSON only
+        with --details."""
+        if type(value) is Deferred:
+            if shape == (1, 1):
+                value, kind = Deferred(lambda m=value.make: m()[0], value.optional), "scalar"
+            sol.add(name + sfx, value, kind, label=label, detail=True)
+            return
         value = atoms.restore(value)
         if isinstance(value, sp.MatrixBase) and value.shape == (1, 1):  # one constraint, one pseudo-velocity
             value, kind = value[0], "scalar"
@@ -1360,7 +1398,8 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
     else:
         D, Dx, free, det_S = spec.D, sm.D, selected_coordinates(spec.D), None
     v, dv = _pseudo(problem, spec, D)
-    redx = reduce_model(sm.B, sm.c, sm.g, sm.Fv, sm.Gu, sm.A, Dx, q, dq, ddq, v, dv, sm.frozen)
+    defer = "reduced_model" not in spec.options.show  # (its terms computed when read: --details, a check)
+    redx = reduce_model(sm.B, sm.c, sm.g, sm.Fv, sm.Gu, sm.A, Dx, q, dq, ddq, v, dv, sm.frozen, defer=defer)
     red = atoms.restore(redx)
     sing, every, done = _singular(sp.Matrix([[red.det]]), q, 1)
     red.singular, red.singular_every, red.singular_done = sing, every, done
@@ -1374,18 +1413,21 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
     add("Fdot", red.Fdot, "matrix", label="\\dot F(q,\\dot q)")
     add("qddot", red.qddot, "vector", label="F\\dot v + \\dot F v")
     add("BF", red.BF, "matrix", label="B F")
-    add("reduced_inertia", red.FtBF, "matrix", label="F^T B F")
-    add("FtBFdot", red.FtBFdot, "matrix", label="F^T B \\dot F")
-    add("Ftn", red.Ftn, "vector", label="F^T n")
-    add("Ftu", red.Ftu, "vector", label="F^T G u")
-    add("EtBF", red.EtBF, "matrix", label="E^T B F")
-    add("EtBFdot", red.EtBFdot, "matrix", label="E^T B \\dot F")
-    add("Etn", red.Etn, "vector", label="E^T n")
-    add("Etu", red.Etu, "vector", label="E^T G u")
-    add("reduced_model", red.model, "vector", label="F^T B F\\dot v + F^T(n + B\\dot F v) - F^T G u")
-    if red.vdot is not None:
-        add("vdot", red.vdot, "vector", label="\\dot v(q, v, u)")
-    add("lambda_reduced", red.lam, "vector", label="\\lambda(q, v, \\dot v, u)")
+    r = n - k  # (the terms of the reduced model: Deferred when its part is not shown)
+    for name, attr, kind, label, shape in (
+            ("reduced_inertia", "FtBF", "matrix", "F^T B F", (r, r)),
+            ("FtBFdot", "FtBFdot", "matrix", "F^T B \\dot F", (r, r)), ("Ftn", "Ftn", "vector", "F^T n", (r, 1)),
+            ("Ftu", "Ftu", "vector", "F^T G u", (r, 1)), ("EtBF", "EtBF", "matrix", "E^T B F", (k, r)),
+            ("EtBFdot", "EtBFdot", "matrix", "E^T B \\dot F", (k, r)), ("Etn", "Etn", "vector", "E^T n", (k, 1)),
+            ("Etu", "Etu", "vector", "E^T G u", (k, 1)),
+            ("reduced_model", "model", "vector", "F^T B F\\dot v + F^T(n + B\\dot F v) - F^T G u", (r, 1)),
+            ("vdot", "vdot", "vector", "\\dot v(q, v, u)", (r, 1)),
+            ("lambda_reduced", "lam", "vector", "\\lambda(q, v, \\dot v, u)", (k, 1))):
+        if not red.given(attr):
+            continue
+        raw = object.__getattribute__(red, attr)
+        add(name, Deferred(lambda a=attr: getattr(red, a), raw.optional) if type(raw) is Deferred else raw, kind,
+            label=label, shape=shape)
     if done:
         add("reduction_singular", sing, "set", label="q:\\ \\det [A; D] = 0")
     const_det = not (red.det.free_symbols & set(q))
@@ -1412,25 +1454,24 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
         Fz = redx.F.xreplace(fz) if fz else redx.F
         Gz = sm.G.xreplace(fz) if fz else sm.G
         sol_dv = solve_inputs(rtidy_matrix(Fz.T * Gz), over(NF.T * rhs_num, det ** 4), u)
-    sol_dv = atoms.restore(sol_dv)
+    solx, sol_dv = sol_dv, atoms.restore(sol_dv)
     check, lam_dv, u_dv = None, None, None
     if sol_dv.exists:
         u_dv = sol_dv.u_min if sol_dv.free and sol_dv.u_min is not None else sol_dv.u
         add("u_dv", u_dv, "vector",
             label="u\\,(\\dot v = \\dot v_d" + (", \\lambda = \\lambda_d)" if lam_given else ")"))
-        back = dict(zip(u, u_dv)) | dict(zip(list(red.dv), list(dv_d)))
-        lam_dv = red.lam.xreplace(back)
-        check = all(_zero(x) for x in red.model.xreplace(back)) and (
-            not lam_given or all(_zero(a - b) for a, b in zip(lam_dv, lam_d)))
+        check = _inputs_check(sm, redx, u, solx.u_min if solx.free and solx.u_min is not None else solx.u,
+                              atoms(dv_d), lamx if lam_given else None)
         add("u_dv_check", bool(check), "bool", label="\\text{reduced model gives } \\dot v = \\dot v_d")
         if not lam_given:
-            lam_dv = lam_dv.applyfunc(rtidy)
+            back = dict(zip(u, u_dv)) | dict(zip(list(red.dv), list(dv_d)))
+            lam_dv = red.lam.xreplace(back).applyfunc(rtidy)
             add("lambda_dv", lam_dv, "vector", label="\\lambda\\ (u = u_{dv})")
         else:
             lam_dv = None
     sol.step("u_dv", u=u_dv, dv_d=dv_d, lam_d=lam_d, lam_given=lam_given, s=sol_dv, check=check, lam_dv=lam_dv,
              m=m, n=n, k=k, G=dm.G)
-    eq = _equilibrium(spec, red, dm, dm.G if dm.G is not None else sp.eye(n), u, None)
+    eq, dets = _equilibrium(spec, red, dm, dm.G if dm.G is not None else sp.eye(n), u, None)
     if eq["s"].exists:
         add("u_eq", eq["s"].u, "vector", label="u_{eq}(q)")
         if eq["s"].u_min is not None:
@@ -1439,7 +1480,34 @@ def _reduce(problem, spec: _Spec, sol: Solution, add, sm: SymModel, atoms: Atoms
     if eq["lam0"] is not None:
         add("u_eq_lambda0", eq["lam0"], "vector", label="u_{eq}\\ (\\lambda = 0)")
     sol.step("equilibrium", e=eq, at=False, G=dm.G, k=k)
+    red.equilibrium = eq, dets
     return red
+
+
+def _inputs_check(sm: SymModel, redx: Reduction, u: list[sp.Symbol], u_dv: sp.Matrix, dv_d: sp.Matrix,
+                  lam_d: sp.Matrix | None, points: int = 3) -> bool:
+    """u_dv gives v̇ = v̇_d (and λ = λ_d when given), all in the atomized symbols: with q̇ = F v, q̈ = F v̇_d + Ḟ v
+    and ρ = B q̈ + n − G u_dv (= Aᵀλ), Fᵀρ = 0 and Eᵀρ = λ_d on the unsimplified expressions, at the frozen
+    values, at random points in double precision (|value| ≤ 10⁻⁹ of its size, see :func:`_value`); 30 digits
+    (:func:`solver.math.equivalence.numeric_zero`) for an expression outside :func:`_value`."""
+    from solver.math.equivalence import numeric_zero
+    fz = dict(sm.frozen)
+    on_v = {x: val.xreplace(fz) for x, val in redx.on_v.items()}
+    qdd = redx.F * dv_d + redx.Fdot.xreplace(on_v) * redx.v
+    rho = (sm.B * qdd + sm.nvec.xreplace(on_v) - sm.Gu.xreplace(dict(zip(u, u_dv)))).xreplace(fz)
+    F, E = redx.F.xreplace(fz), redx.E.xreplace(fz)
+    zero = [*(F.T * rho)] + ([*(E.T * rho - lam_d)] if lam_d is not None else [])
+    symbols = sorted(set().union(*(x.free_symbols for x in zero)), key=lambda x: x.name)
+    rng = random.Random(11)
+    tries = [{x: rng.uniform(0.3, 1.7) for x in symbols} for _ in range(points)]
+    for x in zero:
+        try:
+            if any(abs(_value(x, p)) > 1e-9 * _value(x, p, size=True) for p in tries):
+                return False
+        except (_NoValue, OverflowError, ZeroDivisionError):
+            if not numeric_zero(x):
+                return False
+    return True
 
 
 def _arbitrary(configs: list[sp.Matrix], q: list[sp.Symbol]) -> bool:
@@ -1448,9 +1516,10 @@ def _arbitrary(configs: list[sp.Matrix], q: list[sp.Symbol]) -> bool:
 
 
 def _equilibrium(spec: _Spec, red: Reduction, dm, G: sp.Matrix, u: list[sp.Symbol],  # type: ignore[no-untyped-def]
-                 subs: dict | None) -> dict[str, Any]:
+                 subs: dict | None) -> tuple[dict[str, Any], tuple[sp.Expr, ...] | None]:
     """At rest (q̇ = 0, v̇ = 0): every u with Fᵀ(G u − g) = 0, the minimum-norm one, λ = Eᵀ(g − G u), and the u
-    with λ = 0 (G u = g)."""
+    with λ = 0 (G u = g); and the determinants whose being non-zero makes both solutions hold (None: one does
+    not exist)."""
     s = {**(subs or {}), **{x: val.xreplace(subs or {}) for x, val in spec.frozen.items()}}  # (q_b,d's value)
     F, E, g, Gs = (red.F.xreplace(s), red.E.xreplace(s), dm.g.xreplace(s), G.xreplace(s))
     M, b = rtidy_matrix(F.T * Gs), (F.T * g).applyfunc(rtidy)
@@ -1458,7 +1527,26 @@ def _equilibrium(spec: _Spec, red: Reduction, dm, G: sp.Matrix, u: list[sp.Symbo
     lam = (E.T * (g - Gs * sol.u)).applyfunc(rtidy) if sol.exists else None
     l0 = solve_inputs(Gs, g, u)
     lam0 = l0.u if l0.exists and not l0.free else (l0.u_min if l0.exists else None)
-    return {"s": sol, "lam": lam, "lam0": lam0, "M": M, "b": b, "g": g.applyfunc(rtidy)}
+    dets = sol.dets + l0.dets if sol.exists and l0.exists else None
+    return {"s": sol, "lam": lam, "lam0": lam0, "M": M, "b": b, "g": g.applyfunc(rtidy)}, dets
+
+
+def _equilibrium_at(spec: _Spec, red: Reduction, dm, G: sp.Matrix, u: list[sp.Symbol],  # type: ignore[no-untyped-def]
+                    subs: dict) -> dict[str, Any]:
+    """:func:`_equilibrium` at a state: the symbolic one with the state substituted where it holds there (both
+    systems solvable everywhere, their pivot determinants, and det M Mᵀ of u_min, not 0 at the state: the
+    generic rank); solved again at the state otherwise."""
+    eq, dets = red.equilibrium or ({}, None)
+    s = {**subs, **{x: val.xreplace(subs) for x, val in spec.frozen.items()}}
+    if dets is None or not all(_nonzero(d.xreplace(s)) for d in dets):
+        return _equilibrium(spec, red, dm, G, u, subs)[0]
+
+    def at(M: sp.Matrix | None) -> sp.Matrix | None:
+        return None if M is None else M.xreplace(s).applyfunc(_exact)
+
+    sol = dataclasses.replace(eq["s"], u=at(eq["s"].u), u_min=at(eq["s"].u_min))
+    return {**eq, "s": sol, "lam": at(eq["lam"]), "lam0": at(eq["lam0"]), "M": at(eq["M"]), "b": at(eq["b"]),
+            "g": at(eq["g"])}
 
 
 AT_EXACT_OPS = 12  # a value at a state with radicals stays exact up to this size (√3/2 (a4 + a5)); a number up
@@ -1505,9 +1593,19 @@ def _num(e: Any) -> Any:
 
 def _evaluate(M: sp.Matrix, subs: dict) -> sp.Matrix:
     """M at a state: exact when the values are exact (radicals simplified), entries tidied."""
-    out = M.xreplace(subs)
-    return _num(out.applyfunc(lambda x: sp.nsimplify(x) if x.is_number and not x.atoms(sp.Float)
-                              else (rtidy(x) if x.free_symbols else x)))
+    return _num(M.xreplace(subs).applyfunc(_exact))
+
+
+def _exact(x: sp.Expr) -> sp.Expr:
+    """A value at a state simplified: a number without floats by nsimplify (radicals; a rational as it is), an
+    expression by :func:`rtidy`; in 30-digit floats where sines or cosines of numbers are left (cos(3/10))."""
+    if x.is_Rational:
+        return x
+    if _transcendental(x):  # (nothing exact to gain: its decimals)
+        return x.evalf(30)
+    if x.is_number and not x.atoms(sp.Float):
+        return sp.nsimplify(x)
+    return rtidy(x) if x.free_symbols else x
 
 
 def _implied(problem, spec: _Spec) -> dict[sp.Symbol, sp.Expr]:  # type: ignore[no-untyped-def]
@@ -1574,7 +1672,7 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
         F_at = _evaluate(red.F, subs)
         add("F_at", F_at, "matrix", label="F\\big|_{*}")
         data["F"] = F_at
-        eq = _equilibrium(spec, red, dm, G, u, {k: v for k, v in subs.items() if k not in dq})
+        eq = _equilibrium_at(spec, red, dm, G, u, {k: v for k, v in subs.items() if k not in dq})
         if eq["s"].exists:   # (the values as the results give them, in the report too)
             s_ = eq["s"]
             eq["s"] = dataclasses.replace(s_, u=_num(s_.u), u_min=_num(s_.u_min) if s_.u_min is not None else None)
@@ -1592,7 +1690,8 @@ def _at_state(problem, spec: _Spec, sol: Solution, add, dm, nvec, G, u, Adot, re
             vsubs = dict(zip(list(red.v), list((red.D * sp.Matrix(dq)).xreplace(subs))))
             val = res.value if isinstance(res.value, sp.MatrixBase) else sp.Matrix([res.value])
             u_at = val.xreplace(vsubs).xreplace(subs).applyfunc(
-                lambda x: _num(sp.nsimplify(x)) if x.is_number and not x.atoms(sp.Float) else _num(rtidy(x)))
+                lambda x: _num(x if x.is_Rational else x.evalf(30) if _transcendental(x) else sp.nsimplify(x)
+                               if x.is_number and not x.atoms(sp.Float) else rtidy(x)))
             add("u_dv_at", u_at, "vector", label="u_{dv}\\big|_{*}")
             data["u_dv"] = u_at
             data["v"] = _evaluate(red.D * sp.Matrix(dq), subs)

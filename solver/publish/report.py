@@ -43,7 +43,8 @@ def solve_job(spec: Path, fmt: str, output: Path | None, fragment: bool, templat
                 painter.cancel()
         drawing = painter is not None and output is not None
         solutions = solve_problem(problem, solved if drawing else None, jobs=jobs or cores(),
-                                  figures=painter is not None, early=early if drawing else None)
+                                  figures=painter is not None, early=early if drawing else None,
+                                  optional=details)
         text = render(problem, solutions, fmt, fragment=fragment, template_dir=templates, details=details)
         if painter:
             painter.wait()
