@@ -233,12 +233,14 @@ def test_a_term_wider_than_the_page_is_broken_inside_its_parentheses():
 
 @pytest.mark.skipif(not shutil.which("pdflatex"), reason="pdflatex not installed")
 @pytest.mark.parametrize("name", ["2012-07-05-ex1", "2020-09-11-remote-ex4", "2020-04-15-remote-midterm-ex5",
-                                  "2016-09-12-ex1"])
+                                  "2016-09-12-ex1", "2017-06-06-ex1", "2018-07-11-ex3", "2020-09-11-remote-ex3"])
 def test_long_entries_stay_inside_the_page(tmp_path, name):
     """The rational model's kinetic energies and the constrained model's long entries are broken inside their
     fractions' parentheses; a 3x3 inertia matrix shown beside c and g too wide for one line is written entry by
-    entry, and a matrix with long entries has them on several lines: no line of these reports runs past the
-    right margin (before: up to 1896 pt, 1601 pt for the 3x3 inertia matrix)."""
+    entry, and a matrix with long entries has them on several lines; J# and q̇_ps(q) are two displays, a long
+    null-space motion is displayed, a task's 2x2 Jacobian too (no longer in the sentence): no line of these
+    reports runs past the right margin (before: up to 1896 pt, 1601 pt for the 3x3 inertia matrix, 243 pt for
+    J# beside q̇_ps, 203 pt for the inline null-space motions, 101 pt for the inline Jacobian)."""
     p = load_problem(PROBLEMS / f"{name}.yaml")
     (tmp_path / "r.tex").write_text(render(p, solve_problem(p), "tex"))
     r = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "r.tex"], cwd=tmp_path,
@@ -367,3 +369,26 @@ def test_an_even_power_of_a_sum_prints_without_a_leading_minus():
     assert tex((xd - x) ** 2) == "\\left(x - x_{d}\\right)^{2}"
     assert tex(sp.sin(D - d) * (D - d) ** 2).count("\\left(D - d\\right)^{2}") == 1   # printed so already
     assert tex((2 * d - D) ** 3).startswith("\\left(- D + 2 d\\right)^{3}")  # odd: the sign matters
+
+
+def test_a_formula_too_wide_for_a_sentence_is_displayed_in_latex_only():
+    """``inline``: $lhs = value$ in the sentence when it fits (about half a line); in LaTeX a wider one is
+    displayed, a long sum broken into lines and a wide matrix entry by entry (named after lhs without its
+    arguments); Markdown keeps every formula inline."""
+    from solver.publish.render import Latex, inline
+    a, b, q1, q2 = sp.symbols("a b q1 q2")
+    tex = Latex({}, {})
+    short = a * sp.cos(q1)
+    assert inline(short, "U", tex, "tex", ",") == f"$U = {tex(short)}$,"
+    long_sum = sp.expand((a + b + 1) ** 4 * sp.cos(q1 + q2))
+    out = inline(long_sum, "U", tex, "tex", ".")
+    assert out.startswith(("\\[U = ", "\\begin{multline*}\nU = ")) and "$" not in out and out.count("\\\\") >= 2
+    wide = sp.Matrix([[long_sum, a], [a, b]])
+    out = inline(wide, "J(q)", tex, "tex", ".")
+    assert "{J}_{11} = " in out and "{J}_{22} = b" in out
+    row = sp.Matrix([[a * sp.sin(q1), a * sp.cos(q1) + b, 0, a * b, b * sp.cos(q2), a]])
+    assert inline(row, "r", tex, "tex").startswith("\\[r = \\begin{bmatrix}")
+    square = sp.Matrix([[a * sp.sin(q1) + b * sp.cos(q2) + a * b * sp.cos(q1), a * b], [b, a + b]])  # tall
+    assert inline(square, "J", tex, "tex") == f"\\[J = {tex(square)}\\]"
+    assert inline(square[0, :], "J", tex, "tex") == f"$J = {tex(square[0, :])}$"
+    assert inline(long_sum, "U", tex, "md", ".") == f"$U = {tex(long_sum)}$."

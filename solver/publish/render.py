@@ -789,6 +789,30 @@ def written(x: Any, tex: Callable[[Any], str]) -> str:
     return mantissa + (f" \\cdot 10^{{{int(exponent)}}}" if exponent else "")
 
 
+INLINE_WIDTH = 44  # printed characters of a formula in a sentence (a line holds about 80), past which it is displayed
+INLINE_MATRIX_WIDTH = 24  # the same for a matrix of several rows (tall, and never broken across lines)
+
+
+def inline(value: Any, lhs: str, tex: Callable[[Any], str], fmt: str, punct: str = "", entry: str = "",
+           width: int = INLINE_WIDTH) -> str:
+    """``$lhs = value$punct`` in a sentence; in LaTeX, displayed by :func:`equation` (broken into lines, a matrix
+    entry by entry as ``entry``_ij: by default lhs without its arguments) when wider than ``width`` printed
+    characters (a matrix by its columns, a fraction by its wider line; a matrix of several rows past
+    INLINE_MATRIX_WIDTH), which the line could not hold. Markdown keeps it inline (its viewers wrap)."""
+    text = tex(value)
+    if fmt == "tex":
+        size = visible_length(lhs) + 3
+        if isinstance(value, sp.MatrixBase) and value.rows * value.cols:
+            size += matrix_width([[tex(value[i, j]) for j in range(value.cols)] for i in range(value.rows)])
+            width = min(width, INLINE_MATRIX_WIDTH) if value.rows > 1 else width
+        else:
+            size += printed_width(text)
+        if size > width:
+            name = entry or "{" + re.sub(r"\(.*?\)", "", lhs.split("=")[0]).strip() + "}"
+            return equation(value, lhs, name, tex, punct)
+    return f"${lhs} = {text}${punct}"
+
+
 def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
          rank: dict[sp.Symbol, int] | None = None) -> jinja2.Environment:
     """The report environment of one problem: :func:`template_env` plus its symbols' LaTeX printing."""
@@ -805,6 +829,8 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
                                                                           punct)
     env.filters["equations"] = lambda items, sep=", \\qquad ", punct="": equations(items, env.filters["tex"], sep,
                                                                                     punct)
+    env.filters["inline"] = lambda value, lhs, punct="", entry="": inline(value, lhs, env.filters["tex"], fmt, punct,
+                                                                          entry)
     env.globals["sp"] = sp
     return env
 
