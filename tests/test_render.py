@@ -392,3 +392,15 @@ def test_a_formula_too_wide_for_a_sentence_is_displayed_in_latex_only():
     assert inline(square, "J", tex, "tex") == f"\\[J = {tex(square)}\\]"
     assert inline(square[0, :], "J", tex, "tex") == f"$J = {tex(square[0, :])}$"
     assert inline(long_sum, "U", tex, "md", ".") == f"$U = {tex(long_sum)}$."
+
+
+def test_whole_decimals_print_as_integers():
+    """sympy's Float(2.0) == 2 is False: the values at a state (approx) and kinematics' 4-digit numbers (_nfy)
+    test wholeness on the float, so that 2 q̇₁ does not print 2.0 q̇₁ (2017-07-11-ex3's c at the state)."""
+    from solver.kinematics.analysis import _nfy
+    from solver.publish.render import Latex, approx
+    x, y = sp.symbols("x y")
+    c = sp.Rational(3, 10) * y * (2 * x + y) + 3 * x * y
+    out = Latex({}, {})(approx(sp.Matrix([c])))
+    assert "0.3" in out and "2.0" not in out and "3.0" not in out and "2 x" in out
+    assert _nfy(sp.Float(3.0)) == 3 and _nfy(sp.Float(3.0)).is_Integer and _nfy(sp.Float(2.5)) == sp.Float(2.5, 4)

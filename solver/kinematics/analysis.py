@@ -242,7 +242,7 @@ def _nfy(e: sp.Expr) -> sp.Expr:
         return e
     if e.is_number:
         v = e.evalf(4)
-        return sp.Integer(int(v)) if v.is_Float and v == int(v) else v
+        return sp.Integer(int(v)) if v.is_Float and float(v).is_integer() else v
     if not e.args:
         return e
     if e.is_Pow and e.exp.is_Rational:

@@ -789,6 +789,14 @@ def written(x: Any, tex: Callable[[Any], str]) -> str:
     return mantissa + (f" \\cdot 10^{{{int(exponent)}}}" if exponent else "")
 
 
+def approx(value: Any, digits: int = 5) -> Any:
+    """value.evalf(digits) with its whole floats written as integers: 2 q̇₁, not 2.0 q̇₁."""
+    out = value.evalf(digits) if hasattr(value, "evalf") else value
+    if not isinstance(out, (sp.Basic, sp.MatrixBase)):
+        return out
+    return out.xreplace({f: sp.Integer(int(f)) for f in out.atoms(sp.Float) if float(f).is_integer()})
+
+
 INLINE_WIDTH = 44  # printed characters of a formula in a sentence (a line holds about 80), past which it is displayed
 INLINE_MATRIX_WIDTH = 24  # the same for a matrix of several rows (tall, and never broken across lines)
 
@@ -829,6 +837,7 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
                                                                           punct)
     env.filters["equations"] = lambda items, sep=", \\qquad ", punct="": equations(items, env.filters["tex"], sep,
                                                                                     punct)
+    env.filters["approx"] = approx
     env.filters["inline"] = lambda value, lhs, punct="", entry="": inline(value, lhs, env.filters["tex"], fmt, punct,
                                                                           entry)
     env.globals["sp"] = sp
