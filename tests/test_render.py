@@ -404,3 +404,22 @@ def test_whole_decimals_print_as_integers():
     out = Latex({}, {})(approx(sp.Matrix([c])))
     assert "0.3" in out and "2.0" not in out and "3.0" not in out and "2 x" in out
     assert _nfy(sp.Float(3.0)) == 3 and _nfy(sp.Float(3.0)).is_Integer and _nfy(sp.Float(2.5)) == sp.Float(2.5, 4)
+
+
+def test_a_quotient_that_fits_stacked_is_one_fraction_and_a_long_head_takes_a_line():
+    """_broken measures a quotient stacked (printed_width): numerator and denominator that each fit are one
+    fraction, not (1/d)(n) over lines (2021-04-14-remote-midterm-ex1's j21); when (1/d)\\Big( is a third of the
+    line and the first term would overfill it, the first line holds the head alone (2013-02-06-ex1's λ: 155 pt
+    past the margin before)."""
+    from solver.publish.render import Latex, _broken, visible_length
+    tex = Latex({}, {})
+    l1, r, q1, q2, m, I, d = sp.symbols("l1 r q1 q2 m I d")
+    j = (-l1 * sp.cos(q1) + r * sp.sin(q1 + q2) - (r + l1) * sp.cos(q1 + q2)) / (l1 * (r * sp.cos(q2) + l1 * sp.sin(q2)))
+    assert _broken("j", tex(j), "", 70, j, tex) == f"\\[j = {tex(j)}\\]"
+    den = I * sp.cos(q1) ** 2 + d**2 * m * sp.cos(q1) ** 2 + m * q2**2
+    num = m * (l1 * q2 + 2 * I * q1 * q2 + 2 * d**2 * m * q1 * q2 - 2 * d * m * q2 * q1 + I * q2**2 * l1) * sp.sin(q1) \
+        - (r - d * m * q1**2) * (I + m * q2**2 + d**2 * m - 2 * d * m * q2) * sp.cos(q1)
+    out = _broken("\\lambda", tex(num / den), ".", 70, num / den, tex)
+    lines = out.split("\\\\")
+    assert out.startswith("\\begin{multline*}") and lines[0].rstrip().endswith("\\Big(")
+    assert all(visible_length(ln) <= 80 for ln in lines[1:])

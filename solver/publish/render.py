@@ -466,12 +466,15 @@ def display(parts: list[str], rhs: str = "", width: int = 70, lhs: str = "", wra
 
 
 def _group(parts: list[str], width: int, start: int = 0) -> list[list[str]]:
-    """The terms ``parts`` of a sum in lines of at most ``width`` characters (the first already ``start`` wide)."""
+    """The terms ``parts`` of a sum in lines of at most ``width`` characters (the first already ``start`` wide:
+    left with none when it is long, a third of the line (a long (1/d)\\Big(), and its first term would overfill
+    it)."""
     lines: list[list[str]] = [[]]
     size = start
     for p in parts:
         w = visible_length(p) + 3
-        if lines[-1] and size + w > width:
+        if (lines[-1] or (start > width // 3 and len(lines) == 1 and len(parts) > 1 and w <= width)) \
+                and size + w > width:
             lines.append([])
             size = 0
         lines[-1].append(p)
@@ -483,8 +486,8 @@ def _line_texts(lines: list[list[str]]) -> list[str]:
     """Each line of a broken sum as LaTeX, the lines after the first starting with their sign."""
     body = []
     for k, ln in enumerate(lines):
-        text = join_terms(ln)
-        if k and not text.lstrip().startswith("-"):
+        text = join_terms(ln) if ln else ""
+        if any(lines[:k]) and not text.lstrip().startswith("-"):
             text = "+ " + text
         body.append(text)
     return body
@@ -602,7 +605,7 @@ def _broken(lhs: str, text: str, punct: str, width: int, value: Any = None,
         return f"\\[{lhs} = {text}{punct}\\]"
     if tex is not None and isinstance(value, sp.Add) and max(map(visible_length, parts)) > width:
         return display(_split_terms(value, parts, tex, width), "", width, lhs=lhs, punct=punct)
-    if tex is not None and isinstance(value, sp.Expr) and visible_length(text) > width:
+    if tex is not None and isinstance(value, sp.Expr) and printed_width(text) > width:  # (a fraction: stacked)
         n, d = sp.fraction(value)
         if d != 1 and printed_width(tex(d)) > width // 2:  # a long denominator: n over d, each on lines
             frac = stacked_quotient(n, d, tex, width)
