@@ -423,3 +423,13 @@ def test_a_quotient_that_fits_stacked_is_one_fraction_and_a_long_head_takes_a_li
     lines = out.split("\\\\")
     assert out.startswith("\\begin{multline*}") and lines[0].rstrip().endswith("\\Big(")
     assert all(visible_length(ln) <= 80 for ln in lines[1:])
+
+
+def test_formula_width_measures_a_matrix_by_its_columns():
+    """formula_width: a bmatrix is as wide as its widest cells per column (a column vector as its widest entry),
+    fractions by their wider line: what decides whether r and J share a display (kinematics' configuration)."""
+    from solver.publish.render import formula_width, visible_length
+    column = "r = \\begin{bmatrix} a + b \\\\ c \\end{bmatrix}"
+    assert formula_width(column) == visible_length("r = ") + 3 + 2 < visible_length(column)
+    square = "J = \\begin{bmatrix} \\frac{a + b}{2} & c \\\\ d & e f \\end{bmatrix}"
+    assert formula_width(square) == visible_length("J = ") + 3 + 2 + 4 + 2

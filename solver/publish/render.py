@@ -430,6 +430,22 @@ def printed_width(tex: str) -> int:
     return width + visible_length(tex[i:])
 
 
+def formula_width(tex: str) -> int:
+    """:func:`printed_width` with each bmatrix as wide as its widest cells (:func:`matrix_width`), not as all its
+    entries in a row."""
+    width, i = 0, 0
+    while (k := tex.find("\\begin{bmatrix}", i)) >= 0:
+        end = tex.find("\\end{bmatrix}", k)
+        if end < 0:
+            break
+        rows = [r.split("&") for r in tex[k + 15:end].split("\\\\")]
+        cols = max(len(r) for r in rows)
+        cells = [r + [""] * (cols - len(r)) for r in rows]
+        width += printed_width(tex[i:k]) + matrix_width(cells) + 2
+        i = end + 13
+    return width + printed_width(tex[i:])
+
+
 def matrix_width(cells: list[list[str]]) -> int:
     """The printed width of a matrix of LaTeX cells: its columns' widest cells (:func:`printed_width`) and the
     separation between columns."""
@@ -835,6 +851,7 @@ def _env(fmt: str, custom: Path | None, names: dict[sp.Symbol, str],
         [p for t in terms if t != 0 for p in term_parts(t, env.filters["tex"])], rhs, lhs=lhs, wrap=tuple(wrap),
         punct=punct)
     env.filters["width"] = visible_length
+    env.filters["printed"] = formula_width
     env.filters["written"] = lambda x: written(x, env.filters["tex"])
     env.filters["equation"] = lambda value, lhs, entry, punct="": equation(value, lhs, entry, env.filters["tex"],
                                                                           punct)
