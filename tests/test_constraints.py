@@ -577,16 +577,6 @@ def test_paired_sines_declines_other_products(d):
     assert _paired_sines(sp.sympify(d)) is None
 
 
-def test_zero_of_a_product_with_a_radical_factor():
-    """A product is zero when a factor is, whatever the other factors (radicals the exact test cannot take)."""
-    from solver.interaction.constraints import _zero
-    q, x, y = sp.symbols("q x y", real=True)
-    r = ((x - y) ** 2 + 1) ** sp.Rational(-7, 2)
-    assert _zero(sp.Mul(sp.sin(q) ** 2 + sp.cos(q) ** 2 - 1, r, evaluate=False))
-    assert not _zero(x * sp.cos(q) * r)
-    assert not _zero(sp.sqrt(x ** 2 + 1) * (sp.sin(q) ** 2 + sp.cos(q) ** 2))
-
-
 @pytest.mark.parametrize("n, d", [
     ("a1*sin(q2)**3*cos(q1) + a2*sin(q2)*cos(q1 + q2)", "sin(q2)**2*sin(q1 + q2)"),
     ("v**2*(sin(q1)*cos(q2) + 2*sin(q1 + q2)) - tau*cos(q1)", "(128*sin(q2)**7*sin(q1 + q2))"),

@@ -672,23 +672,6 @@ def _ops(*mats: sp.Matrix | None) -> int:
     return sum(sp.count_ops(M) for M in mats if M is not None)
 
 
-def _zero(e: sp.Expr) -> bool:
-    """Identically zero: a product when one of its factors is (analytic functions have no zero divisors), a
-    power b^r (r > 0) when b is, b^r (r < 0) never; otherwise the randomized exact test (rational points,
-    trigonometric identities exact), else 30-digit evaluation at random points (:mod:`solver.math.equivalence`);
-    a factor such as ((xA - xB)² + (yA - yB)²)^(-7/2), outside the exact test, no longer sends a large product to
-    the numeric one."""
-    from solver.math.equivalence import exact_zero, numeric_zero
-    if e.is_Mul:
-        return any(_zero(f) for f in e.args if not f.is_number)
-    if e.is_Pow and e.exp.is_number:
-        return bool(e.exp.is_positive) and _zero(e.base)
-    z = exact_zero(e)
-    if z is None:
-        z = numeric_zero(e)
-    return bool(z)
-
-
 @dataclass
 class Multiplier:
     """λ(q, q̇, u) and the dynamically consistent projection, built on adjugates (W' = A adj(B) Aᵀ)."""
@@ -1232,13 +1215,11 @@ class Atoms:
 
     def restore(self, obj: Any) -> Any:
         """``obj`` (sympy objects, dataclasses, dicts, lists) with the parameters put back; a :class:`Deferred`
-        (value or field) stays one."""
+        field stays one."""
         if not self.back:
             return obj
         if isinstance(obj, (sp.Basic, sp.MatrixBase)):
             return obj.xreplace(self.back)
-        if type(obj) is Deferred:
-            return Deferred(lambda: self.restore(obj.make()), obj.optional)
         if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
             def field_of(name: str) -> Any:  # (a deferred field not computed: restored when read)
                 raw = object.__getattribute__(obj, name)
