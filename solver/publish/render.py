@@ -446,6 +446,14 @@ def formula_width(tex: str) -> int:
     return width + printed_width(tex[i:])
 
 
+def value_width(value: Any, tex: Callable[[Any], str]) -> int:
+    """The printed width of ``value`` in LaTeX: a matrix by its columns (:func:`matrix_width`), anything else by
+    :func:`printed_width`."""
+    if isinstance(value, sp.MatrixBase) and value.rows * value.cols:
+        return matrix_width([[tex(value[i, j]) for j in range(value.cols)] for i in range(value.rows)])
+    return printed_width(tex(value))
+
+
 def matrix_width(cells: list[list[str]]) -> int:
     """The printed width of a matrix of LaTeX cells: its columns' widest cells (:func:`printed_width`) and the
     separation between columns."""
@@ -596,11 +604,7 @@ def equations(items: list, tex: Callable[[Any], str], sep: str = ", \\qquad ", p
     (:func:`equation`)."""
     size = 4 * (len(items) - 1)
     for lhs, value, _ in items:
-        size += visible_length(lhs) + 3
-        if isinstance(value, sp.MatrixBase) and value.rows * value.cols:
-            size += matrix_width([[tex(value[i, j]) for j in range(value.cols)] for i in range(value.rows)])
-        elif value is not None:
-            size += printed_width(tex(value))
+        size += visible_length(lhs) + 3 + (value_width(value, tex) if value is not None else 0)
     if size <= width:
         return "\\[" + sep.join(lhs if value is None else f"{lhs} = {tex(value)}" for lhs, value, _ in items) \
             + punct + "\\]"
@@ -828,13 +832,9 @@ def inline(value: Any, lhs: str, tex: Callable[[Any], str], fmt: str, punct: str
     INLINE_MATRIX_WIDTH), which the line could not hold. Markdown keeps it inline (its viewers wrap)."""
     text = tex(value)
     if fmt == "tex":
-        size = visible_length(lhs) + 3
-        if isinstance(value, sp.MatrixBase) and value.rows * value.cols:
-            size += matrix_width([[tex(value[i, j]) for j in range(value.cols)] for i in range(value.rows)])
-            width = min(width, INLINE_MATRIX_WIDTH) if value.rows > 1 else width
-        else:
-            size += printed_width(text)
-        if size > width:
+        if isinstance(value, sp.MatrixBase) and value.rows > 1 and value.cols:
+            width = min(width, INLINE_MATRIX_WIDTH)
+        if visible_length(lhs) + 3 + value_width(value, tex) > width:
             name = entry or "{" + re.sub(r"\(.*?\)", "", lhs.split("=")[0]).strip() + "}"
             return equation(value, lhs, name, tex, punct)
     return f"${lhs} = {text}${punct}"
