@@ -176,3 +176,41 @@ def test_per_body_quantities_are_printed_only_when_read(monkeypatch):
     assert isinstance(back, Result) and back.value == slow.bodies[2].vc
     with pytest.raises(ValueError):
         sol.add("x", Deferred(lambda: 1))
+
+
+@pytest.mark.parametrize("convention", ["standard", "modified"])
+def test_dh_kinematics_canonical_equals_tidied_products(convention):
+    """The loader's DH kinematics in the canonical form (frames, link angular velocities, centres of mass) equal
+    the products tidied entry by entry, on a spatial R-P-R arm no exercise uses (a symbolic twist, π/2 offsets, a
+    base), and ⁱωᵢ equals vee(Rᵀ Ṙ) of the chain numerically."""
+    from solver.math.rigid import _dh_kinematics_canonical, dh_chain, dh_omegas, vee
+    from solver.math.simplify import tidy
+    q = sp.symbols("q1:4")
+    dq = sp.symbols("dq1:4")
+    l1, l2, d1, al = sp.symbols("l1 l2 d1 alpha")
+    rows = [(l1, sp.pi / 2, d1, q[0]), (l2, al, q[1], -sp.pi / 2), (0, -sp.pi / 2, 0, q[2] + sp.pi / 2)]
+    rows = [tuple(sp.sympify(x) for x in r) for r in rows]
+    coms = [sp.Matrix([d1 - l1, 0, l2]), sp.Matrix([0, d1 / 2, 0]), sp.Matrix([0, 0, l1])]
+    base = sp.Matrix([[0, -1, 0, 1], [1, 0, 0, 0], [0, 0, 1, l1], [0, 0, 0, 1]])
+    F, W, C = _dh_kinematics_canonical(rows, convention, q, dq, coms, base)
+    F0 = [(base * A).applyfunc(tidy) for A in dh_chain(rows, convention)]
+    assert F == F0
+    assert W == dh_omegas(rows, convention, q, dq)
+    assert C == [(A[:3, 3] + A[:3, :3] * r).applyfunc(tidy) for A, r in zip(F0, coms)]
+    point = {x: v for x, v in zip([*q, *dq, l1, l2, d1, al], [0.3, -0.7, 1.1, 0.5, -1.3, 0.8, 1.2, 0.9, 0.4, 0.6])}
+    for A, w in zip(F, W):
+        R = A[:3, :3]
+        Rdot = sum((R.diff(qk) * v for qk, v in zip(q, dq)), sp.zeros(3, 3))
+        expect = vee(R.T * Rdot).xreplace(point)
+        assert max(abs(float(x)) for x in (expect - w.xreplace(point))) < 1e-12
+
+
+def test_dh_kinematics_falls_back_outside_the_canonical_form():
+    """Floats and √3 leave the canonical form: the entry-by-entry path gives the kinematics."""
+    from solver.math.rigid import dh_kinematics
+    q, dq = sp.symbols("q1:3"), sp.symbols("dq1:3")
+    rows = [tuple(sp.sympify(x) for x in r) for r in [(0.5, 0, 0, q[0]), (1, sp.pi / 3, 0, q[1])]]
+    F, W, C = dh_kinematics(rows, "standard", q, dq, [sp.Matrix([-0.25, 0, 0]), sp.Matrix([0, 0, 0])])
+    assert sp.simplify(F[1][2, 2] - sp.Rational(1, 2)) == 0
+    assert sp.simplify(W[1][2] - (dq[0] + dq[1]) / 2) == 0  # ²ω₂ = R₂ᵀ(ω₁ + z q̇₂), R₂ = Rot_z(q₂) Rot_x(π/3)
+    assert sp.simplify(C[0][0] - 0.25 * sp.cos(q[0])) == 0

@@ -49,6 +49,78 @@ def dh_chain(rows: list[tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]], convention: 
     return out
 
 
+def dh_kinematics(rows: list[tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]], convention: str, q: list[sp.Symbol],
+                  dq: list[sp.Symbol], coms: list[sp.Matrix], base: sp.Matrix | None = None
+                  ) -> tuple[list[sp.Matrix], list[sp.Matrix], list[sp.Matrix]]:
+    """(⁰Aᵢ = base·⁰A₁…, ⁱωᵢ, ⁰p_cᵢ = ⁰pᵢ + ⁰Rᵢ rᵢ) for i = 1..n, each entry tidied: :func:`dh_chain`,
+    :func:`dh_omegas` and the centres of mass ``coms`` (rᵢ in frame i), computed in the canonical
+    trigonometric-polynomial form and written once at the end (tidy's form is canonical: the same entries as
+    tidying each product), or entry by entry with tidy when the data leave that form (floats, √3, ...)."""
+    from solver.math.trigpoly import NotTrigPolynomial
+    try:
+        return _dh_kinematics_canonical(rows, convention, q, dq, coms, base)
+    except NotTrigPolynomial:
+        pass
+    frames = dh_chain(rows, convention)
+    if base is not None:
+        frames = [(base * A).applyfunc(tidy) for A in frames]
+    omegas = dh_omegas(rows, convention, q, dq)
+    return frames, omegas, [(A[:3, 3] + A[:3, :3] * r).applyfunc(tidy) for A, r in zip(frames, coms)]
+
+
+def _dh_kinematics_canonical(rows, convention, q, dq, coms, base):  # type: ignore[no-untyped-def]
+    """:func:`dh_kinematics` in a :class:`solver.math.trigpoly.TrigAlgebra` (NotTrigPolynomial outside it).
+    ⁱ⁻¹Aᵢ written out: standard [[cθ, −sθcα, sθsα, a cθ], [sθ, cθcα, −cθsα, a sθ], [0, sα, cα, d]],
+    modified [[cθ, −sθ, 0, a], [sθcα, cθcα, −sα, −sα d], [sθsα, cθsα, cα, cα d]]."""
+    from solver.math.trigpoly import TrigAlgebra
+    if convention not in ("standard", "modified"):
+        raise ValueError(f"unknown DH convention {convention!r}")
+    exprs: list = [x for row in rows for x in row] + list(coms) + ([base] if base is not None else [])
+    symbols = set(q) | set(dq)
+    for e in exprs:
+        symbols |= sp.sympify(e).free_symbols
+    A = TrigAlgebra({x for _, alpha, _, theta in rows for x in (alpha.free_symbols | theta.free_symbols)}, symbols)
+    conv, mul, neg = A.conv, A.mul, (lambda x: A.scale(x, -1))
+    zero, one = A.zero, A.one()
+    T = A.matrix(base) if base is not None else [[one if i == j else zero for j in range(4)] for i in range(4)]
+    w: list = [zero, zero, zero]
+    frames, omegas, centres = [], [], []
+    for (a, alpha, d, theta), r in zip(rows, coms):
+        ct, st, ca, sa = (conv(f(x)) for f, x in ((sp.cos, theta), (sp.sin, theta), (sp.cos, alpha),
+                                                    (sp.sin, alpha)))
+        a_, d_ = conv(a), conv(d)
+        if convention == "standard":
+            R = [[ct, neg(mul(st, ca)), mul(st, sa)], [st, mul(ct, ca), neg(mul(ct, sa))], [zero, sa, ca]]
+            p = [mul(a_, ct), mul(a_, st), d_]
+        else:
+            R = [[ct, neg(st), zero], [mul(st, ca), mul(ct, ca), neg(sa)], [mul(st, sa), mul(ct, sa), ca]]
+            p = [a_, neg(mul(sa, d_)), mul(ca, d_)]
+        local = [R[i] + [p[i]] for i in range(3)] + [[zero, zero, zero, one]]
+        T = A.matmul(T, local)
+        rate = conv(sum((sp.diff(theta, qk) * dqk for qk, dqk in zip(q, dq)), sp.Integer(0)))
+        Rt = A.T(R)
+        if convention == "standard":  # ⁱωᵢ = Rᵀ(ω + z θ̇), modified: Rᵀω + z θ̇
+            w = [A.dot(row, [w[0], w[1], A.add(w[2], rate)]) for row in Rt]
+        else:
+            w = [A.dot(row, w) for row in Rt]
+            w[2] = A.add(w[2], rate)
+        rc = [conv(x) for x in r]
+        centre = [A.add(T[i][3], A.dot(T[i][:3], rc)) for i in range(3)]
+        frames.append(T)
+        omegas.append(list(w))
+        centres.append(centre)
+    memo: dict[int, tuple[dict, sp.Expr]] = {}  # (frames share entries with the centres: each written once)
+
+    def ex(x: dict) -> sp.Expr:
+        hit = memo.get(id(x))
+        if hit is None or hit[0] is not x:
+            hit = memo[id(x)] = (x, A.expr(x))
+        return hit[1]
+
+    return ([sp.Matrix([[ex(x) for x in row] for row in T]) for T in frames],
+            [sp.Matrix([ex(x) for x in v]) for v in omegas], [sp.Matrix([ex(x) for x in c]) for c in centres])
+
+
 def vee(S: sp.Matrix) -> sp.Matrix:
     """ω from the skew-symmetric matrix S(ω)."""
     return sp.Matrix([S[2, 1], S[0, 2], S[1, 0]])

@@ -13,7 +13,7 @@ from typing import Any
 import sympy as sp
 from pydantic import ValidationError
 
-from solver.math.rigid import dh_chain, dh_omegas, omega_from_rotation
+from solver.math.rigid import dh_kinematics, omega_from_rotation
 from solver.math.simplify import tidy
 from solver.registry import load_all
 from solver.spec import expr as exprmod
@@ -402,22 +402,19 @@ class SpecLoader:
             raise self.fail(path + ("links",), f"{len(dh.links)} DH links for {nj} joints")
         rows = [tuple(self.scalar_at(path + ("table", i, k), k) for k in ("a", "alpha", "d", "theta"))
                 for i in range(nj)]
-        frames = dh_chain(rows, dh.convention)  # type: ignore[arg-type]
-        omegas = dh_omegas(rows, dh.convention, q, dq)  # type: ignore[arg-type]
         base = sp.eye(4)
         if dh.base is not None:
             base = self.matrix_at(path + ("base",), (4, 4), "base")
-            frames = [(base * A).applyfunc(tidy) for A in frames]
-        bodies = []
+        links = []
         for i, lk in enumerate(dh.links):
             lp = path + ("links", i)
-            A = frames[i]
-            R, p = A[:3, :3], A[:3, 3]
-            r = self.vector_at(lp + ("com",), (3,), "com")
-            com = (p + R * r).applyfunc(tidy)
-            omega = omegas[i]
-            bodies.append(Body(lk.name or f"link {i + 1}", self.scalar_at(lp + ("mass",), "mass"), com, omega,
-                               self._inertia(lp + ("inertia",), "inertia"), R, "link"))
+            links.append((lk, self.vector_at(lp + ("com",), (3,), "com"), self.scalar_at(lp + ("mass",), "mass"),
+                          self._inertia(lp + ("inertia",), "inertia")))
+        coms = [r for _, r, _, _ in links]
+        frames, omegas, centres = dh_kinematics(rows, dh.convention, q, dq, coms,  # type: ignore[arg-type]
+                                                base if dh.base is not None else None)
+        bodies = [Body(lk.name or f"link {i + 1}", mass, com, omega, inertia, A[:3, :3], "link")
+                  for i, ((lk, _, mass, inertia), A, omega, com) in enumerate(zip(links, frames, omegas, centres))]
         return bodies, [base] + frames
 
 
