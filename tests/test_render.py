@@ -178,10 +178,13 @@ def test_terms_of_a_sum_ordered_once_for_text_and_latex(monkeypatch):
     e = 3 * a * sp.cos(q) - sp.Rational(1, 2) * b * sp.sin(2 * q) + a ** 2 - 7
     text = str(e)
     tex = LatexPrinter({"fold_short_frac": False, "fold_func_brackets": True}).doprint(e)
+    import solver.publish.termorder as T
     calls = []
-    real = R.ordered_terms
-    monkeypatch.setattr(R, "ordered_terms", lambda expr, *x, **k: calls.append(expr) or real(expr, *x, **k))
-    R._TERMS_ORDER.clear()
+    real = T.ordered_terms
+    counting = lambda expr, *x, **k: calls.append(expr) or real(expr, *x, **k)  # noqa: E731
+    monkeypatch.setattr(R, "ordered_terms", counting)  # (sums with floats)
+    monkeypatch.setattr(T, "ordered_terms", counting)  # (the memoized printing order)
+    T._PRINTING_ORDER.clear()
     assert R._Str().doprint(e) == text
     assert R._Printer({}, {}).doprint(e) == tex
     assert calls.count(e) == 1

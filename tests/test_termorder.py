@@ -68,12 +68,20 @@ def test_printed_text_unchanged(monkeypatch: pytest.MonkeyPatch) -> None:
     rng = random.Random(7)
     sums = [_random_sum(rng) for _ in range(60)]
 
-    def printed() -> list[tuple[str, str]]:
-        render._TERMS_ORDER.clear()
+    from solver.publish import textprint
+
+    def printed() -> list[tuple[str, str, str]]:
+        termorder._PRINTING_ORDER.clear()
+        termorder._SORT_KEYS.clear()
+        textprint._MEMO.clear()
         tex = render.Latex({})
-        return [(render._Str().doprint(e), tex(e)) for e in sums]
+        return [(render._Str().doprint(e), tex(e), render._expr_str(e)) for e in sums]
 
     fast = printed()
-    monkeypatch.setattr(render, "ordered_terms", lambda e, order=None: e.as_ordered_terms(order=order))
+    sympys = lambda e, order=None: e.as_ordered_terms(order=order)  # noqa: E731
+    monkeypatch.setattr(render, "ordered_terms", sympys)
+    monkeypatch.setattr(termorder, "ordered_terms", sympys)
+    monkeypatch.setattr(termorder, "_sort_key", lambda e: e.sort_key())
     assert fast == printed()
-    assert [text for text, _ in fast] == [sp.sstr(e) for e in sums]
+    assert [text for text, _, _ in fast] == [sp.sstr(e) for e in sums]
+    assert [text for _, _, text in fast] == [sp.sstr(e) for e in sums]

@@ -14,7 +14,8 @@ from sympy.printing.latex import LatexPrinter
 from sympy.printing.str import StrPrinter
 
 from solver.math.nounits import without_units
-from solver.publish.termorder import ordered_terms
+from solver.publish.termorder import ordered_terms, printing_order
+from solver.publish.textprint import OutsideText, text
 from solver.results import Result, Solution
 from solver.spec.expr import DECIMAL
 from solver.spec.texmath import safe_math
@@ -30,9 +31,6 @@ def templates_dir() -> Path:
         if cand.is_dir():
             return cand
     raise FileNotFoundError("robosolve templates not found")
-
-
-_TERMS_ORDER: dict[tuple[Any, Any], tuple] = {}  # (sum, order) -> its terms in printing order (exact sums only)
 
 
 class _Memo:
@@ -61,13 +59,7 @@ class _Memo:
             return super()._as_ordered_terms(expr, order=order)  # type: ignore[misc]
         if not self._memo_on:
             return ordered_terms(expr, order)
-        key = (expr, order)
-        hit = _TERMS_ORDER.get(key)
-        if hit is None:
-            if len(_TERMS_ORDER) > self._MEMO_LIMIT:
-                _TERMS_ORDER.clear()
-            hit = _TERMS_ORDER[key] = tuple(ordered_terms(expr, order))
-        return list(hit)
+        return list(printing_order(expr, order))
 
     def _print(self, expr: Any, **kwargs: Any) -> str:  # type: ignore[override]
         if kwargs or not self._memo_on or not isinstance(expr, sp.Basic) or expr.is_Atom:
@@ -87,6 +79,14 @@ class _Str(_Memo, StrPrinter):
 
 
 _STR = _Str()
+
+
+def _text(e: sp.Basic) -> str:
+    """str(e): directly where :func:`solver.publish.textprint.text` prints it, else by the memoized printer."""
+    try:
+        return text(e)
+    except OutsideText:
+        return _STR.doprint(e)
 
 
 class _Printer(_Memo, LatexPrinter):
@@ -111,10 +111,10 @@ class _Printer(_Memo, LatexPrinter):
         if base.is_Symbol:
             return (1 + self.rank.get(base, 0), base.name)
         if isinstance(base, (sp.sin, sp.cos)):
-            return (6, _STR.doprint(f))
+            return (6, _text(f))
         if isinstance(base, sp.Add):
-            return (1.5, _STR.doprint(f))
-        return (5, _STR.doprint(f))
+            return (1.5, _text(f))
+        return (5, _text(f))
 
     def _print_Pow(self, expr: sp.Expr) -> str:
         """An even power of a sum that would print with a leading minus, (−D + 2d)², as (D − 2d)²."""
@@ -906,7 +906,7 @@ def _expr_str(value: Any) -> str:
     if is_large(value, LARGE_TEXT):
         return _fast_str(value, None if value.has(sp.Float) else _FAST_TEXT)
     if isinstance(value, sp.Basic):
-        return _STR.doprint(value)
+        return _text(value)
     return str(value)
 
 

@@ -12,10 +12,11 @@ from __future__ import annotations
 from typing import Any
 
 import sympy as sp
-from sympy.core.sorting import default_sort_key
 
+_MEMO_LIMIT = 200_000
+_PRINTING_ORDER: dict[tuple[Any, Any], tuple] = {}  # (sum, order) -> its terms in printing order (exact sums)
+_SORT_KEYS: dict[sp.Basic, Any] = {}  # expression -> its sort_key (sympy's orders sums by evaluating coefficients)
 _FLOAT_EXACT = 2 ** 53  # rationals whose parts are at most this size convert to the float evalf would give
-_GEN_KEYS: dict[sp.Basic, Any] = {}  # generator -> default_sort_key (sympy's own is recomputed each time)
 
 
 class _Slow(Exception):
@@ -30,6 +31,56 @@ def ordered_terms(expr: sp.Expr, order: Any = None) -> list[sp.Expr]:
         return _ordered(expr, order)
     except _Slow:
         return expr.as_ordered_terms(order=order)
+
+
+def printing_order(expr: sp.Expr, order: Any = None) -> tuple[sp.Expr, ...]:
+    """:func:`ordered_terms` of a sum without floats, memoized: the text and the LaTeX printers order the same
+    sums."""
+    key = (expr, order)
+    hit = _PRINTING_ORDER.get(key)
+    if hit is None:
+        if len(_PRINTING_ORDER) > _MEMO_LIMIT:
+            _PRINTING_ORDER.clear()
+        hit = _PRINTING_ORDER[key] = tuple(ordered_terms(expr, order))
+    return hit
+
+
+def sort_key(e: sp.Basic) -> Any:
+    """``e.sort_key()`` (sympy's order of the factors of a product), memoized, with the terms of sums ordered by
+    :func:`printing_order` (sympy's own key orders them by ``as_ordered_terms``, evaluating every coefficient):
+    (class key, (len(args), args' keys), key of the exponent, coefficient)."""
+    hit = _SORT_KEYS.get(e)
+    if hit is None:
+        if len(_SORT_KEYS) > _MEMO_LIMIT:
+            _SORT_KEYS.clear()
+        hit = _SORT_KEYS[e] = _sort_key(e)
+    return hit
+
+
+def _sort_key(e: sp.Basic) -> Any:
+    """sympy's ``Expr.sort_key`` for order None, as written there, for sums, products, powers, sin and cos."""
+    if e.is_Atom or type(e) not in (sp.Add, sp.Mul, sp.Pow, sp.sin, sp.cos):
+        return e.sort_key()
+    coeff, expr = e.as_coeff_Mul()
+    exp = sp.S.One
+    if expr.is_Pow:
+        base, exp = expr.as_base_exp()
+        if base is sp.S.Exp1:
+            return e.sort_key()
+        expr = base
+    if expr.is_Dummy:
+        return e.sort_key()
+    if expr.is_Atom:
+        args: tuple = (str(expr),)
+    elif expr.is_Add:
+        args = tuple(sort_key(t) for t in printing_order(expr, None))
+    elif expr.is_Mul:
+        if any(a.is_Number or not a.is_commutative for a in expr.args):
+            return e.sort_key()
+        args = tuple(sorted(sort_key(a) for a in expr.args))
+    else:
+        args = tuple(sort_key(a) for a in expr.args)
+    return expr.class_key(), (len(args), args), exp.sort_key(), coeff
 
 
 def _special_case(expr: sp.Expr, order: Any) -> bool:
@@ -74,12 +125,7 @@ def _ordered(expr: sp.Expr, order: Any) -> list[sp.Expr]:
     key, reverse = sp.Expr._parse_order(order)
     terms = [(t, *_split(t)) for t in expr.args]
     gens = {b for _, _, powers in terms for b in powers}
-    for g in gens:
-        if g not in _GEN_KEYS:
-            if len(_GEN_KEYS) > 100_000:
-                _GEN_KEYS.clear()
-            _GEN_KEYS[g] = default_sort_key(g)
-    index = {g: i for i, g in enumerate(sorted(gens, key=_GEN_KEYS.__getitem__))}
+    index = {g: i for i, g in enumerate(sorted(gens, key=sort_key))}
     rows = []
     for t, c, powers in terms:
         monom = [0] * len(index)
