@@ -79,3 +79,22 @@ def test_other_expressions_are_left_to_sympy(e: sp.Expr) -> None:
         text(e)
     from solver.publish.render import _expr_str
     assert _expr_str(e) == sp.sstr(e)
+
+
+def test_latex_bracket_rules_are_sympys() -> None:
+    """The LaTeX printer's bracket decisions for plain expressions (taken directly) are sympy's LatexPrinter's,
+    and has_float is has(Float), on random expressions and every subexpression."""
+    from sympy.printing.latex import LatexPrinter
+
+    from solver.publish.render import _Printer, has_float
+    rng = random.Random("brackets")
+    ours = _Printer({}, {})
+    exprs = [_random_expr(rng) for _ in range(150)] + [sp.Float(0.5) * q1 * sp.cos(q2) - sp.Mod(q1, 2) * q2,
+                                                      sp.Integral(q1, q1) * q2 - sp.Rational(-3, 2)]
+    for e in exprs:
+        for sub in sp.preorder_traversal(e):
+            for first, last in ((False, False), (True, False), (False, True)):
+                assert ours._needs_mul_brackets(sub, first, last) == \
+                    LatexPrinter._needs_mul_brackets(ours, sub, first, last), sub
+            assert ours._needs_add_brackets(sub) == LatexPrinter._needs_add_brackets(ours, sub), sub
+            assert has_float(sub) == sub.has(sp.Float), sub

@@ -46,7 +46,7 @@ class _Memo:
     def doprint(self, expr: Any) -> str:  # type: ignore[override]
         outer = self._memo_on
         try:
-            self._memo_on = isinstance(expr, (sp.Basic, sp.MatrixBase)) and not expr.has(sp.Float)
+            self._memo_on = isinstance(expr, (sp.Basic, sp.MatrixBase)) and not has_float(expr)
             return super().doprint(expr)  # type: ignore[misc]
         finally:
             self._memo_on = outer
@@ -116,6 +116,19 @@ class _Printer(_Memo, LatexPrinter):
             return (1.5, _text(f))
         return (5, _text(f))
 
+    def _needs_mul_brackets(self, expr: sp.Expr, first: bool = False, last: bool = False) -> bool:
+        """sympy's rule, decided directly for plain expressions (no Mod, integral, sum or product to look for
+        inside): a sum, a negative number, and a product with a minus sign after the first factor."""
+        if not _plain(expr):
+            return super()._needs_mul_brackets(expr, first, last)
+        if expr.is_Mul:
+            return not first and expr.could_extract_minus_sign()
+        return bool(expr.is_Add or (expr.is_Rational and expr.is_negative))
+
+    def _needs_add_brackets(self, expr: sp.Expr) -> bool:
+        """sympy's rule, directly for plain expressions: a sum."""
+        return bool(expr.is_Add) if _plain(expr) else super()._needs_add_brackets(expr)
+
     def _print_Pow(self, expr: sp.Expr) -> str:
         """An even power of a sum that would print with a leading minus, (−D + 2d)², as (D − 2d)²."""
         b, e = expr.as_base_exp()
@@ -141,6 +154,36 @@ class _Printer(_Memo, LatexPrinter):
             return super()._print_Mul(sp.Mul(coeff, body, evaluate=False))
         finally:
             self._settings["order"] = old
+
+
+_PLAIN: dict[sp.Basic, bool] = {}
+_FLOATS: dict[sp.Basic, bool] = {}
+
+
+def _plain(e: sp.Basic) -> bool:
+    """Whether ``e`` is made of sums, products, powers, sin, cos, symbols and rationals only (memoized)."""
+    if e.is_Atom:
+        return bool(e.is_Symbol or e.is_Rational)
+    hit = _PLAIN.get(e)
+    if hit is None:
+        if len(_PLAIN) > 200_000:
+            _PLAIN.clear()
+        hit = _PLAIN[e] = type(e) in (sp.Add, sp.Mul, sp.Pow, sp.sin, sp.cos) and all(_plain(a) for a in e.args)
+    return hit
+
+
+def has_float(e: Any) -> bool:
+    """``e.has(sp.Float)`` for an expression or a matrix, memoized by subtree."""
+    if isinstance(e, sp.MatrixBase):
+        return any(has_float(x) for x in e)
+    if e.is_Atom:
+        return bool(e.is_Float)
+    hit = _FLOATS.get(e)
+    if hit is None:
+        if len(_FLOATS) > 200_000:
+            _FLOATS.clear()
+        hit = _FLOATS[e] = any(has_float(a) for a in e.args if isinstance(a, sp.Basic))
+    return hit
 
 
 class Latex:
@@ -230,7 +273,7 @@ class Latex:
     def _expr(self, value: sp.Basic) -> str:
         if value.is_Float:
             return number(value)
-        floats = value.atoms(sp.Float)
+        floats = value.atoms(sp.Float) if has_float(value) else set()
         if floats:
             value = value.xreplace({f: sp.Float(f, 4) for f in floats})
         if is_large(value):  # terms as stored, by a direct printer: sympy's costs minutes on such sums
