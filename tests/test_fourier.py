@@ -309,3 +309,24 @@ def test_ring_trig_is_sympys_expand_trig():
     for bad in (x + 1, x / 2, 2 * sp.Symbol("z")):
         with pytest.raises(ValueError):
             ring_trig(bad, {x: (C1, S1)})
+
+
+@pytest.mark.parametrize("domain", ["QQ", "ZZ"])
+def test_poly_expr_builds_sympys_own_tree(domain: str) -> None:
+    """poly_expr (no flattening) gives p.as_expr() node for node: same arguments in the same order (the LaTeX
+    printer prints some products in stored order), on random polynomials with constants, ±1 and fractions."""
+    from solver.math.fourier import _ring, poly_expr
+    syms = sp.symbols("I1 d2 dq1 dq2 g0 l1 m2 q1")
+    R = _ring(tuple(syms))
+    dom = QQ_ if domain == "QQ" else ZZ_
+    R = R if dom is QQ_ else R.clone(domain=ZZ_)
+    rng = random.Random(domain)
+    for _ in range(500):
+        d = {}
+        for _ in range(rng.randint(1, 6)):
+            m = tuple(rng.choice([0, 0, 0, 1, 2, 3]) for _ in syms)
+            d[m] = dom.convert(rng.choice([-3, -1, 1, 1, 2, 5])) / (dom.convert(rng.choice([1, 2, 3])) if dom is QQ_
+                                                                    else dom.one)
+        p = R.from_dict(d)
+        assert sp.srepr(poly_expr(p)) == sp.srepr(p.as_expr()), p
+    assert poly_expr(R.zero) == 0 and poly_expr(R.one) == 1

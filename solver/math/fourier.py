@@ -16,7 +16,7 @@ radicals) raises :class:`NotTrigPolynomial` and the caller falls back to a slowe
 """
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cmp_to_key, lru_cache
 from typing import Callable
 
 import sympy as sp
@@ -393,6 +393,35 @@ def _flip(f: PolyElement) -> bool:
     return f[lead] < 0
 
 
+_PREFIX_SORT = cmp_to_key(sp.Basic.compare)  # sympy's canonical order of the arguments of a sum or product
+
+
+def poly_expr(p: PolyElement) -> sp.Expr:
+    """``p.as_expr()``, the same tree built without sympy's flattening: a polynomial's terms are distinct
+    monomials, so each product is its coefficient (first, unless 1) and its powers in sympy's argument order, and
+    the sum its constant (first) and its terms in that order, as ``Mul.flatten`` and ``Add.flatten`` leave them."""
+    gens = p.ring.symbols
+    to_sympy = p.ring.domain.to_sympy
+    terms, const = [], None
+    for monom, coeff in p.iterterms():
+        c = to_sympy(coeff)
+        factors = [g if m == 1 else g ** m for g, m in zip(gens, monom) if m]
+        if not factors:
+            const = c
+            continue
+        factors.sort(key=_PREFIX_SORT)
+        if c is sp.S.One:
+            terms.append(factors[0] if len(factors) == 1 else sp.Mul._from_args(factors))
+        else:
+            terms.append(sp.Mul._from_args([c] + factors))
+    if not terms:
+        return const if const is not None else sp.S.Zero
+    if len(terms) == 1 and const is None:
+        return terms[0]
+    terms.sort(key=_PREFIX_SORT)
+    return sp.Add._from_args(([const] if const is not None else []) + terms)
+
+
 _NICE: dict = {}  # printed forms already computed (the same coefficients recur across a model's entries)
 
 
@@ -412,7 +441,7 @@ def _nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
     shorter and ``p`` has at most ``max_terms`` terms: 2 m₂ l₁ d₂ q̇₁ q̇₂ + m₂ l₁ d₂ q̇₂² -> m₂ l₁ d₂ q̇₂ (2 q̇₁ + q̇₂).
     A minus sign is pulled out only when every term is negative."""
     if len(p) <= 1:
-        return p.as_expr()
+        return poly_expr(p)
     R = p.ring
     mono = tuple(map(min, zip(*p.itermonoms())))
     content, prim = p.primitive()
@@ -437,10 +466,10 @@ def _nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
             if _product_cost(cand) < _product_cost(best):
                 best = cand
     if _product_cost(best) >= p_cost:
-        return p.as_expr()
+        return poly_expr(p)
     number, rest = sp.Integer(1), []
     for f, e in best:
-        x = f.as_expr()
+        x = poly_expr(f)
         if f.is_ground:
             number *= x ** e
         else:
