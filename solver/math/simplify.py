@@ -330,18 +330,26 @@ def _fourier_sum(coeffs: dict, angles: list[sp.Symbol], nice):  # type: ignore[n
     if large:
         nice = _nice_large
     out = []
+    ang = tuple(angles)
     for k in sorted(coeffs, key=lambda t: (sum(abs(v) for v in t), [-abs(v) for v in t], t)):
         a, b = coeffs[k]
-        theta = sum((kj * x for kj, x in zip(k, angles)), sp.Integer(0))
+        theta, cos, sin = _harmonic(k, ang)
         phased = _with_phase(a, b, theta) if nice is _nice and a and b else None
         if phased is not None:
             out.append(phased)
             continue
         if a:
-            out.append(nice(a) * sp.cos(theta))
+            out.append(nice(a) * cos)
         if b:
-            out.append(nice(b) * sp.sin(theta))
+            out.append(nice(b) * sin)
     return sp.Add(*out), nice, large
+
+
+@lru_cache(maxsize=4096)
+def _harmonic(k: tuple[int, ...], angles: tuple[sp.Symbol, ...]) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
+    """(θ = k·x, cos θ, sin θ), built once per harmonic."""
+    theta = sum((kj * x for kj, x in zip(k, angles)), sp.Integer(0))
+    return theta, sp.cos(theta), sp.sin(theta)
 
 
 def _nice_large(p):  # type: ignore[no-untyped-def]
