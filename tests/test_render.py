@@ -436,3 +436,23 @@ def test_formula_width_measures_a_matrix_by_its_columns():
     assert formula_width(column) == visible_length("r = ") + 3 + 2 < visible_length(column)
     square = "J = \\begin{bmatrix} \\frac{a + b}{2} & c \\\\ d & e f \\end{bmatrix}"
     assert formula_width(square) == visible_length("J = ") + 3 + 2 + 4 + 2
+
+
+def test_a_displayed_matrix_counts_its_left_side_and_its_fractions_as_printed():
+    """equation() keeps a matrix whole when its cells, measured as printed (a fraction as wide as its wider line),
+    and its left-hand side fit the line: a 2×2 J⁻¹ of fractions stays one matrix (it went entry by entry when its
+    numerators and denominators were counted side by side), while a vector whose entries fill the line is written
+    entry by entry behind a long left-hand side (2022-02-03-ex1's g(q) = (∂U/∂q)ᵀ ran 50 pt past the margin)."""
+    from solver.publish.render import Latex, equation
+    tex = Latex({}, {})
+    l1, l2, q1, q2, g0, m1, m2, m3, d1, d2, d3 = sp.symbols("l1 l2 q1 q2 g0 m1 m2 m3 d1 d2 d3")
+    det = l1 * l2 * sp.sin(q2)
+    Jinv = sp.Matrix([[l2 * sp.cos(q1 + q2) / det, l2 * sp.sin(q1 + q2) / det],
+                      [(-l1 * sp.cos(q1) - l2 * sp.cos(q1 + q2)) / det, (-l1 * sp.sin(q1) - l2 * sp.sin(q1 + q2)) / det]])
+    assert equation(Jinv, "J^{-1}(q)", "{J^{-1}}", tex, ".") == f"\\[J^{{-1}}(q) = {tex(Jinv)}.\\]"
+    entry = (d3 * g0 * m3 * sp.cos(q1 + q2) + g0 * (d1 * m1 + l1 * m2 + l1 * m3) * sp.cos(q1)
+             + g0 * (d2 * m2 - m2 * q2 - m3 * q2) * sp.sin(q1))
+    g = sp.Matrix([entry, g0 * (m2 + m3) * sp.cos(q1)])
+    assert equation(g, "g", "g", tex, ".") == f"\\[g = {tex(g)}.\\]"
+    long_lhs = equation(g, "g(q) = \\left(\\frac{\\partial U}{\\partial q}\\right)^T", "g", tex, ".")
+    assert "\\begin{bmatrix} g_{i} \\end{bmatrix}" in long_lhs and "g_{2} = " in long_lhs
