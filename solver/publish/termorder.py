@@ -14,7 +14,7 @@ from typing import Any
 import sympy as sp
 
 _MEMO_LIMIT = 200_000
-_PRINTING_ORDER: dict[tuple[Any, Any], tuple] = {}  # (sum, order) -> its terms in printing order (exact sums)
+_PRINTING_ORDER: dict[tuple[Any, Any], tuple] = {}  # (sum, order) -> its terms in printing order
 _SORT_KEYS: dict[sp.Basic, Any] = {}  # expression -> its sort_key (sympy's orders sums by evaluating coefficients)
 _FLOAT_EXACT = 2 ** 53  # rationals whose parts are at most this size convert to the float evalf would give
 
@@ -34,8 +34,8 @@ def ordered_terms(expr: sp.Expr, order: Any = None) -> list[sp.Expr]:
 
 
 def printing_order(expr: sp.Expr, order: Any = None) -> tuple[sp.Expr, ...]:
-    """:func:`ordered_terms` of a sum without floats, memoized: the text and the LaTeX printers order the same
-    sums."""
+    """:func:`ordered_terms`, memoized: the text and the LaTeX printers and :func:`sort_key` order the same sums
+    (the order depends on the terms' values only, so equal sums share it)."""
     key = (expr, order)
     hit = _PRINTING_ORDER.get(key)
     if hit is None:
