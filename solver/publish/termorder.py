@@ -9,7 +9,7 @@ factor such as √2 or π, a noncommutative factor, a power with a symbolic or f
 sympy. Same order, same ties (a stable sort of the terms as stored)."""
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import sympy as sp
 
@@ -33,28 +33,27 @@ def ordered_terms(expr: sp.Expr, order: Any = None) -> list[sp.Expr]:
         return expr.as_ordered_terms(order=order)
 
 
+def cached(memo: dict, key: Any, make: Callable[[], Any]) -> Any:
+    """``memo[key]``, computed by ``make()`` on a miss; the memo is emptied past _MEMO_LIMIT entries."""
+    hit = memo.get(key)
+    if hit is None:
+        if len(memo) > _MEMO_LIMIT:
+            memo.clear()
+        hit = memo[key] = make()
+    return hit
+
+
 def printing_order(expr: sp.Expr, order: Any = None) -> tuple[sp.Expr, ...]:
     """:func:`ordered_terms`, memoized: the text and the LaTeX printers and :func:`sort_key` order the same sums
     (the order depends on the terms' values only, so equal sums share it)."""
-    key = (expr, order)
-    hit = _PRINTING_ORDER.get(key)
-    if hit is None:
-        if len(_PRINTING_ORDER) > _MEMO_LIMIT:
-            _PRINTING_ORDER.clear()
-        hit = _PRINTING_ORDER[key] = tuple(ordered_terms(expr, order))
-    return hit
+    return cached(_PRINTING_ORDER, (expr, order), lambda: tuple(ordered_terms(expr, order)))
 
 
 def sort_key(e: sp.Basic) -> Any:
     """``e.sort_key()`` (sympy's order of the factors of a product), memoized, with the terms of sums ordered by
     :func:`printing_order` (sympy's own key orders them by ``as_ordered_terms``, evaluating every coefficient):
     (class key, (len(args), args' keys), key of the exponent, coefficient)."""
-    hit = _SORT_KEYS.get(e)
-    if hit is None:
-        if len(_SORT_KEYS) > _MEMO_LIMIT:
-            _SORT_KEYS.clear()
-        hit = _SORT_KEYS[e] = _sort_key(e)
-    return hit
+    return cached(_SORT_KEYS, e, lambda: _sort_key(e))
 
 
 def _sort_key(e: sp.Basic) -> Any:

@@ -18,11 +18,10 @@ from __future__ import annotations
 
 import sympy as sp
 
-from solver.publish.termorder import printing_order, sort_key
+from solver.publish.termorder import cached, printing_order, sort_key
 
 __all__ = ["OutsideText", "text"]
 
-_MEMO_LIMIT = 200_000
 _MEMO: dict[sp.Basic, str] = {}  # compound subexpression -> its text (a model's results share most of them)
 _TRIG = (sp.sin, sp.cos)
 
@@ -35,12 +34,7 @@ def text(e: sp.Basic) -> str:
     """``str(e)`` for the expressions described in the module docstring, else :class:`OutsideText`."""
     if e.is_Atom:
         return _atom(e)
-    hit = _MEMO.get(e)
-    if hit is None:
-        if len(_MEMO) > _MEMO_LIMIT:
-            _MEMO.clear()
-        hit = _MEMO[e] = _compound(e)
-    return hit
+    return cached(_MEMO, e, lambda: _compound(e))
 
 
 def _atom(e: sp.Basic) -> str:
