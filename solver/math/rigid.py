@@ -109,16 +109,8 @@ def _dh_kinematics_canonical(rows, convention, q, dq, coms, base):  # type: igno
         frames.append(T)
         omegas.append(list(w))
         centres.append(centre)
-    memo: dict[int, tuple[dict, sp.Expr]] = {}  # (frames share entries with the centres: each written once)
-
-    def ex(x: dict) -> sp.Expr:
-        hit = memo.get(id(x))
-        if hit is None or hit[0] is not x:
-            hit = memo[id(x)] = (x, A.expr(x))
-        return hit[1]
-
-    return ([sp.Matrix([[ex(x) for x in row] for row in T]) for T in frames],
-            [sp.Matrix([ex(x) for x in v]) for v in omegas], [sp.Matrix([ex(x) for x in c]) for c in centres])
+    return [A.to_matrix(T) for T in frames], [A.to_matrix([[x] for x in v]) for v in omegas], \
+        [A.to_matrix([[x] for x in c]) for c in centres]
 
 
 def vee(S: sp.Matrix) -> sp.Matrix:

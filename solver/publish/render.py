@@ -951,7 +951,7 @@ def _expr_str(value: Any) -> str:
         rows = ", ".join("[" + ", ".join(_expr_str(x) for x in value.row(i)) + "]" for i in range(value.rows))
         return f"Matrix([{rows}])"
     if is_large(value, LARGE_TEXT):
-        return _fast_str(value, None if value.has(sp.Float) else _FAST_TEXT)
+        return _fast_str(value, None if has_float(value) else _FAST_TEXT)
     if isinstance(value, sp.Basic):
         return _text(value)
     return str(value)
