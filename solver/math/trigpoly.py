@@ -22,6 +22,16 @@ from solver.math.simplify import fourier_expr, parts_by
 __all__ = ["TrigAlgebra", "NotTrigPolynomial"]
 
 
+def _pdiff(p, i: int):  # type: ignore[no-untyped-def]
+    """∂p/∂x_i of a ring element (sympy's ``p.diff(x)`` finds i by comparing x with every generator by value)."""
+    out = p.ring.zero
+    for m, c in p.items():
+        e = m[i]
+        if e:
+            out[m[:i] + (e - 1,) + m[i + 1:]] = c * e
+    return out
+
+
 class TrigAlgebra:
     """Trigonometric polynomials in ``angles`` with polynomial coefficients in every symbol of ``exprs``."""
 
@@ -101,7 +111,7 @@ class TrigAlgebra:
         g = self.gens.index(x) if x in self.alg.gen else None
         for (k, kind), c in a.items():
             if g is not None:
-                dc = c.diff(self.R.gens[g])
+                dc = _pdiff(c, g)
                 if dc:
                     self.alg.add_into(out, (k, kind), dc)
             if j is not None and k[j]:
