@@ -158,6 +158,37 @@ def test_factor_list_fast_equals_sympys_factorization(dom) -> None:  # type: ign
     assert seen_linear > 50  # the gcd path was exercised, not only sympy's fallback
 
 
+def test_factor_list_fast_on_powers_of_linear_forms() -> None:
+    """Powers of forms linear in every generator ((q̇₁ + q̇₂)², (x − 2y + 3)³, ...), alone, perturbed (no longer
+    powers) or times other factors: the same factorization as sympy's, where the root path (α x + β)^d = p
+    is taken and where it is not."""
+    from sympy.polys.rings import ring
+
+    from solver.math.fourier import _linear_root, factor_list_fast
+    R, *G = ring("x,y,z,w", ZZ_)
+    rng = random.Random(3)
+    roots = 0
+    for _ in range(300):
+        lin = sum((rng.choice([0, 1, -1, 2, -3]) * g for g in G[:rng.randint(2, 4)]), R.zero)
+        lin += rng.choice([0, 0, 1, -2]) + rng.choice([0, 0, 1]) * G[0] * G[3]
+        if lin.is_ground:
+            continue
+        p = lin ** rng.randint(2, 4)
+        p += rng.choice([0, 0, 0, 1, -1])
+        if rng.random() < 0.3:
+            p *= G[1] + 2 * G[2] - 1
+        if rng.random() < 0.5:
+            p = -p
+        ref, got = p.factor_list(), factor_list_fast(p)
+        assert got[0] == ref[0], p
+        assert sorted((str(f), e) for f, e in got[1]) == sorted((str(f), e) for f, e in ref[1]), p
+        prim = p.primitive()[1]
+        roots += _linear_root(prim if prim.LC > 0 else -prim) is not None
+    assert roots > 50
+    x, y = G[:2]
+    assert _linear_root((x + y) ** 2) == (x + y, 2) and _linear_root(x**2 + x * y + y**2) is None
+
+
 def test_factor_list_fast_on_a_christoffel_coefficient() -> None:
     """2 d₂ m₂ q̇₁ + d₂ m₂ q̇₂ + 2 l₂ m₃ q̇₁ + l₂ m₃ q̇₂ over QQ = (2 q̇₁ + q̇₂)(d₂ m₂ + l₂ m₃)."""
     from sympy.polys.rings import ring

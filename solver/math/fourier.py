@@ -319,25 +319,95 @@ def factor_list_fast(p: PolyElement) -> tuple:
             if e:
                 factors.append((R.gens[i], e))
         prim = R.from_dict({tuple(a - b for a, b in zip(m, mono)): c for m, c in prim.iterterms()})
+    known: list[tuple[PolyElement, int]] | None = None  # the factors of prim, once known
     while not prim.is_ground:
         i = next((j for j in range(R.ngens) if prim.degree(j) == 1), None)
         if i is None and irreducible(prim):
             factors.append((prim, 1))
+            break
+        root = _linear_root(prim) if i is None else None
+        if root is not None:
+            factors.append(root)
             break
         if i is None:
             c, rest = prim.factor_list()
             factors.extend(rest)
             content *= c
             break
-        a = R.from_dict({m[:i] + (0,) + m[i + 1:]: c for m, c in prim.iterterms() if m[i] == 1})
-        b = R.from_dict({m: c for m, c in prim.iterterms() if m[i] == 0})
-        g = a.gcd(b)
-        if g.LC < 0:
-            g = -g
-        h = prim.exquo(g)
+        # prim = a x_i + b: its one factor in x_i is h = prim / gcd(a, b), the others are those of gcd(a, b)
+        if known is None:
+            a = R.from_dict({m[:i] + (0,) + m[i + 1:]: c for m, c in prim.iterterms() if m[i] == 1})
+            b = R.from_dict({m: c for m, c in prim.iterterms() if m[i] == 0})
+            known = _common_factors(a, b)
+            g = R.one
+            for f, e in known:
+                g *= f**e
+            h = prim.exquo(g)
+        else:
+            h = next(f for f, _ in known if f.degree(i))
+            known = [(f, e) for f, e in known if f is not h]
+            g = prim.exquo(h)
         factors.append((h, 1))
         prim = g
     return content, factors
+
+
+def _common_factors(a: PolyElement, b: PolyElement) -> list[tuple[PolyElement, int]]:
+    """The irreducible factors of gcd(a, b) (primitive, positive leading coefficients; a, b ≠ 0 without a common
+    integer content): those of the shorter one that divide the other, as often as they do. Costs a factorization
+    of a smaller polynomial and a few exact divisions, where a multivariate gcd (heuristic, by evaluation and
+    interpolation in every generator of the ring) costs far more."""
+    if len(b) < len(a):
+        a, b = b, a
+    out = []
+    for f, e in factor_list_fast(a)[1]:
+        k = 0
+        while k < e and _divides(f, b):
+            b = b.exquo(f)
+            k += 1
+        if k:
+            out.append((f, k))
+    return out
+
+
+def _divides(f: PolyElement, b: PolyElement) -> bool:
+    """Whether f divides b exactly (one divisor: the remainder of the division is 0 exactly when it does)."""
+    if len(f) == 1:  # a monomial: every term of b has its powers
+        (m, _), = f.iterterms()
+        return all(all(x >= y for x, y in zip(t, m)) for t in b.itermonoms())
+    if any(f.degree(j) > b.degree(j) for j in range(f.ring.ngens) if f.degree(j)):
+        return False
+    return not b.rem(f)
+
+
+def _linear_root(p: PolyElement) -> tuple[PolyElement, int] | None:
+    """(f, d) with p = f^d, f = αx + β linear in the generator x of least degree d ≥ 2 and α an integer, when p
+    (primitive, positive leading coefficient) is such a power, as the squares (q̇₁ + q̇₂)² of a Coriolis term are:
+    the coefficients of x^d and x^(d−1) give α = (p_d)^(1/d) and β = p_(d−1) / (d α^(d−1)), and f^d = p is
+    checked. f is then primitive, hence irreducible; None otherwise (the general factorization decides)."""
+    R = p.ring
+    d, i = min((p.degree(j), j) for j in range(R.ngens) if p.degree(j) >= 1)
+    if d < 2:
+        return None
+    top = [(m, c) for m, c in p.iterterms() if m[i] == d]
+    if len(top) != 1 or any(top[0][0][:i] + top[0][0][i + 1:]):
+        return None
+    alpha, exact = sp.integer_nthroot(abs(int(top[0][1])), d)
+    if not exact or (top[0][1] < 0 and d % 2 == 0):
+        return None
+    if top[0][1] < 0:
+        alpha = -alpha
+    den = d * alpha ** (d - 1)
+    beta = {}
+    for m, c in p.iterterms():
+        if m[i] == d - 1:
+            if c % den:
+                return None
+            beta[m[:i] + (0,) + m[i + 1:]] = c // den
+    f = R.from_dict(beta) + R.gens[i] * alpha
+    if f.LC < 0:
+        f = -f
+    return (f, d) if f**d == p else None
 
 
 def irreducible(p: PolyElement, tries: int = 2) -> bool:
