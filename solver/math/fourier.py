@@ -277,23 +277,46 @@ _FACTORS: dict = {}  # factorizations already computed (the same coefficients re
 
 
 def factor_small(p: PolyElement) -> tuple[PolyElement, list[tuple[PolyElement, int]]]:
-    """Factorization of ``p`` computed in the ring of only the generators it uses (much faster); memoized."""
-    used = [i for i in range(p.ring.ngens) if any(m[i] for m in p.itermonoms())]
-    small = _ring(tuple(p.ring.symbols[i] for i in used))
-    q = small.from_dict({tuple(m[i] for i in used): c for m, c in p.iterterms()})
-    hit = _FACTORS.get(q)
+    """Factorization (content over QQ, [(f, e)]) of ``p``, in its ring over QQ; memoized. Sympy's dense
+    factorization, where it is needed, runs in the ring of only the generators the polynomial uses (it recurses
+    over every generator; a ring per subset of the generators would cost more than the rest: sympy compiles the
+    monomial arithmetic of every new ring)."""
+    if p.ring.domain != QQ:
+        p = p.set_ring(_ring(p.ring.symbols))
+    hit = _FACTORS.get(p)
     if hit is None:
         if len(_FACTORS) > 20000:
             _FACTORS.clear()
-        hit = factor_list_fast(q)
-        check = q.ring.ground_new(hit[0])
+        hit = factor_list_fast(p)
+        check = p.ring.ground_new(hit[0])
         for f, e in hit[1]:
             check *= f**e
-        if check != q:  # cannot happen (the factors are exact); sympy's factorization if it ever did
-            hit = q.factor_list()
-        _FACTORS[q] = hit
+        if check != p:  # cannot happen (the factors are exact); sympy's factorization if it ever did
+            hit = _dense_factor_list(p)
+        _FACTORS[p] = hit
     content, factors = hit
     return content, list(factors)  # a new list: the caller changes signs in place
+
+
+def _dense_factor_list(p: PolyElement, of: PolyElement | None = None) -> tuple:
+    """``p.factor_list()`` computed in the ring of the generators that ``of`` (default ``p``) uses, the factors
+    brought back (sympy orders the factors differently in rings with other generators)."""
+    R = p.ring
+    used = [i for i in range(R.ngens) if (p if of is None else of).degree(i) > 0]
+    if len(used) == R.ngens:
+        return p.factor_list()
+    small = PolyRing(tuple(R.symbols[i] for i in used), R.domain)
+    c, fl = small.from_dict({tuple(m[i] for i in used): c for m, c in p.iterterms()}).factor_list()
+
+    def back(f: PolyElement) -> PolyElement:
+        out = {}
+        for m, coeff in f.iterterms():
+            full = [0] * R.ngens
+            for i, e in zip(used, m):
+                full[i] = e
+            out[tuple(full)] = coeff
+        return R.from_dict(out)
+    return c, [(back(f), e) for f, e in fl]
 
 
 def factor_list_fast(p: PolyElement) -> tuple:
@@ -330,7 +353,7 @@ def factor_list_fast(p: PolyElement) -> tuple:
             factors.append(root)
             break
         if i is None:
-            c, rest = prim.factor_list()
+            c, rest = _dense_factor_list(prim, p)  # (in the ring of p's generators, as sympy's own order)
             factors.extend(rest)
             content *= c
             break
