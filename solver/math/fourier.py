@@ -117,8 +117,13 @@ class _Algebra:
         return out
 
     def trig(self, f: sp.Expr) -> TrigPoly:
-        k, quarter = split_angle(f.args[0], self.index)  # offset quarter·π/2
-        kind = 0 if isinstance(f, sp.cos) else 1
+        return self.trig_of(f.args[0], 0 if isinstance(f, sp.cos) else 1)
+
+    def trig_of(self, arg: sp.Expr, kind: int) -> TrigPoly:
+        """cos(arg) (kind 0) or sin(arg) (kind 1), arg = Σ k_j x_j + r·π/2 (NotTrigPolynomial otherwise)."""
+        if arg.is_zero:
+            return self.const(self.R.one) if kind == 0 else {}
+        k, quarter = split_angle(arg, self.index)  # offset quarter·π/2
         sign = 1
         # shift by quarter·π/2: cos -> -sin -> -cos -> sin; sin -> cos -> -sin -> -cos
         for _ in range(quarter % 4):

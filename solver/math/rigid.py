@@ -86,8 +86,7 @@ def _dh_kinematics_canonical(rows, convention, q, dq, coms, base):  # type: igno
     w: list = [zero, zero, zero]
     frames, omegas, centres = [], [], []
     for (a, alpha, d, theta), r in zip(rows, coms):
-        ct, st, ca, sa = (conv(f(x)) for f, x in ((sp.cos, theta), (sp.sin, theta), (sp.cos, alpha),
-                                                    (sp.sin, alpha)))
+        (ct, st), (ca, sa) = A.cos_sin(theta), A.cos_sin(alpha)
         a_, d_ = conv(a), conv(d)
         if convention == "standard":
             R = [[ct, neg(mul(st, ca)), mul(st, sa)], [st, mul(ct, ca), neg(mul(ct, sa))], [zero, sa, ca]]
@@ -97,7 +96,8 @@ def _dh_kinematics_canonical(rows, convention, q, dq, coms, base):  # type: igno
             p = [a_, neg(mul(sa, d_)), mul(ca, d_)]
         local = [R[i] + [p[i]] for i in range(3)] + [[zero, zero, zero, one]]
         T = A.matmul(T, local)
-        rate = conv(sum((sp.diff(theta, qk) * dqk for qk, dqk in zip(q, dq)), sp.Integer(0)))
+        rate = conv(sum((sp.diff(theta, qk) * dqk for qk, dqk in zip(q, dq) if qk in theta.free_symbols),
+                        sp.Integer(0)))
         Rt = A.T(R)
         if convention == "standard":  # ⁱωᵢ = Rᵀ(ω + z θ̇), modified: Rᵀω + z θ̇
             w = [A.dot(row, [w[0], w[1], A.add(w[2], rate)]) for row in Rt]

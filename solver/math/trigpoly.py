@@ -101,6 +101,13 @@ class TrigAlgebra:
             return {}
         return self.alg.mul(a, b)
 
+    def cos_sin(self, x: sp.Expr) -> tuple[TrigPoly, TrigPoly]:
+        """(cos x, sin x) without sympy's cos(x) and sin(x) (their evaluation costs more than the rest)."""
+        try:
+            return self.alg.trig_of(x, 0), self.alg.trig_of(x, 1)
+        except NotTrigPolynomial:  # (π/3, ...: sympy evaluates them)
+            return self.conv(sp.cos(x)), self.conv(sp.sin(x))
+
     def symbol(self, s: sp.Symbol) -> TrigPoly:
         return self.alg.const(self.alg.gen[s])
 

@@ -15,6 +15,7 @@ from sympy.printing.str import StrPrinter
 
 from solver.math.nounits import without_units
 from solver.publish.termorder import ordered_terms, printing_order
+from solver.publish.texprint import DirectLatex
 from solver.publish.textprint import OutsideText, text
 from solver.results import Result, Solution
 from solver.spec.expr import DECIMAL
@@ -194,6 +195,7 @@ class Latex:
         names = {s: safe_math(tex) for s, tex in names.items()}
         self.names = names
         self.printer = _Printer(names, rank or {})
+        self.direct = DirectLatex(self.printer)
         self._symbols: dict[sp.Symbol, str] = {}
         self.width = width  # reports: a matrix wider than this many characters gets its long entries broken
         self._printed: dict[sp.Basic, str] = {}  # (the report prints an entry again to measure and to break it)
@@ -278,6 +280,8 @@ class Latex:
             value = value.xreplace({f: sp.Float(f, 4) for f in floats})
         if is_large(value):  # terms as stored, by a direct printer: sympy's costs minutes on such sums
             return self.fast(value, None if floats else self._fast_memo)
+        if _plain(value):  # (the printer's LaTeX, without its dispatch at every node)
+            return self.direct.doprint(value)
         return self.printer.doprint(value)
 
     def _fit(self, M: sp.MatrixBase, cells: list[list[str]], width: int) -> list[list[str]]:
