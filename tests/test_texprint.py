@@ -40,16 +40,36 @@ def _random_expr(rng: random.Random, depth: int = 0) -> sp.Expr:
     return sp.Add(*terms)
 
 
+def _wired() -> tuple[_Printer, DirectLatex]:
+    """A printer that hands plain subexpressions to its direct printer, which hands it the rest (as Latex)."""
+    printer = _Printer(NAMES, RANK)
+    direct = printer.direct = DirectLatex(printer)
+    return printer, direct
+
+
 def test_direct_latex_is_the_printers_on_random_expressions() -> None:
     rng = random.Random("texprint")
     checked = 0
     for k in range(600):
         e = _random_expr(rng)
         ref = _Printer(NAMES, RANK).doprint(e)  # (a fresh printer each: no memo shared with the direct one)
-        direct = DirectLatex(_Printer(NAMES, RANK))
+        assert DirectLatex(_Printer(NAMES, RANK)).doprint(e) == ref, e
+        printer, direct = _wired()
         assert direct.doprint(e) == ref, e
         checked += e.is_Add or e.is_Mul
     assert checked > 400
+
+
+def test_the_printer_with_its_direct_printer_on_other_expressions() -> None:
+    """Expressions outside the direct printer (floats, exp, sqrt, fractions, matrices): the printer wired to it
+    writes what it writes alone, the plain subexpressions printed directly."""
+    rng = random.Random("texprint-wired")
+    for k in range(200):
+        e = _random_expr(rng)
+        e = rng.choice([e * sp.Float("0.25"), sp.exp(e) + q1, e / (q1 + l1 * q2), sp.sqrt(e) * m1,
+                        sp.Matrix([[e, q1], [0, e + 1]]), sp.Eq(e, q1)])
+        printer, _ = _wired()
+        assert printer.doprint(e) == _Printer(NAMES, RANK).doprint(e), e
 
 
 def test_direct_latex_on_a_model_entry() -> None:

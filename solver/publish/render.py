@@ -117,6 +117,16 @@ class _Printer(_Memo, LatexPrinter):
             return (1.5, _text(f))
         return (5, _text(f))
 
+    direct: DirectLatex | None = None  # the direct printer of plain subexpressions (set by Latex)
+
+    def _print(self, expr: Any, **kwargs: Any) -> str:  # type: ignore[override]
+        d = self.direct
+        if d is not None and not kwargs and isinstance(expr, sp.Basic) and not expr.is_Atom and _plain(expr):
+            order = self._settings["order"]
+            if d.takes(expr, order):
+                return d.tex(expr, order)
+        return super()._print(expr, **kwargs)
+
     def _needs_mul_brackets(self, expr: sp.Expr, first: bool = False, last: bool = False) -> bool:
         """sympy's rule, decided directly for plain expressions (no Mod, integral, sum or product to look for
         inside): a sum, a negative number, and a product with a minus sign after the first factor."""
@@ -195,7 +205,7 @@ class Latex:
         names = {s: safe_math(tex) for s, tex in names.items()}
         self.names = names
         self.printer = _Printer(names, rank or {})
-        self.direct = DirectLatex(self.printer)
+        self.direct = self.printer.direct = DirectLatex(self.printer)
         self._symbols: dict[sp.Symbol, str] = {}
         self.width = width  # reports: a matrix wider than this many characters gets its long entries broken
         self._printed: dict[sp.Basic, str] = {}  # (the report prints an entry again to measure and to break it)

@@ -15,8 +15,9 @@ with the teacher's order of factors) writes:
 - sin and cos: ``\\sin {x}`` when sympy folds the brackets, else ``\\sin{\\left(x \\right)}``.
 
 Every other node (fractions, negative or fractional powers, other functions, unevaluated products of numbers) is
-printed by the printer itself, in the same order setting; ``tests/test_texprint.py`` checks the equality with the
-printer on random expressions.
+printed by the printer itself, in the same order setting, and the printer hands the plain subexpressions of what
+it prints back here (``_Printer._print``); ``tests/test_texprint.py`` checks the equality with the printer on
+random expressions.
 """
 from __future__ import annotations
 
@@ -44,6 +45,7 @@ class DirectLatex:
         self.p = printer
         self.memo: dict[tuple[sp.Basic, Any], str] = {}
         self.atoms: dict[sp.Basic, str] = {}
+        self.active: set[tuple[sp.Basic, Any]] = set()  # nodes the printer is printing itself (see _sympy)
         self.sep = printer._settings["mul_symbol_latex"]
         self.numbersep = printer._settings["mul_symbol_latex_numbers"]
 
@@ -65,14 +67,22 @@ class DirectLatex:
             hit = self.memo[key] = self._compound(e, order)
         return hit
 
+    def takes(self, e: sp.Basic, order: Any) -> bool:
+        """Whether the printer, about to print the plain compound ``e``, hands it here (not a node it is printing
+        itself on this printer's request: its subexpressions come back here)."""
+        return (e, order) not in self.active
+
     def _sympy(self, e: sp.Basic, order: Any) -> str:
         """The printer's own LaTeX of ``e`` under the order setting ``order``."""
         p = self.p
         old_order, old_on = p._settings["order"], p._memo_on
         p._settings["order"], p._memo_on = order, True
+        key = (e, order)
+        self.active.add(key)
         try:
             return p._print(e)
         finally:
+            self.active.discard(key)
             p._settings["order"], p._memo_on = old_order, old_on
 
     def _compound(self, e: sp.Basic, order: Any) -> str:
