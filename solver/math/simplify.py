@@ -347,9 +347,13 @@ def _fourier_sum(coeffs: dict, angles: list[sp.Symbol], nice):  # type: ignore[n
 
 @lru_cache(maxsize=4096)
 def _harmonic(k: tuple[int, ...], angles: tuple[sp.Symbol, ...]) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
-    """(θ = k·x, cos θ, sin θ), built once per harmonic."""
+    """(θ = k·x, cos θ, sin θ), built once per harmonic; without sympy's evaluation of cos and sin when it has
+    nothing to do (θ a sum of symbols without a minus sign to extract: no multiple of π, no zero), the same
+    objects."""
     theta = sum((kj * x for kj, x in zip(k, angles)), sp.Integer(0))
-    return theta, sp.cos(theta), sp.sin(theta)
+    evaluate = not theta.free_symbols or theta.could_extract_minus_sign() or \
+        not all(type(x) is sp.Symbol for x in theta.free_symbols)
+    return theta, sp.cos(theta, evaluate=evaluate), sp.sin(theta, evaluate=evaluate)
 
 
 def _nice_large(p):  # type: ignore[no-untyped-def]
