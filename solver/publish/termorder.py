@@ -121,14 +121,20 @@ def _split(term: sp.Expr) -> tuple[float, dict[sp.Basic, int]]:
 def _ordered(expr: sp.Expr, order: Any) -> list[sp.Expr]:
     """The terms sorted by sympy's own key (``Expr._parse_order``) over (term, ((re, im), monomial, ())), with
     the monomials over the generators in default_sort_key order, as ``Expr.as_terms`` builds them."""
-    key, reverse = sp.Expr._parse_order(order)
     terms = [(t, *_split(t)) for t in expr.args]
     gens = {b for _, _, powers in terms for b in powers}
     index = {g: i for i, g in enumerate(sorted(gens, key=sort_key))}
+    lex = order is None or order == "lex"  # sympy's key is then (−monomial, (), ((False, 0.0), (c, 0.0)))
+    key, reverse = (None, False) if lex else sp.Expr._parse_order(order)
     rows = []
     for t, c, powers in terms:
         monom = [0] * len(index)
         for b, e in powers.items():
             monom[index[b]] = e
-        rows.append((t, ((c, 0.0), tuple(monom), ())))
+        if lex:
+            rows.append((t, (tuple(-e for e in monom), c)))
+        else:
+            rows.append((t, ((c, 0.0), tuple(monom), ())))
+    if lex:
+        return [t for t, _ in sorted(rows, key=lambda r: r[1])]
     return [t for t, _ in sorted(rows, key=key, reverse=reverse)]
