@@ -310,18 +310,8 @@ def _dense_factor_list(p: PolyElement, of: PolyElement | None = None) -> tuple:
     used = [i for i in range(R.ngens) if (p if of is None else of).degree(i) > 0]
     if len(used) == R.ngens:
         return p.factor_list()
-    small = PolyRing(tuple(R.symbols[i] for i in used), R.domain)
-    c, fl = small.from_dict({tuple(m[i] for i in used): c for m, c in p.iterterms()}).factor_list()
-
-    def back(f: PolyElement) -> PolyElement:
-        out = {}
-        for m, coeff in f.iterterms():
-            full = [0] * R.ngens
-            for i, e in zip(used, m):
-                full[i] = e
-            out[tuple(full)] = coeff
-        return R.from_dict(out)
-    return c, [(back(f), e) for f, e in fl]
+    c, fl = p.set_ring(PolyRing(tuple(R.symbols[i] for i in used), R.domain)).factor_list()
+    return c, [(f.set_ring(R), e) for f, e in fl]
 
 
 def factor_list_fast(p: PolyElement) -> tuple:

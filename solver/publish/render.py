@@ -205,7 +205,7 @@ class Latex:
         names = {s: safe_math(tex) for s, tex in names.items()}
         self.names = names
         self.printer = _Printer(names, rank or {})
-        self.direct = self.printer.direct = DirectLatex(self.printer)
+        self.printer.direct = DirectLatex(self.printer)
         self._symbols: dict[sp.Symbol, str] = {}
         self.width = width  # reports: a matrix wider than this many characters gets its long entries broken
         self._printed: dict[sp.Basic, str] = {}  # (the report prints an entry again to measure and to break it)
@@ -290,9 +290,7 @@ class Latex:
             value = value.xreplace({f: sp.Float(f, 4) for f in floats})
         if is_large(value):  # terms as stored, by a direct printer: sympy's costs minutes on such sums
             return self.fast(value, None if floats else self._fast_memo)
-        if _plain(value):  # (the printer's LaTeX, without its dispatch at every node)
-            return self.direct.doprint(value)
-        return self.printer.doprint(value)
+        return self.printer.doprint(value)  # (plain subexpressions: by its direct printer)
 
     def _fit(self, M: sp.MatrixBase, cells: list[list[str]], width: int) -> list[list[str]]:
         """The cells of a matrix whose rows are wider than ``width`` characters: the narrow columns as they are,

@@ -124,17 +124,18 @@ def _ordered(expr: sp.Expr, order: Any) -> list[sp.Expr]:
     terms = [(t, *_split(t)) for t in expr.args]
     gens = {b for _, _, powers in terms for b in powers}
     index = {g: i for i, g in enumerate(sorted(gens, key=sort_key))}
-    lex = order is None or order == "lex"  # sympy's key is then (−monomial, (), ((False, 0.0), (c, 0.0)))
-    key, reverse = (None, False) if lex else sp.Expr._parse_order(order)
+    key, reverse = (_lex_key, False) if order is None or order == "lex" else sp.Expr._parse_order(order)
     rows = []
     for t, c, powers in terms:
         monom = [0] * len(index)
         for b, e in powers.items():
             monom[index[b]] = e
-        if lex:
-            rows.append((t, (tuple(-e for e in monom), c)))
-        else:
-            rows.append((t, ((c, 0.0), tuple(monom), ())))
-    if lex:
-        return [t for t, _ in sorted(rows, key=lambda r: r[1])]
+        rows.append((t, ((c, 0.0), tuple(monom), ())))
     return [t for t, _ in sorted(rows, key=key, reverse=reverse)]
+
+
+def _lex_key(row: tuple) -> tuple:
+    """sympy's key for order None/lex (``Expr._parse_order``: (−monomial, (), ((False, 0.0), (c, 0.0)))), without
+    its constant parts."""
+    _, ((c, _), monom, _) = row
+    return tuple(-e for e in monom), c

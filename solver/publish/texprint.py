@@ -119,24 +119,23 @@ class DirectLatex:
         if len(factors) < 2 or not coeff.is_Integer or any(
                 f.is_Number or f.is_Mul or (f.is_Pow and f.exp.is_negative) for f in factors):
             return self._sympy(e, order)
-        parts: list[str] = []
-        last = ""
+        body = ""
         for f in sorted(factors, key=self.p._factor_key):
             s = self.tex(f, "none")  # (the printer prints a product's factors with order 'none')
-            if f.is_Add or (f.is_Rational and f.is_negative):
-                s = f"\\left({s}\\right)"
-            if parts:
-                parts.append(self.numbersep if _NUMBER_END.search(last) and _NUMBER_START.match(s) else self.sep)
-            parts.append(s)
-            last = s
-        body = "".join(parts)
+            body = self._joined(body, f"\\left({s}\\right)" if f.is_Add else s)
         if coeff == 1:
             return body
         if coeff == -1:
             return "- " + body
-        c = str(abs(coeff.p))
-        glue = self.numbersep if _NUMBER_END.search(c) and _NUMBER_START.match(body) else self.sep
-        return ("- " if coeff < 0 else "") + c + glue + body
+        return ("- " if coeff < 0 else "") + self._joined(str(abs(coeff.p)), body)
+
+    def _joined(self, left: str, right: str) -> str:
+        """Two factors' LaTeX side by side, as sympy's convert_args joins them: its number separator between a
+        digit and a number, else the multiplication symbol."""
+        if not left:
+            return right
+        number = _NUMBER_END.search(left) and _NUMBER_START.match(right)
+        return left + (self.numbersep if number else self.sep) + right
 
     def _power(self, e: sp.Pow, order: Any) -> str:
         b, x = e.args
@@ -159,18 +158,7 @@ class DirectLatex:
         (arg,) = e.args
         name = f"\\{type(e).__name__}" + ("" if exp is None else f"^{{{exp}}}")
         s = self.tex(arg, order)
-        return f"{name} {{{s}}}" if _folds(arg) else f"{name}{{\\left({s} \\right)}}"
+        if self.p._needs_function_brackets(arg):
+            return f"{name}{{\\left({s} \\right)}}"
+        return f"{name} {{{s}}}"
 
-
-def _folds(arg: sp.Basic) -> bool:
-    """Whether sympy writes f(arg) without brackets (its ``_needs_function_brackets``, ``fold_func_brackets``)."""
-    if (arg.is_Integer and arg.is_nonnegative) or (arg.is_Atom and arg is not sp.S.NegativeOne
-                                                   and arg.is_Rational is False):
-        return True
-    if arg.is_Mul:
-        return not any(a.is_Function for a in arg.args)
-    if arg.is_Pow:
-        b = arg.base
-        return (b.is_Integer and b.is_nonnegative) or (b.is_Atom and b is not sp.S.NegativeOne
-                                                       and b.is_Rational is False)
-    return not (arg.is_Add or arg.is_Function)
