@@ -339,6 +339,7 @@ def main() -> None:
         points = random_points(name, args.points, args.seed)
         stdin = json.dumps(points)
         ours, raws, failed = None, {p: (None, "") for p in peers}, ""
+        stopped: set[str] = set()  # peers capped or failed once: not run again
         for _ in range(args.repeat):  # interleaved: a slow phase of the shared machine hits every tool alike
             run_ours, _, why = run(me + ["robosolve", name], args.cap * 4, stdin)
             if run_ours is None or "values" not in run_ours:
@@ -347,14 +348,16 @@ def main() -> None:
             if ours is None or _total(run_ours) < _total(ours):
                 ours = run_ours
             for p in peers:
-                best, why_best = raws[p]
-                if best is None and why_best:  # capped or failed once: not run again
+                if p in stopped:
                     continue
                 py = [args.rtb_python, str(Path(__file__).resolve()), "--worker"] if p == "rne" else me
                 raw, _, why_raw = run(py + [p, name], args.cap, stdin)
                 raw_t = (raw or {}).get("times", {}).get("raw")
+                best = raws[p][0]
                 if raw_t is None:
-                    raws[p] = (best, why_best or why_raw) if best is not None else (None, why_raw)
+                    stopped.add(p)
+                    if best is None:
+                        raws[p] = (None, why_raw)
                 elif best is None or raw_t < best["times"]["raw"]:
                     raws[p] = (raw, "")
         if ours is None:
