@@ -61,6 +61,12 @@ def _canon(k: tuple[int, ...], kind: int) -> tuple[Key, int] | None:
     return (tuple(-v for v in k), kind), (-1 if kind else 1)
 
 
+def times(p: PolyElement, x) -> PolyElement:  # type: ignore[no-untyped-def]
+    """p·x for a non-zero element x of p's coefficient domain (sympy's ``p * x`` converts x and goes through
+    the generic product first)."""
+    return p.new([(m, c * x) for m, c in p.items()])
+
+
 class _Algebra:
     """Conversion of sympy expressions into :data:`TrigPoly` over one ring."""
 
@@ -87,20 +93,22 @@ class _Algebra:
         if len(A) > len(B):
             A, B = B, A
         out: TrigPoly = {}
-        half = self.R.ground_new(QQ(1, 2))
+        half = QQ(1, 2)
+        halved = None  # ½ b_k of the non-constant harmonics of B, computed once (product-to-sum halves each)
         for (ka, ta), ca in A.items():
             if not any(ka):  # constant: scale
                 for key, cb in B.items():
                     self.add_into(out, key, ca * cb)
                 continue
+            if halved is None:
+                halved = {key: times(cb, half) for key, cb in B.items() if any(key[0])}
             for (kb, tb), cb in B.items():
-                c = ca * cb
                 if not any(kb):
-                    self.add_into(out, (ka, ta), c)
+                    self.add_into(out, (ka, ta), ca * cb)
                     continue
                 diff = tuple(a - b for a, b in zip(ka, kb))
                 summ = tuple(a + b for a, b in zip(ka, kb))
-                c = c * half
+                c = ca * halved[(kb, tb)]
                 if ta == 0 and tb == 0:  # c_a c_b
                     terms = ((diff, 0, 1), (summ, 0, 1))
                 elif ta == 1 and tb == 1:  # s_a s_b

@@ -15,8 +15,9 @@ from __future__ import annotations
 from typing import Iterable
 
 import sympy as sp
+from sympy.polys.rings import PolyElement
 
-from solver.math.fourier import NotTrigPolynomial, TrigPoly, _Algebra
+from solver.math.fourier import NotTrigPolynomial, TrigPoly, _Algebra, times
 from solver.math.simplify import fourier_expr, parts_by
 
 __all__ = ["TrigAlgebra", "NotTrigPolynomial"]
@@ -24,12 +25,7 @@ __all__ = ["TrigAlgebra", "NotTrigPolynomial"]
 
 def _pdiff(p, i: int):  # type: ignore[no-untyped-def]
     """∂p/∂x_i of a ring element (sympy's ``p.diff(x)`` finds i by comparing x with every generator by value)."""
-    out = p.ring.zero
-    for m, c in p.items():
-        e = m[i]
-        if e:
-            out[m[:i] + (e - 1,) + m[i + 1:]] = c * e
-    return out
+    return p.new([(m[:i] + (m[i] - 1,) + m[i + 1:], c * m[i]) for m, c in p.items() if m[i]])
 
 
 class TrigAlgebra:
@@ -41,6 +37,7 @@ class TrigAlgebra:
         self.alg = _Algebra(self.angles, gens)
         self.R = self.alg.R
         self.gens = gens
+        self.gen_index = {x: i for i, x in enumerate(gens)}
         self.zero: TrigPoly = {}
 
     @classmethod
@@ -93,6 +90,11 @@ class TrigAlgebra:
         """``a`` times a number or a ring element."""
         if not c:
             return {}
+        if isinstance(c, PolyElement) and c.is_ground:
+            c = c.LC
+        if not isinstance(c, PolyElement):  # a number: every coefficient times it, none vanishes
+            x = self.R.domain.convert(c)
+            return {k: times(v, x) for k, v in a.items()}
         out = {k: v * c for k, v in a.items()}
         return {k: v for k, v in out.items() if v}
 
@@ -115,7 +117,8 @@ class TrigAlgebra:
         """∂a/∂x (x an angle, a coefficient symbol, or both)."""
         out: TrigPoly = {}
         j = self.alg.index.get(x)
-        g = self.gens.index(x) if x in self.alg.gen else None
+        g = self.gen_index.get(x)
+        to = self.R.domain.convert
         for (k, kind), c in a.items():
             if g is not None:
                 dc = _pdiff(c, g)
@@ -123,9 +126,9 @@ class TrigAlgebra:
                     self.alg.add_into(out, (k, kind), dc)
             if j is not None and k[j]:
                 if kind == 0:  # cos(k·x)' = -k_j sin(k·x)
-                    self.alg.add_into(out, (k, 1), c * (-k[j]))
+                    self.alg.add_into(out, (k, 1), times(c, to(-k[j])))
                 else:  # sin(k·x)' = k_j cos(k·x)
-                    self.alg.add_into(out, (k, 0), c * k[j])
+                    self.alg.add_into(out, (k, 0), times(c, to(k[j])))
         return out
 
     def dot(self, a: list[TrigPoly], b: list[TrigPoly]) -> TrigPoly:
@@ -162,7 +165,7 @@ class TrigAlgebra:
     def by_monomial(self, a: TrigPoly, v: list[sp.Symbol]) -> dict[tuple[int, ...], TrigPoly]:
         """``a`` = Σ_e a_e(·) v^e split by the monomials of the generators ``v`` (exponents e in the order of v):
         {e: a_e}, each a_e free of v."""
-        idx = [self.gens.index(x) for x in v]
+        idx = [self.gen_index[x] for x in v]
         out: dict[tuple[int, ...], TrigPoly] = {}
         for key, c in a.items():
             for e, part in parts_by(c, idx).items():
