@@ -342,6 +342,11 @@ def test_ring_trig_is_sympys_expand_trig():
             ring_trig(bad, {x: (C1, S1)})
 
 
+def tree(e: sp.Basic):  # type: ignore[no-untyped-def]
+    """The stored tree, arguments in stored order (srepr orders the terms of a sum)."""
+    return (type(e).__name__, tuple(tree(x) for x in e.args)) if e.args else sp.srepr(e)
+
+
 @pytest.mark.parametrize("domain", ["QQ", "ZZ"])
 def test_poly_expr_builds_sympys_own_tree(domain: str) -> None:
     """poly_expr (no flattening) gives p.as_expr() node for node: same arguments in the same order (the LaTeX
@@ -359,5 +364,49 @@ def test_poly_expr_builds_sympys_own_tree(domain: str) -> None:
             d[m] = dom.convert(rng.choice([-3, -1, 1, 1, 2, 5])) / (dom.convert(rng.choice([1, 2, 3])) if dom is QQ_
                                                                     else dom.one)
         p = R.from_dict(d)
-        assert sp.srepr(poly_expr(p)) == sp.srepr(p.as_expr()), p
+        assert tree(poly_expr(p)) == tree(p.as_expr()), p
     assert poly_expr(R.zero) == 0 and poly_expr(R.one) == 1
+
+
+def test_mul_and_add_distinct_build_sympys_own_tree() -> None:
+    """mul_distinct and add_distinct (no flattening) give what Mul and Add give, node for node, on the
+    shapes the Fourier sums are made of: polynomials, products of a content, monomials and factors, a number
+    times a single sum (kept a product, as Mul(..., evaluate=False)), cos/sin of distinct harmonics; random."""
+    from solver.math.fourier import _ring, add_distinct, mul_distinct, poly_expr
+    syms = sp.symbols("I1 d2 dq1 dq2 g0 l1 m2 q1")
+    R = _ring(tuple(syms))
+    rng = random.Random(7)
+    trig = [f(h) for h in (q2, q1 + q2, q2 - q3, 2 * q3, q1 + q2 + q3) for f in (sp.cos, sp.sin)]
+
+    def poly(terms: int, start: int = 0):  # type: ignore[no-untyped-def]
+        d = {}
+        for _ in range(terms):
+            m = tuple(rng.choice([0, 0, 1, 2]) if i >= start else 0 for i in range(len(syms)))
+            d[m] = QQ_(rng.choice([-3, -1, 1, 1, 2, 5]), rng.choice([1, 1, 2, 3]))
+        return R.from_dict(d)
+
+    def coefficient():  # type: ignore[no-untyped-def]
+        """A coefficient as nice_poly writes one: a polynomial, a product of a monomial and factors, or a number
+        times one sum."""
+        shape = rng.randrange(4)
+        if shape == 0:
+            return poly_expr(poly(rng.randint(1, 5)))
+        number = sp.Rational(rng.choice([-3, -1, 1, 2]), rng.choice([1, 2]))
+        if shape == 1:
+            return mul_distinct(number, [poly_expr(poly(2, 4))])
+        factors = [poly_expr(R.from_dict({tuple(rng.choice([0, 1, 2]) for _ in syms): QQ_(1)})),
+                   poly_expr(poly(2, 2)) ** rng.choice([1, 2]), poly_expr(poly(3, 5))]
+        return mul_distinct(number, factors[:rng.randint(1, 3)])
+
+    for _ in range(400):
+        c, f = coefficient(), rng.choice(trig)
+        assert tree(mul_distinct(sp.S.One, [c, f])) == tree(c * f), (c, f)
+        number = sp.Rational(rng.choice([-2, -1, 1, 3]), rng.choice([1, 2]))
+        s = poly_expr(poly(rng.randint(2, 4), 2))
+        kept = sp.Mul(number, s, evaluate=False) if number != 1 and s.is_Add else number * s
+        assert tree(mul_distinct(number, [s])) == tree(kept)
+        harmonics = rng.sample(trig, rng.randint(0, 4))
+        terms = [coefficient()] + [mul_distinct(sp.S.One, [coefficient(), h]) for h in harmonics]
+        rng.shuffle(terms)
+        assert tree(add_distinct(terms)) == tree(sp.Add(*terms)), terms
+    assert mul_distinct(sp.S.Zero, [a]) == 0 and add_distinct([sp.S(2), sp.S(-2)]) == 0

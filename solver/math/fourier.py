@@ -492,6 +492,75 @@ def _flip(f: PolyElement) -> bool:
 _PREFIX_SORT = cmp_to_key(sp.Basic.compare)  # sympy's canonical order of the arguments of a sum or product
 
 
+def mul_distinct(coeff: sp.Expr, factors: list[sp.Expr]) -> sp.Expr:
+    """``coeff · Π factors`` as sympy's ``Mul`` writes it, built without its flattening: the coefficient first
+    (unless 1), then the factors in sympy's argument order, products among them opened (their coefficients taken
+    into ``coeff``). For a rational ``coeff`` and canonical commutative factors with pairwise distinct bases, none
+    a power of a number (sympy merges √2·√3): what ``Mul`` gives, except that a coefficient times a single sum
+    stays a product, as ``Mul(2, x + y, evaluate=False)`` (``Mul`` would distribute it)."""
+    flat: list[sp.Expr] = []
+    for f in factors:
+        if f.is_Mul:
+            args = f.args
+            if args[0].is_Number:
+                coeff *= args[0]
+                args = args[1:]
+            flat.extend(args)
+        elif f.is_Number:
+            coeff *= f
+        else:
+            flat.append(f)
+    if coeff.is_zero:
+        return sp.S.Zero
+    if not flat:
+        return coeff
+    flat.sort(key=_PREFIX_SORT)
+    if coeff is sp.S.One:
+        return flat[0] if len(flat) == 1 else sp.Mul._from_args(flat)
+    return sp.Mul._from_args([coeff] + flat)
+
+
+def add_distinct(terms: list[sp.Expr]) -> sp.Expr:
+    """``Add(*terms)`` as sympy writes it, built without its flattening, for canonical commutative terms of
+    which no two differ only in their numerical coefficient (monomials of one polynomial, terms of distinct
+    harmonics): sums among them opened, numbers added into the constant, which comes first, the rest in
+    sympy's argument order. A single term is returned as it is (as ``Add`` does)."""
+    if len(terms) == 1:
+        return terms[0]
+    const: sp.Expr = sp.S.Zero
+    flat: list[sp.Expr] = []
+    for t in terms:
+        if t.is_Add:
+            for a in t.args:
+                if a.is_Number:
+                    const += a
+                else:
+                    flat.append(a)
+        elif t.is_Number:
+            const += t
+        else:
+            flat.append(t)
+    if not flat:
+        return const
+    flat.sort(key=_PREFIX_SORT)
+    if const is not sp.S.Zero:
+        flat.insert(0, const)
+    return flat[0] if len(flat) == 1 else sp.Add._from_args(flat)
+
+
+_POWERS: dict[tuple[sp.Symbol, int], sp.Expr] = {}
+
+
+def _power(g: sp.Symbol, m: int) -> sp.Expr:
+    """g**m of a generator (memoized: the same powers recur in every coefficient)."""
+    hit = _POWERS.get((g, m))
+    if hit is None:
+        if len(_POWERS) > 10000:
+            _POWERS.clear()
+        hit = _POWERS[(g, m)] = g ** m
+    return hit
+
+
 def poly_expr(p: PolyElement) -> sp.Expr:
     """``p.as_expr()``, the same tree built without sympy's flattening: a polynomial's terms are distinct
     monomials, so each product is its coefficient (first, unless 1) and its powers in sympy's argument order, and
@@ -501,7 +570,7 @@ def poly_expr(p: PolyElement) -> sp.Expr:
     terms, const = [], None
     for monom, coeff in p.iterterms():
         c = to_sympy(coeff)
-        factors = [g if m == 1 else g ** m for g, m in zip(gens, monom) if m]
+        factors = [g if m == 1 else _power(g, m) for g, m in zip(gens, monom) if m]
         if not factors:
             const = c
             continue
@@ -563,17 +632,14 @@ def _nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
                 best = cand
     if _product_cost(best) >= p_cost:
         return poly_expr(p)
-    number, rest = sp.Integer(1), []
+    number, rest = sp.S.One, []
     for f, e in best:
         x = poly_expr(f)
         if f.is_ground:
             number *= x ** e
         else:
-            rest.append(x ** e)
-    body = sp.Mul(*rest)
-    if number != 1 and body.is_Add:  # keep 2*(q3 - d) and -(a + b) factored: Mul(2, x + y) would distribute
-        return sp.Mul(number, body, evaluate=False)
-    return number * body
+            rest.append(x if e == 1 else x ** e)
+    return mul_distinct(number, rest)  # (2*(q3 - d) and -(a + b) stay factored: Mul(2, x + y) would distribute)
 
 
 @lru_cache(maxsize=16)

@@ -19,9 +19,11 @@ from functools import lru_cache
 from typing import Any
 
 import sympy as sp
+from sympy.polys.domains import QQ, ZZ
 
-from solver.math.fourier import (NotTrigPolynomial, TrigPoly, _Algebra, _canon, factor_small, fourier_coefficients,
-                                  nice_poly, product_cost_bound, product_form, product_groups)
+from solver.math.fourier import (NotTrigPolynomial, TrigPoly, _Algebra, _canon, add_distinct, factor_small,
+                                  fourier_coefficients, mul_distinct, nice_poly, product_cost_bound, product_form,
+                                  product_groups)
 from solver.math.budget import BudgetExceeded, cpu_budget
 from solver.math.opcount import count_ops
 
@@ -331,6 +333,8 @@ def _fourier_sum(coeffs: dict, angles: list[sp.Symbol], nice):  # type: ignore[n
         nice = _nice_large
     out = []
     ang = tuple(angles)
+    # rational polynomial coefficients: the products and the sum built directly (fourier.mul_distinct, add_distinct)
+    direct = nice is not _nice and all(p.ring.domain in (QQ, ZZ) for ab in coeffs.values() for p in ab)
     for k in sorted(coeffs, key=lambda t: (sum(abs(v) for v in t), [-abs(v) for v in t], t)):
         a, b = coeffs[k]
         theta, cos, sin = _harmonic(k, ang)
@@ -338,11 +342,17 @@ def _fourier_sum(coeffs: dict, angles: list[sp.Symbol], nice):  # type: ignore[n
         if phased is not None:
             out.append(phased)
             continue
+        if direct and not any(k):
+            if a:
+                out.append(nice(a))
+            continue
         if a:
-            out.append(nice(a) * cos)
+            out.append(mul_distinct(sp.S.One, [nice(a), cos]) if direct else nice(a) * cos)
         if b:
-            out.append(nice(b) * sin)
-    return sp.Add(*out), nice, large
+            out.append(mul_distinct(sp.S.One, [nice(b), sin]) if direct else nice(b) * sin)
+    if not out:
+        return sp.S.Zero, nice, large
+    return (add_distinct(out) if direct else sp.Add(*out)), nice, large
 
 
 @lru_cache(maxsize=4096)
