@@ -97,8 +97,29 @@ def load_all() -> dict[str, AskKind]:
 
 @lru_cache(maxsize=1)
 def kind_modules() -> dict[str, str]:
-    """Every ask kind's name -> the module that registers it (chapters in order, modules by name), found without
-    importing anything: the chapter modules' source is searched for ``@ask_kind("name", ...)``
+    """Every ask kind's name -> the module that registers it (chapters in order, modules by name, kinds in the
+    order of their module), found without importing anything when the modules are not imported yet (see
+    :func:`_declared_modules`), else read from the registrations."""
+    return _registered_modules() if _LOADED else _declared_modules()
+
+
+def _registered_modules() -> dict[str, str]:
+    """:func:`kind_modules` from the registered kinds (every chapter imported: :func:`load_all`)."""
+    by_module: dict[str, list[str]] = {}
+    for name, kind in ASKS.items():
+        by_module.setdefault(kind.solve.__module__, []).append(name)
+    out: dict[str, str] = {}
+    root = Path(__file__).resolve().parent
+    for chapter in CHAPTERS:
+        for info in pkgutil.iter_modules([str(root / chapter)]):
+            module = f"solver.{chapter}.{info.name}"
+            for name in by_module.get(module, []):
+                out.setdefault(name, module)
+    return out
+
+
+def _declared_modules() -> dict[str, str]:
+    """:func:`kind_modules` by searching the chapter modules' source for ``@ask_kind("name", ...)``
     (tests/test_startup.py checks that this finds exactly what importing them registers). Empty when the source
     cannot be read (then the callers import every chapter, as :func:`load_all`)."""
     out: dict[str, str] = {}

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from conftest import PROBLEMS, ROOT
-from solver.registry import kind_modules, load_all
+from solver.registry import _declared_modules, _registered_modules, kind_modules, load_all
 from solver.spec import load_problem
 from solver.spec.errors import UserError
 from solver.spec.models import json_schema
@@ -50,6 +50,8 @@ def test_the_index_names_what_importing_registers():
     kinds = load_all()
     assert len(index) >= 15
     assert index == {name: kind.solve.__module__ for name, kind in kinds.items()}
+    # once every module is imported, the index is read from the registrations: the same, in the same order
+    assert list(_registered_modules().items()) == list(_declared_modules().items())
 
 
 def test_check_of_a_dynamics_problem_imports_its_kind_only():

@@ -516,8 +516,8 @@ def mul_distinct(coeff: sp.Expr, factors: list[sp.Expr]) -> sp.Expr:
         return coeff
     flat.sort(key=_PREFIX_SORT)
     if coeff is sp.S.One:
-        return flat[0] if len(flat) == 1 else sp.Mul._from_args(flat)
-    return sp.Mul._from_args([coeff] + flat)
+        return flat[0] if len(flat) == 1 else sp.Mul._from_args(flat, True)
+    return sp.Mul._from_args([coeff] + flat, True)
 
 
 def add_distinct(terms: list[sp.Expr]) -> sp.Expr:
@@ -545,7 +545,7 @@ def add_distinct(terms: list[sp.Expr]) -> sp.Expr:
     flat.sort(key=_PREFIX_SORT)
     if const is not sp.S.Zero:
         flat.insert(0, const)
-    return flat[0] if len(flat) == 1 else sp.Add._from_args(flat)
+    return flat[0] if len(flat) == 1 else sp.Add._from_args(flat, True)
 
 
 _POWERS: dict[tuple[sp.Symbol, int], sp.Expr] = {}
