@@ -183,7 +183,7 @@ def test_dh_kinematics_canonical_equals_tidied_products(convention):
     """The loader's DH kinematics in the canonical form (frames, link angular velocities, centres of mass) equal
     the products tidied entry by entry, on a spatial R-P-R arm no exercise uses (a symbolic twist, π/2 offsets, a
     base), and ⁱωᵢ equals vee(Rᵀ Ṙ) of the chain numerically."""
-    from solver.math.rigid import _dh_kinematics_canonical, dh_chain, dh_omegas, vee
+    from solver.math.rigid import dh_chain, dh_forms, dh_omegas, vee
     from solver.math.simplify import tidy
     q = sp.symbols("q1:4")
     dq = sp.symbols("dq1:4")
@@ -192,7 +192,8 @@ def test_dh_kinematics_canonical_equals_tidied_products(convention):
     rows = [tuple(sp.sympify(x) for x in r) for r in rows]
     coms = [sp.Matrix([d1 - l1, 0, l2]), sp.Matrix([0, d1 / 2, 0]), sp.Matrix([0, 0, l1])]
     base = sp.Matrix([[0, -1, 0, 1], [1, 0, 0, 0], [0, 0, 1, l1], [0, 0, 0, 1]])
-    F, W, C = _dh_kinematics_canonical(rows, convention, q, dq, coms, base)
+    forms = dh_forms(rows, convention, q, dq, coms, base)
+    F, W, C = ([get(i) for i in range(3)] for get in (forms.frame, forms.omega, forms.centre))
     F0 = [(base * A).applyfunc(tidy) for A in dh_chain(rows, convention)]
     assert F == F0
     assert W == dh_omegas(rows, convention, q, dq)
@@ -214,3 +215,52 @@ def test_dh_kinematics_falls_back_outside_the_canonical_form():
     assert sp.simplify(F[1][2, 2] - sp.Rational(1, 2)) == 0
     assert sp.simplify(W[1][2] - (dq[0] + dq[1]) / 2) == 0  # ²ω₂ = R₂ᵀ(ω₁ + z q̇₂), R₂ = Rot_z(q₂) Rot_x(π/3)
     assert sp.simplify(C[0][0] - 0.25 * sp.cos(q[0])) == 0
+
+
+def test_dh_bodies_are_written_when_read_and_taken_as_computed_by_the_model():
+    """A DH robot's p_c, ω, rotations and frames are written when first read; the dynamic model takes the loader's
+    canonical p_c and ω as they are (TrigAlgebra.take), which gives the model derived from the written ones; a
+    pickled body carries the written values, not the canonical forms."""
+    import pickle
+
+    from solver.dynamics.canonical import derive_canonical
+    from solver.results import Deferred
+    from solver.solve import _dumps
+    from solver.spec import load_problem_text
+    text = """
+id: lazy-dh
+title: a spatial RRR arm by DH
+symbols: {l1: length, l2: length, d1: distance, d2: distance, m1: mass, m2: mass, I2: inertia, g0: gravity}
+robot:
+  joints: [R, R, R]
+  gravity: [0, 0, -g0]
+  dh:
+    table:
+      - {a: 0, alpha: pi/2, d: l1, theta: q1}
+      - {a: l2, alpha: 0, d: 0, theta: q2}
+      - {a: d2, alpha: -pi/2, d: 0, theta: q3 + pi/2}
+    links:
+      - {mass: m1, com: [0, d1 - l1, 0], inertia: [0, 0, 0]}
+      - {mass: m2, com: [d2 - l2, 0, 0], inertia: [0, I2, I2]}
+      - {mass: m2, com: [0, 0, d1], inertia: [I2, 0, I2]}
+asks:
+  - kind: dynamic_model
+"""
+    robot = load_problem_text(text).robot
+    raw = [object.__getattribute__(b, "__dict__") for b in robot.bodies]
+    assert all(type(r[k]) is Deferred for r in raw for k in ("com", "omega", "rotation"))
+    assert type(object.__getattribute__(robot, "__dict__")["frames"]) is Deferred
+    fast = derive_canonical(robot)
+    assert all(type(r["com"]) is Deferred for r in raw)  # the model did not write them
+    plain = load_problem_text(text).robot
+    for b in plain.bodies:
+        b.trig = None  # the written p_c and ω, read into the model's algebra
+    slow = derive_canonical(plain)
+    for name in ("B", "c", "g", "lhs"):
+        assert getattr(fast, name) == getattr(slow, name), name
+    frames = robot.frames
+    assert len(frames) == 4 and frames[0] == sp.eye(4)
+    for b, A in zip(robot.bodies, frames[1:]):
+        assert b.rotation == A[:3, :3]
+    copy = pickle.loads(_dumps(robot.bodies[2]))  # (as a helper process sends it)
+    assert copy.trig is None and copy.com == robot.bodies[2].com and copy.omega == robot.bodies[2].omega

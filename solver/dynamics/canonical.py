@@ -26,12 +26,17 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
     from solver.dynamics.model import BodyEnergy, DynamicModel
     n, q, dq, ddq = robot.n, robot.q, robot.dq, robot.ddq
     inputs: list = [robot.gravity] if robot.gravity is not None else []
+    elements = []  # bodies whose p_c and ω the loader computed in the canonical form: taken as they are
     for b in robot.bodies:
-        inputs += [b.mass, b.com, b.omega, b.inertia]
+        inputs += [b.mass, b.inertia]
+        if b.trig is not None:
+            elements.append((b.trig[0], list(b.trig[1]) + list(b.trig[2])))
+        else:
+            inputs += [b.com, b.omega]
     inputs += list(robot.kinetic_extra) + list(robot.potential_extra)
     inputs += [m for m in (robot.given_B, robot.given_U, robot.given_g, robot.given_c, robot.friction) if m is not None]
     try:
-        A = TrigAlgebra.of(inputs, extra=list(q) + list(dq) + list(ddq))
+        A = TrigAlgebra.of(inputs, extra=list(q) + list(dq) + list(ddq), elements=elements)
         conv, mat = A.conv, A.matrix
         half = A.R.ground_new(QQ(1, 2))
         V = [A.symbol(v) for v in dq]
@@ -40,9 +45,12 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
         B: Mat = [[{} for _ in range(n)] for _ in range(n)]
         for body in robot.bodies:
             m = conv(body.mass)
-            P = [conv(x) for x in body.com]
+            if body.trig is not None:
+                src, pc, w = body.trig
+                P, W = [A.take(src, x) for x in pc], [A.take(src, x) for x in w]
+            else:
+                P, W = [conv(x) for x in body.com], [conv(x) for x in body.omega]
             Jv = [[A.diff(p, qj) for qj in q] for p in P]
-            W = [conv(x) for x in body.omega]
             Jw = [[A.diff(w, v) for v in dq] for w in W]
             I = mat(body.inertia)
             vc = [A.dot(row, V) for row in Jv]
@@ -121,7 +129,7 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
     # per-body quantities are printed when a report, a check or --details first reads them
     energies = [BodyEnergy(body, Deferred(lambda P=P: sp.Matrix([ex(p) for p in P])),
                            Deferred(lambda vc=vc: sp.Matrix([ex(v) for v in vc])), Deferred(lambda v2=v2: ex(v2)),
-                           body.omega, Deferred(lambda T=T: ex(T)),
+                           Deferred(lambda body=body: body.omega), Deferred(lambda T=T: ex(T)),
                            Deferred(lambda U=U: ex(U)) if U is not None else None,
                            Deferred(lambda vc=vc, v2=v2, T=T: ([terms(v) for v in vc], terms(v2),
                                                                terms(A.scale(T, 2)))))

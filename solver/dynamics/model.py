@@ -356,8 +356,9 @@ def solve_dynamic_model(problem, options: DynamicModelAsk, ctx) -> Solution:  # 
     for i, e in enumerate(dm.bodies, 1):  # (per-body quantities printed only when read: Deferred)
         sol.add(f"pc{i}", Deferred(lambda e=e: e.pc), "vector", label=f"p_{{c{i}}}", detail=True)
         sol.add(f"vc{i}", Deferred(lambda e=e: e.vc), "vector", label=f"v_{{c{i}}}", detail=True)
-        sol.add(f"w{i}", e.omega, label=f"\\omega_{{{i}}}", detail=True)  # in the frame of the body's inertia
-        if e.body.omega_frame == "link" and e.body.rotation is not None:  # also in the base frame: ⁰ω = ⁰R ω
+        sol.add(f"w{i}", Deferred(lambda e=e: e.omega), "vector", label=f"\\omega_{{{i}}}",
+                detail=True)  # in the frame of the body's inertia
+        if e.body.omega_frame == "link" and e.body.given("rotation"):  # also in the base frame: ⁰ω = ⁰R ω
             sol.add(f"w{i}_0", Deferred(lambda e=e: (e.body.rotation * e.omega).applyfunc(tidy)), "vector",
                     label=f"{{}}^0\\omega_{{{i}}}", detail=True)
         sol.add(f"T{i}", Deferred(lambda e=e: e.T), "scalar", label=f"T_{{{i}}}", detail=True)

@@ -58,7 +58,10 @@ def dh_kinematics(rows: list[tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]], convent
     tidying each product), or entry by entry with tidy when the data leave that form (floats, √3, ...)."""
     from solver.math.trigpoly import NotTrigPolynomial
     try:
-        return _dh_kinematics_canonical(rows, convention, q, dq, coms, base)
+        forms = dh_forms(rows, convention, q, dq, coms, base)
+        n = len(rows)
+        return [forms.frame(i) for i in range(n)], [forms.omega(i) for i in range(n)], \
+            [forms.centre(i) for i in range(n)]
     except NotTrigPolynomial:
         pass
     frames = dh_chain(rows, convention)
@@ -68,10 +71,37 @@ def dh_kinematics(rows: list[tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]], convent
     return frames, omegas, [(A[:3, 3] + A[:3, :3] * r).applyfunc(tidy) for A, r in zip(frames, coms)]
 
 
-def _dh_kinematics_canonical(rows, convention, q, dq, coms, base):  # type: ignore[no-untyped-def]
-    """:func:`dh_kinematics` in a :class:`solver.math.trigpoly.TrigAlgebra` (NotTrigPolynomial outside it).
-    ⁱ⁻¹Aᵢ written out: standard [[cθ, −sθcα, sθsα, a cθ], [sθ, cθcα, −cθsα, a sθ], [0, sα, cα, d]],
-    modified [[cθ, −sθ, 0, a], [sθcα, cθcα, −sα, −sα d], [sθsα, cθsα, cα, cα d]]."""
+class DHForms:
+    """⁰Aᵢ, ⁱωᵢ and ⁰p_cᵢ (i = 0..n−1 here for joints 1..n) of a DH chain in the canonical form of one
+    :class:`solver.math.trigpoly.TrigAlgebra` (``algebra``; ``frames``, ``omegas``, ``centres``: its elements),
+    written as sympy matrices on demand, each once."""
+
+    def __init__(self, algebra, frames: list, omegas: list, centres: list) -> None:  # type: ignore[no-untyped-def]
+        self.algebra, self.frames, self.omegas, self.centres = algebra, frames, omegas, centres
+        self._written: dict[tuple[str, int], sp.Matrix] = {}
+
+    def _write(self, what: str, i: int) -> sp.Matrix:
+        hit = self._written.get((what, i))
+        if hit is None:
+            A = self.algebra
+            hit = self._written[(what, i)] = A.to_matrix(self.frames[i]) if what == "frame" else \
+                A.to_matrix([[x] for x in (self.omegas if what == "omega" else self.centres)[i]])
+        return hit
+
+    def frame(self, i: int) -> sp.Matrix:
+        return self._write("frame", i)
+
+    def omega(self, i: int) -> sp.Matrix:
+        return self._write("omega", i)
+
+    def centre(self, i: int) -> sp.Matrix:
+        return self._write("centre", i)
+
+
+def dh_forms(rows, convention, q, dq, coms, base) -> DHForms:  # type: ignore[no-untyped-def]
+    """:func:`dh_kinematics` in a :class:`solver.math.trigpoly.TrigAlgebra`, not written yet (NotTrigPolynomial
+    when the data leave the algebra). ⁱ⁻¹Aᵢ written out: standard [[cθ, −sθcα, sθsα, a cθ], [sθ, cθcα, −cθsα,
+    a sθ], [0, sα, cα, d]], modified [[cθ, −sθ, 0, a], [sθcα, cθcα, −sα, −sα d], [sθsα, cθsα, cα, cα d]]."""
     from solver.math.trigpoly import TrigAlgebra
     if convention not in ("standard", "modified"):
         raise ValueError(f"unknown DH convention {convention!r}")
@@ -109,8 +139,9 @@ def _dh_kinematics_canonical(rows, convention, q, dq, coms, base):  # type: igno
         frames.append(T)
         omegas.append(list(w))
         centres.append(centre)
-    return [A.to_matrix(T) for T in frames], [A.to_matrix([[x] for x in v]) for v in omegas], \
-        [A.to_matrix([[x] for x in c]) for c in centres]
+    return DHForms(A, frames, omegas, centres)
+
+
 
 
 def vee(S: sp.Matrix) -> sp.Matrix:

@@ -38,11 +38,15 @@ class TrigAlgebra:
         self.R = self.alg.R
         self.gens = gens
         self.gen_index = {x: i for i, x in enumerate(gens)}
+        self._maps: dict[int, tuple] = {}  # id(other algebra) -> (it, where its angles and generators are here)
         self.zero: TrigPoly = {}
 
     @classmethod
-    def of(cls, exprs: Iterable[sp.Basic], extra: Iterable[sp.Symbol] = ()) -> "TrigAlgebra":
-        """The algebra of the sympy expressions/matrices ``exprs``: angles are the symbols inside sin/cos."""
+    def of(cls, exprs: Iterable[sp.Basic], extra: Iterable[sp.Symbol] = (),
+           elements: Iterable[tuple["TrigAlgebra", Iterable[TrigPoly]]] = ()) -> "TrigAlgebra":
+        """The algebra of the sympy expressions/matrices ``exprs``: angles are the symbols inside sin/cos; and of
+        the ``elements`` of other algebras, (algebra, its elements), with the angles and symbols they use (those
+        of their written form), for :meth:`take`."""
         angles: set[sp.Symbol] = set()
         symbols: set[sp.Symbol] = set(extra)
         for e in exprs:
@@ -50,7 +54,39 @@ class TrigAlgebra:
             symbols |= e.free_symbols
             for f in e.atoms(sp.sin, sp.cos):
                 angles |= f.args[0].free_symbols
+        for src, items in elements:
+            for a in items:
+                for (k, _), c in a.items():
+                    angles.update(x for x, v in zip(src.angles, k) if v)
+                    for m in c.itermonoms():
+                        symbols.update(x for x, e in zip(src.gens, m) if e)
         return cls(angles, symbols)
+
+    def take(self, src: "TrigAlgebra", a: TrigPoly) -> TrigPoly:
+        """``a``, an element of the algebra ``src``, in this one (which has the angles and symbols ``a`` uses:
+        :meth:`of`). Both order their angles by name, so a canonical key (first non-zero k_j > 0) stays one."""
+        maps = self._maps.get(id(src))
+        if maps is None or maps[0] is not src:
+            maps = self._maps[id(src)] = (src, [self.alg.index.get(x) for x in src.angles],
+                                          [self.gen_index.get(x) for x in src.gens])
+        _, angle_at, gen_at = maps
+        m, g = len(self.angles), len(self.gens)
+        new = self.R.dtype
+        out: TrigPoly = {}
+        for (k, kind), c in a.items():
+            key = [0] * m
+            for j, v in enumerate(k):
+                if v:
+                    key[angle_at[j]] = v  # type: ignore[index]
+            terms = []
+            for mono, coeff in c.items():
+                e = [0] * g
+                for i, d in enumerate(mono):
+                    if d:
+                        e[gen_at[i]] = d  # type: ignore[index]
+                terms.append((tuple(e), coeff))
+            out[(tuple(key), kind)] = new(terms)
+        return out
 
     # ------------------------------------------------------------------------------------------ conversion
     def conv(self, e: sp.Expr) -> TrigPoly:

@@ -13,9 +13,11 @@ from typing import Any
 import sympy as sp
 from pydantic import ValidationError
 
-from solver.math.rigid import dh_kinematics, omega_from_rotation
+from solver.math.fourier import NotTrigPolynomial
+from solver.math.rigid import dh_forms, dh_kinematics, omega_from_rotation
 from solver.math.simplify import tidy
 from solver.registry import load_all
+from solver.results import Deferred
 from solver.spec import expr as exprmod
 from solver.spec.errors import ExprError, Place, UserError
 from solver.spec.models import (DH, Link, RobotSpec, SpecBase, Strict, SymbolInfo, _inner_model, json_schema, spec_kinds,
@@ -411,11 +413,21 @@ class SpecLoader:
             links.append((lk, self.vector_at(lp + ("com",), (3,), "com"), self.scalar_at(lp + ("mass",), "mass"),
                           self._inertia(lp + ("inertia",), "inertia")))
         coms = [r for _, r, _, _ in links]
-        frames, omegas, centres = dh_kinematics(rows, dh.convention, q, dq, coms,  # type: ignore[arg-type]
-                                                base if dh.base is not None else None)
-        bodies = [Body(lk.name or f"link {i + 1}", mass, com, omega, inertia, A[:3, :3], "link")
-                  for i, ((lk, _, mass, inertia), A, omega, com) in enumerate(zip(links, frames, omegas, centres))]
-        return bodies, [base] + frames
+        given_base = base if dh.base is not None else None
+        try:  # the canonical forms, written when first read (a dynamics ask takes p_c, ω as they are)
+            forms = dh_forms(rows, dh.convention, q, dq, coms, given_base)
+        except NotTrigPolynomial:
+            frames, omegas, centres = dh_kinematics(rows, dh.convention, q, dq, coms,  # type: ignore[arg-type]
+                                                    given_base)
+            bodies = [Body(lk.name or f"link {i + 1}", mass, com, omega, inertia, A[:3, :3], "link")
+                      for i, ((lk, _, mass, inertia), A, omega, com) in enumerate(zip(links, frames, omegas,
+                                                                                      centres))]
+            return bodies, [base] + frames
+        bodies = [Body(lk.name or f"link {i + 1}", mass, Deferred(lambda i=i: forms.centre(i)),
+                       Deferred(lambda i=i: forms.omega(i)), inertia, Deferred(lambda i=i: forms.frame(i)[:3, :3]),
+                       "link", trig=(forms.algebra, forms.centres[i], forms.omegas[i]))
+                  for i, (lk, _, mass, inertia) in enumerate(links)]
+        return bodies, Deferred(lambda: [base] + [forms.frame(i) for i in range(nj)])  # type: ignore[return-value]
 
 
 
