@@ -36,7 +36,9 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
     inputs += list(robot.kinetic_extra) + list(robot.potential_extra)
     inputs += [m for m in (robot.given_B, robot.given_U, robot.given_g, robot.given_c, robot.friction) if m is not None]
     try:
-        A = TrigAlgebra.of(inputs, extra=list(q) + list(dq) + list(ddq), elements=elements)
+        shared = {id(src): src for src, _ in elements}  # the loader's algebra, when one holds every body
+        A = TrigAlgebra.of(inputs, extra=list(q) + list(dq) + list(ddq), elements=elements,
+                           within=next(iter(shared.values())) if len(shared) == 1 and len(elements) == n else None)
         conv, mat = A.conv, A.matrix
         half = A.R.ground_new(QQ(1, 2))
         V = [A.symbol(v) for v in dq]

@@ -98,15 +98,17 @@ class DHForms:
         return self._write("centre", i)
 
 
-def dh_forms(rows, convention, q, dq, coms, base) -> DHForms:  # type: ignore[no-untyped-def]
+def dh_forms(rows, convention, q, dq, coms, base, extra=()) -> DHForms:  # type: ignore[no-untyped-def]
     """:func:`dh_kinematics` in a :class:`solver.math.trigpoly.TrigAlgebra`, not written yet (NotTrigPolynomial
-    when the data leave the algebra). ⁱ⁻¹Aᵢ written out: standard [[cθ, −sθcα, sθsα, a cθ], [sθ, cθcα, −cθsα,
-    a sθ], [0, sα, cα, d]], modified [[cθ, −sθ, 0, a], [sθcα, cθcα, −sα, −sα d], [sθsα, cθsα, cα, cα d]]."""
+    when the data leave the algebra), whose generators include the symbols ``extra`` (those of the masses, inertias,
+    ...: the dynamic model then computes in the same algebra). ⁱ⁻¹Aᵢ written out: standard [[cθ, −sθcα, sθsα,
+    a cθ], [sθ, cθcα, −cθsα, a sθ], [0, sα, cα, d]], modified [[cθ, −sθ, 0, a], [sθcα, cθcα, −sα, −sα d],
+    [sθsα, cθsα, cα, cα d]]."""
     from solver.math.trigpoly import TrigAlgebra
     if convention not in ("standard", "modified"):
         raise ValueError(f"unknown DH convention {convention!r}")
     exprs: list = [x for row in rows for x in row] + list(coms) + ([base] if base is not None else [])
-    symbols = set(q) | set(dq)
+    symbols = set(q) | set(dq) | set(extra)
     for e in exprs:
         symbols |= sp.sympify(e).free_symbols
     A = TrigAlgebra({x for _, alpha, _, theta in rows for x in (alpha.free_symbols | theta.free_symbols)}, symbols)

@@ -43,10 +43,22 @@ class TrigAlgebra:
 
     @classmethod
     def of(cls, exprs: Iterable[sp.Basic], extra: Iterable[sp.Symbol] = (),
-           elements: Iterable[tuple["TrigAlgebra", Iterable[TrigPoly]]] = ()) -> "TrigAlgebra":
+           elements: Iterable[tuple["TrigAlgebra", Iterable[TrigPoly]]] = (),
+           within: "TrigAlgebra | None" = None) -> "TrigAlgebra":
         """The algebra of the sympy expressions/matrices ``exprs``: angles are the symbols inside sin/cos; and of
         the ``elements`` of other algebras, (algebra, its elements), with the angles and symbols they use (those
-        of their written form), for :meth:`take`."""
+        of their written form), for :meth:`take`. ``within``: an algebra returned instead when it has those angles
+        and symbols (the written forms are the same: an angle or a generator that no element uses is read nowhere,
+        see :func:`solver.math.simplify._tree_form`)."""
+        angles, symbols = cls._needs(exprs, extra, elements)
+        if within is not None and angles <= set(within.angles) and symbols <= set(within.gens):
+            return within
+        return cls(angles, symbols)
+
+    @staticmethod
+    def _needs(exprs: Iterable[sp.Basic], extra: Iterable[sp.Symbol],
+               elements: Iterable[tuple["TrigAlgebra", Iterable[TrigPoly]]]) -> tuple[set, set]:
+        """(angles, symbols) of :meth:`of`."""
         angles: set[sp.Symbol] = set()
         symbols: set[sp.Symbol] = set(extra)
         for e in exprs:
@@ -60,11 +72,13 @@ class TrigAlgebra:
                     angles.update(x for x, v in zip(src.angles, k) if v)
                     for m in c.itermonoms():
                         symbols.update(x for x, e in zip(src.gens, m) if e)
-        return cls(angles, symbols)
+        return angles, symbols | angles
 
     def take(self, src: "TrigAlgebra", a: TrigPoly) -> TrigPoly:
         """``a``, an element of the algebra ``src``, in this one (which has the angles and symbols ``a`` uses:
         :meth:`of`). Both order their angles by name, so a canonical key (first non-zero k_j > 0) stays one."""
+        if src is self:
+            return a
         maps = self._maps.get(id(src))
         if maps is None or maps[0] is not src:
             maps = self._maps[id(src)] = (src, [self.alg.index.get(x) for x in src.angles],

@@ -309,7 +309,7 @@ class SpecLoader:
         if r.links:
             robot.bodies = [self._explicit(P + ("links", i), lk, q, dq, i) for i, lk in enumerate(r.links)]
         if r.dh:
-            robot.bodies, robot.frames = self._dh(P + ("dh",), r.dh, q, dq, len(r.joints))
+            robot.bodies, robot.frames = self._dh(P + ("dh",), r.dh, q, dq, ddq, len(r.joints), robot.gravity)
             robot.dh_convention = r.dh.convention
         if r.extra:
             robot.kinetic_extra = [self.scalar_at(P + ("extra", "kinetic", i), "a kinetic term")
@@ -396,7 +396,8 @@ class SpecLoader:
             omega = sp.zeros(3, 1)
         return Body(lk.name or f"link {i + 1}", mass, com, omega, inertia, rotation, frame)
 
-    def _dh(self, path: PathT, dh: DH, q: list, dq: list, nj: int) -> tuple[list[Body], list[sp.Matrix]]:
+    def _dh(self, path: PathT, dh: DH, q: list, dq: list, ddq: list, nj: int, gravity: sp.Matrix | None
+            ) -> tuple[list[Body], list[sp.Matrix]]:
         """The bodies of a DH robot and its frames ⁰A_0 (the base), ⁰A_1, ..., ⁰A_n."""
         if len(dh.table) != nj:
             raise self.fail(path + ("table",), f"DH table has {len(dh.table)} rows for {nj} joints")
@@ -414,8 +415,13 @@ class SpecLoader:
                           self._inertia(lp + ("inertia",), "inertia")))
         coms = [r for _, r, _, _ in links]
         given_base = base if dh.base is not None else None
+        extra = set(ddq)  # (the dynamic model's symbols: it computes in the same algebra)
+        for _, _, mass, inertia in links:
+            extra |= mass.free_symbols | inertia.free_symbols
+        if gravity is not None:
+            extra |= gravity.free_symbols
         try:  # the canonical forms, written when first read (a dynamics ask takes p_c, ω as they are)
-            forms = dh_forms(rows, dh.convention, q, dq, coms, given_base)
+            forms = dh_forms(rows, dh.convention, q, dq, coms, given_base, extra)
         except NotTrigPolynomial:
             frames, omegas, centres = dh_kinematics(rows, dh.convention, q, dq, coms,  # type: ignore[arg-type]
                                                     given_base)
