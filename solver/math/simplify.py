@@ -347,12 +347,26 @@ def _fourier_sum(coeffs: dict, angles: list[sp.Symbol], nice):  # type: ignore[n
                 out.append(nice(a))
             continue
         if a:
-            out.append(mul_distinct(sp.S.One, [nice(a), cos]) if direct else nice(a) * cos)
+            out.append(_times(nice(a), cos) if direct else nice(a) * cos)
         if b:
-            out.append(mul_distinct(sp.S.One, [nice(b), sin]) if direct else nice(b) * sin)
+            out.append(_times(nice(b), sin) if direct else nice(b) * sin)
     if not out:
         return sp.S.Zero, nice, large
     return (add_distinct(out) if direct else sp.Add(*out)), nice, large
+
+
+_TERMS: dict[tuple[sp.Expr, sp.Expr], sp.Expr] = {}  # (coefficient, cos/sin) -> their product
+
+
+def _times(c: sp.Expr, f: sp.Expr) -> sp.Expr:
+    """c·f (fourier.mul_distinct), one object per product: the same terms recur in a model's entries, and the
+    printers' memos then find them by identity (as sympy's cache made them: an equal object costs a comparison)."""
+    hit = _TERMS.get((c, f))
+    if hit is None:
+        if len(_TERMS) > 50000:
+            _TERMS.clear()
+        hit = _TERMS[(c, f)] = mul_distinct(sp.S.One, [c, f])
+    return hit
 
 
 @lru_cache(maxsize=4096)
