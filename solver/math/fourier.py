@@ -311,11 +311,17 @@ def factor_small(p: PolyElement) -> tuple[PolyElement, list[tuple[PolyElement, i
     return content, list(factors)  # a new list: the caller changes signs in place
 
 
+def _degrees(p: PolyElement) -> tuple[int, ...]:
+    """The degree of ``p`` (non-zero) in each generator, in one pass over its monomials (``p.degree(x)`` makes
+    one per generator)."""
+    return tuple(map(max, zip(*p.itermonoms())))
+
+
 def _dense_factor_list(p: PolyElement, of: PolyElement | None = None) -> tuple:
     """``p.factor_list()`` computed in the ring of the generators that ``of`` (default ``p``) uses, the factors
     brought back (sympy orders the factors differently in rings with other generators)."""
     R = p.ring
-    used = [i for i in range(R.ngens) if (p if of is None else of).degree(i) > 0]
+    used = [i for i, d in enumerate(_degrees(p if of is None else of)) if d > 0]
     if len(used) == R.ngens:
         return p.factor_list()
     c, fl = p.set_ring(PolyRing(tuple(R.symbols[i] for i in used), R.domain)).factor_list()
@@ -347,7 +353,7 @@ def factor_list_fast(p: PolyElement) -> tuple:
         prim = R.from_dict({tuple(a - b for a, b in zip(m, mono)): c for m, c in prim.iterterms()})
     known: list[tuple[PolyElement, int]] | None = None  # the factors of prim, once known
     while not prim.is_ground:
-        i = next((j for j in range(R.ngens) if prim.degree(j) == 1), None)
+        i = next((j for j, d in enumerate(_degrees(prim)) if d == 1), None)
         if i is None and irreducible(prim):
             factors.append((prim, 1))
             break
@@ -401,7 +407,7 @@ def _divides(f: PolyElement, b: PolyElement) -> bool:
     if len(f) == 1:  # a monomial: every term of b has its powers
         (m, _), = f.iterterms()
         return all(all(x >= y for x, y in zip(t, m)) for t in b.itermonoms())
-    if any(f.degree(j) > b.degree(j) for j in range(f.ring.ngens) if f.degree(j)):
+    if not b or any(x > y for x, y in zip(_degrees(f), _degrees(b))):
         return False
     return not b.rem(f)
 
@@ -412,7 +418,7 @@ def _linear_root(p: PolyElement) -> tuple[PolyElement, int] | None:
     the coefficients of x^d and x^(d−1) give α = (p_d)^(1/d) and β = p_(d−1) / (d α^(d−1)), and f^d = p is
     checked. f is then primitive, hence irreducible; None otherwise (the general factorization decides)."""
     R = p.ring
-    d, i = min((p.degree(j), j) for j in range(R.ngens) if p.degree(j) >= 1)
+    d, i = min((d, j) for j, d in enumerate(_degrees(p)) if d >= 1)
     if d < 2:
         return None
     top = [(m, c) for m, c in p.iterterms() if m[i] == d]
@@ -446,7 +452,7 @@ def irreducible(p: PolyElement, tries: int = 2) -> bool:
     R = p.ring
     if p.is_ground or R.ngens < 2:
         return False
-    degs = [(p.degree(j), j) for j in range(R.ngens) if p.degree(j) >= 1]
+    degs = [(d, j) for j, d in enumerate(_degrees(p)) if d >= 1]
     d, i = min(degs)
     coeffs: dict[int, dict] = {}
     for m, c in p.iterterms():
