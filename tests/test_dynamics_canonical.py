@@ -264,3 +264,14 @@ asks:
         assert b.rotation == A[:3, :3]
     copy = pickle.loads(_dumps(robot.bodies[2]))  # (as a helper process sends it)
     assert copy.trig is None and copy.com == robot.bodies[2].com and copy.omega == robot.bodies[2].omega
+
+
+def test_angle_rate_reads_linear_joint_angles_and_differentiates_the_rest():
+    """θ̇ of a DH joint angle: read from the terms of a linear θ, by differentiation otherwise; always Σ ∂θ/∂q_k q̇_k."""
+    from solver.math.rigid import angle_rate
+    q, dq = sp.symbols("q1:4"), sp.symbols("dq1:4")
+    a = sp.Symbol("a")
+    for theta in (q[0], q[1] + sp.pi / 2, 2 * q[0] - q[2] / 3 + 1, sp.Integer(0), a, q[0] ** 2, a * q[0],
+                  sp.sin(q[1]) + q[2]):
+        expect = sum((sp.diff(theta, x) * v for x, v in zip(q, dq)), sp.Integer(0))
+        assert sp.expand(angle_rate(theta, q, dq) - expect) == 0, theta

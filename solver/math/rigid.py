@@ -98,6 +98,20 @@ class DHForms:
         return self._write("centre", i)
 
 
+def angle_rate(theta: sp.Expr, q: list[sp.Symbol], dq: list[sp.Symbol]) -> sp.Expr:
+    """θ̇ = Σ_k ∂θ/∂q_k q̇_k; for θ = Σ c_k q_k + constant (c_k rational: a DH joint angle) read from its terms
+    without sympy's differentiation."""
+    index = dict(zip(q, dq))
+    terms = []
+    for term, c in theta.as_coefficients_dict().items():
+        if term in index and c.is_Rational:
+            terms.append(c * index[term])
+        elif term.free_symbols & index.keys():
+            return sum((sp.diff(theta, qk) * dqk for qk, dqk in zip(q, dq) if qk in theta.free_symbols),
+                       sp.Integer(0))
+    return sp.Add(*terms)
+
+
 def dh_forms(rows, convention, q, dq, coms, base, extra=()) -> DHForms:  # type: ignore[no-untyped-def]
     """:func:`dh_kinematics` in a :class:`solver.math.trigpoly.TrigAlgebra`, not written yet (NotTrigPolynomial
     when the data leave the algebra), whose generators include the symbols ``extra`` (those of the masses, inertias,
@@ -128,8 +142,7 @@ def dh_forms(rows, convention, q, dq, coms, base, extra=()) -> DHForms:  # type:
             p = [a_, neg(mul(sa, d_)), mul(ca, d_)]
         local = [R[i] + [p[i]] for i in range(3)] + [[zero, zero, zero, one]]
         T = A.matmul(T, local)
-        rate = conv(sum((sp.diff(theta, qk) * dqk for qk, dqk in zip(q, dq) if qk in theta.free_symbols),
-                        sp.Integer(0)))
+        rate = conv(angle_rate(theta, q, dq))
         Rt = A.T(R)
         if convention == "standard":  # ⁱωᵢ = Rᵀ(ω + z θ̇), modified: Rᵀω + z θ̇
             w = [A.dot(row, [w[0], w[1], A.add(w[2], rate)]) for row in Rt]

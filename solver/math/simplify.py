@@ -374,6 +374,8 @@ def _harmonic(k: tuple[int, ...], angles: tuple[sp.Symbol, ...]) -> tuple[sp.Exp
     """(θ = k·x, cos θ, sin θ), built once per harmonic; without sympy's evaluation of cos and sin when it has
     nothing to do (θ a sum of symbols without a minus sign to extract: no multiple of π, no zero), the same
     objects."""
+    if not any(k):
+        return sp.S.Zero, sp.S.One, sp.S.Zero
     theta = sum((kj * x for kj, x in zip(k, angles)), sp.Integer(0))
     evaluate = not theta.free_symbols or theta.could_extract_minus_sign() or \
         not all(type(x) is sp.Symbol for x in theta.free_symbols)
