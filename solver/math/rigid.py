@@ -129,6 +129,9 @@ def dh_forms(rows, convention, q, dq, coms, base, extra=()) -> DHForms:  # type:
     conv, mul, neg = A.conv, A.mul, (lambda x: A.scale(x, -1))
     zero, one = A.zero, A.one()
     T = A.matrix(base) if base is not None else [[one if i == j else zero for j in range(4)] for i in range(4)]
+    # homogeneous frames [[R, p], [0, 1]]: R ← R ⁱ⁻¹Rᵢ, p ← R ⁱ⁻¹pᵢ + p (a base with another last row: 4x4 products)
+    homogeneous = all(not x for x in T[3][:3]) and T[3][3] == one
+    bottom = [zero, zero, zero, one]
     w: list = [zero, zero, zero]
     frames, omegas, centres = [], [], []
     for (a, alpha, d, theta), r in zip(rows, coms):
@@ -140,8 +143,11 @@ def dh_forms(rows, convention, q, dq, coms, base, extra=()) -> DHForms:  # type:
         else:
             R = [[ct, neg(st), zero], [mul(st, ca), mul(ct, ca), neg(sa)], [mul(st, sa), mul(ct, sa), ca]]
             p = [a_, neg(mul(sa, d_)), mul(ca, d_)]
-        local = [R[i] + [p[i]] for i in range(3)] + [[zero, zero, zero, one]]
-        T = A.matmul(T, local)
+        if homogeneous:
+            rows3 = [row[:3] for row in T[:3]]
+            T = [r + [A.add(A.dot(rows3[i], p), T[i][3])] for i, r in enumerate(A.matmul(rows3, R))] + [bottom]
+        else:
+            T = A.matmul(T, [R[i] + [p[i]] for i in range(3)] + [bottom])
         rate = conv(angle_rate(theta, q, dq))
         Rt = A.T(R)
         if convention == "standard":  # ⁱωᵢ = Rᵀ(ω + z θ̇), modified: Rᵀω + z θ̇
