@@ -274,8 +274,9 @@ def _cost(p: PolyElement) -> int:
     """Operation count of ``p`` as printed (as sympy's count_ops): one per +/-, product and power."""
     size = len(p) - 1
     for monom, coeff in p.iterterms():
-        factors = sum(1 for e in monom if e) + (abs(coeff) != 1)
-        size += max(factors - 1, 0) + sum(1 for e in monom if e > 1) + (coeff < 0)
+        used = len(monom) - monom.count(0)  # generators in the term; those with a power: used − (exponents 1)
+        factors = used + (abs(coeff) != 1)
+        size += max(factors - 1, 0) + used - monom.count(1) + (coeff < 0)
     return size
 
 
