@@ -21,6 +21,28 @@ Vec = list  # list[TrigPoly]
 Mat = list  # list[list[TrigPoly]]
 
 
+class _Once:
+    """``make()`` computed at the first call and kept (the same objects at every call)."""
+
+    def __init__(self, make: Any) -> None:
+        self.make, self.value = make, None
+
+    def __call__(self) -> Any:
+        if self.make is not None:
+            self.value, self.make = self.make(), None
+        return self.value
+
+
+def _energy(A: TrigAlgebra, V: Vec, m: Any, pairs: dict, half: Any) -> tuple:
+    """(‖v_c‖², T_i) of one body from its products pairs[(i, j)] = (J_vᵢᵀJ_vⱼ, J_ωᵢᵀ I J_ωⱼ), i ≤ j:
+    ‖v_c‖² = Σ q̇ᵢq̇ⱼ J_vᵢᵀJ_vⱼ, T_i = ½ m ‖v_c‖² + ½ Σ q̇ᵢq̇ⱼ J_ωᵢᵀ I J_ωⱼ."""
+    v2, wIw = {}, {}
+    for (i, j), (pv, pw) in pairs.items():
+        vv = A.mul(V[i], V[j]) if i == j else A.scale(A.mul(V[i], V[j]), 2)
+        v2, wIw = A.add(v2, A.mul(pv, vv)), A.add(wIw, A.mul(pw, vv))
+    return v2, A.add(A.scale(A.mul(m, v2), half), A.scale(wIw, half))
+
+
 def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
     """:class:`solver.dynamics.model.DynamicModel` of ``robot``, or None when its data leave the algebra."""
     from solver.dynamics.model import BodyEnergy, DynamicModel
@@ -58,17 +80,15 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
             vc = [A.dot(row, V) for row in Jv]
             IJw = A.matmul(I, Jw)
             # J_vᵢᵀJ_vⱼ and J_ωᵢᵀ I J_ωⱼ once: they give both B and ‖v_c‖² = Σ q̇ᵢq̇ⱼ J_vᵢᵀJ_vⱼ, ωᵀIω likewise
-            v2, wIw = {}, {}
+            pairs = {}
             for i in range(n):
                 for j in range(i, n):
                     pv = A.dot([r[i] for r in Jv], [r[j] for r in Jv])
                     pw = A.dot([r[i] for r in Jw], [r[j] for r in IJw])
                     B[i][j] = A.add(B[i][j], A.mul(m, pv), pw)
-                    vv = A.mul(V[i], V[j]) if i == j else A.scale(A.mul(V[i], V[j]), 2)
-                    v2, wIw = A.add(v2, A.mul(pv, vv)), A.add(wIw, A.mul(pw, vv))
-            T = A.add(A.scale(A.mul(m, v2), half), A.scale(wIw, half))
+                    pairs[(i, j)] = (pv, pw)
             U = A.scale(A.mul(m, A.dot(grav, P)), -1) if grav is not None else None
-            bodies.append((body, P, vc, v2, T, U))
+            bodies.append((body, P, vc, _Once(lambda m=m, pairs=pairs: _energy(A, V, m, pairs, half)), U))
         T_extra = A.add(*[conv(t) for t in robot.kinetic_extra])
         for i in range(n):
             for j in range(i, n):
@@ -102,7 +122,7 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
         if robot.given_g is not None:
             g = [A.add(conv(x), A.diff(U_extra, qk)) for x, qk in zip(robot.given_g, q)]
         else:
-            U = A.add(*[b[5] for b in bodies if b[5] is not None], U_extra,
+            U = A.add(*[b[4] for b in bodies if b[4] is not None], U_extra,
                       conv(robot.given_U) if robot.given_U is not None else {})
             g = [A.diff(U, qk) for qk in q]
         Fv = mat(robot.friction) if robot.friction is not None else None
@@ -128,14 +148,14 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
         out = [A.expr(parts[e]) * sp.Mul(*[v ** d for v, d in zip(dq, e)]) for e in order]
         return [t for t in out if t != 0]
 
-    # per-body quantities are printed when a report, a check or --details first reads them
+    # per-body quantities are computed (‖v_c‖², T_i) and printed when a report, a check or --details first reads them
     energies = [BodyEnergy(body, Deferred(lambda P=P: sp.Matrix([ex(p) for p in P])),
-                           Deferred(lambda vc=vc: sp.Matrix([ex(v) for v in vc])), Deferred(lambda v2=v2: ex(v2)),
-                           Deferred(lambda body=body: body.omega), Deferred(lambda T=T: ex(T)),
+                           Deferred(lambda vc=vc: sp.Matrix([ex(v) for v in vc])), Deferred(lambda e=e: ex(e()[0])),
+                           Deferred(lambda body=body: body.omega), Deferred(lambda e=e: ex(e()[1])),
                            Deferred(lambda U=U: ex(U)) if U is not None else None,
-                           Deferred(lambda vc=vc, v2=v2, T=T: ([terms(v) for v in vc], terms(v2),
-                                                               terms(A.scale(T, 2)))))
-                for body, P, vc, v2, T, U in bodies]
+                           Deferred(lambda vc=vc, e=e: ([terms(v) for v in vc], terms(e()[0]),
+                                                        terms(A.scale(e()[1], 2)))))
+                for body, P, vc, e, U in bodies]
     Bm = mx(B)
     C_out = [mx(Ck) for Ck in C] if C is not None else None
     dm = DynamicModel(energies, ex(T_extra), ex(T_all), Bm, C_out, sp.Matrix([ex(x) for x in c]),
