@@ -351,7 +351,8 @@ def factor_list_fast(p: PolyElement) -> tuple:
         for i, e in enumerate(mono):
             if e:
                 factors.append((R.gens[i], e))
-        prim = R.from_dict({tuple(a - b for a, b in zip(m, mono)): c for m, c in prim.iterterms()})
+        ldiv = R.monomial_ldiv  # (m / mono, exponent by exponent)
+        prim = R.dtype([(ldiv(m, mono), c) for m, c in prim.iterterms()])
     known: list[tuple[PolyElement, int]] | None = None  # the factors of prim, once known
     while not prim.is_ground:
         i = next((j for j, d in enumerate(_degrees(prim)) if d == 1), None)
@@ -622,7 +623,8 @@ def _nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
     if _flip(prim):
         content, prim = -content, -prim
     if any(mono):
-        prim = R.from_dict({tuple(a - b for a, b in zip(m, mono)): c for m, c in prim.iterterms()})
+        ldiv = R.monomial_ldiv  # (m / mono, exponent by exponent)
+        prim = R.dtype([(ldiv(m, mono), c) for m, c in prim.iterterms()])
     lead = R.from_dict({mono: content})
     best = [(lead, 1), (prim, 1)]
     p_cost = _cost(p) + (content < 0)  # an extracted minus sign is free: -g₀(q₂ - d₁) vs g₀ d₁ - g₀ q₂
