@@ -163,8 +163,6 @@ def dh_forms(rows, convention, q, dq, coms, base, extra=()) -> DHForms:  # type:
     return DHForms(A, frames, omegas, centres)
 
 
-
-
 def vee(S: sp.Matrix) -> sp.Matrix:
     """ω from the skew-symmetric matrix S(ω)."""
     return sp.Matrix([S[2, 1], S[0, 2], S[1, 0]])
