@@ -8,6 +8,7 @@ return None and take the general path of :func:`solver.dynamics.model.derive`.
 """
 from __future__ import annotations
 
+from functools import cache, partial
 from typing import Any
 
 import sympy as sp
@@ -19,18 +20,6 @@ from solver.spec.robot import Robot
 
 Vec = list  # list[TrigPoly]
 Mat = list  # list[list[TrigPoly]]
-
-
-class _Once:
-    """``make()`` computed at the first call and kept (the same objects at every call)."""
-
-    def __init__(self, make: Any) -> None:
-        self.make, self.value = make, None
-
-    def __call__(self) -> Any:
-        if self.make is not None:
-            self.value, self.make = self.make(), None
-        return self.value
 
 
 def _energy(A: TrigAlgebra, V: Vec, m: Any, pairs: dict, half: Any) -> tuple:
@@ -88,7 +77,7 @@ def derive_canonical(robot: Robot):  # type: ignore[no-untyped-def]
                     B[i][j] = A.add(B[i][j], A.mul(m, pv), pw)
                     pairs[(i, j)] = (pv, pw)
             U = A.scale(A.mul(m, A.dot(grav, P)), -1) if grav is not None else None
-            bodies.append((body, P, vc, _Once(lambda m=m, pairs=pairs: _energy(A, V, m, pairs, half)), U))
+            bodies.append((body, P, vc, cache(partial(_energy, A, V, m, pairs, half)), U))  # (when first read)
         T_extra = A.add(*[conv(t) for t in robot.kinetic_extra])
         for i in range(n):
             for j in range(i, n):

@@ -318,6 +318,16 @@ def _degrees(p: PolyElement) -> tuple[int, ...]:
     return tuple(map(max, zip(*p.itermonoms())))
 
 
+def _monomial_part(p: PolyElement) -> tuple[tuple[int, ...], PolyElement]:
+    """(m, p / x^m) for the largest monomial x^m dividing ``p`` (non-zero): its exponents, the least of each
+    generator's over the terms, and the quotient (by the ring's compiled monomial division)."""
+    mono = tuple(map(min, zip(*p.itermonoms())))
+    if not any(mono):
+        return mono, p
+    ldiv = p.ring.monomial_ldiv
+    return mono, p.ring.dtype([(ldiv(m, mono), c) for m, c in p.iterterms()])
+
+
 def _dense_factor_list(p: PolyElement, of: PolyElement | None = None) -> tuple:
     """``p.factor_list()`` computed in the ring of the generators that ``of`` (default ``p``) uses, the factors
     brought back (sympy orders the factors differently in rings with other generators)."""
@@ -346,13 +356,8 @@ def factor_list_fast(p: PolyElement) -> tuple:
     if prim.LC < 0:
         content, prim = -content, -prim
     factors: list[tuple[PolyElement, int]] = []
-    mono = tuple(map(min, zip(*prim.itermonoms())))
-    if any(mono):
-        for i, e in enumerate(mono):
-            if e:
-                factors.append((R.gens[i], e))
-        ldiv = R.monomial_ldiv  # (m / mono, exponent by exponent)
-        prim = R.dtype([(ldiv(m, mono), c) for m, c in prim.iterterms()])
+    mono, prim = _monomial_part(prim)
+    factors.extend((R.gens[i], e) for i, e in enumerate(mono) if e)
     known: list[tuple[PolyElement, int]] | None = None  # the factors of prim, once known
     while not prim.is_ground:
         i = next((j for j, d in enumerate(_degrees(prim)) if d == 1), None)
@@ -616,15 +621,12 @@ def _nice_poly(p: PolyElement, max_terms: int = 12) -> sp.Expr:
     if len(p) <= 1:
         return poly_expr(p)
     R = p.ring
-    mono = tuple(map(min, zip(*p.itermonoms())))
     content, prim = p.primitive()
     if content < 0:
         content, prim = -content, -prim
     if _flip(prim):
         content, prim = -content, -prim
-    if any(mono):
-        ldiv = R.monomial_ldiv  # (m / mono, exponent by exponent)
-        prim = R.dtype([(ldiv(m, mono), c) for m, c in prim.iterterms()])
+    mono, prim = _monomial_part(prim)
     lead = R.from_dict({mono: content})
     best = [(lead, 1), (prim, 1)]
     p_cost = _cost(p) + (content < 0)  # an extracted minus sign is free: -g₀(q₂ - d₁) vs g₀ d₁ - g₀ q₂

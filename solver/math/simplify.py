@@ -347,9 +347,9 @@ def _fourier_sum(coeffs: dict, angles: list[sp.Symbol], nice):  # type: ignore[n
                 out.append(nice(a))
             continue
         if a:
-            out.append(_times(nice(a), cos) if direct else nice(a) * cos)
+            out.append(_term(nice(a), cos) if direct else nice(a) * cos)
         if b:
-            out.append(_times(nice(b), sin) if direct else nice(b) * sin)
+            out.append(_term(nice(b), sin) if direct else nice(b) * sin)
     if not out:
         return sp.S.Zero, nice, large
     return (add_distinct(out) if direct else sp.Add(*out)), nice, large
@@ -358,8 +358,8 @@ def _fourier_sum(coeffs: dict, angles: list[sp.Symbol], nice):  # type: ignore[n
 _TERMS: dict[tuple[sp.Expr, sp.Expr], sp.Expr] = {}  # (coefficient, cos/sin) -> their product
 
 
-def _times(c: sp.Expr, f: sp.Expr) -> sp.Expr:
-    """c·f (fourier.mul_distinct), one object per product: the same terms recur in a model's entries, and the
+def _term(c: sp.Expr, f: sp.Expr) -> sp.Expr:
+    """The term c·f of a coefficient and a harmonic's cos/sin (fourier.mul_distinct), one object per product: the same terms recur in a model's entries, and the
     printers' memos then find them by identity (as sympy's cache made them: an equal object costs a comparison)."""
     hit = _TERMS.get((c, f))
     if hit is None:

@@ -72,7 +72,7 @@ class TrigAlgebra:
                     angles.update(x for x, v in zip(src.angles, k) if v)
                     for m in c.itermonoms():
                         symbols.update(x for x, e in zip(src.gens, m) if e)
-        return angles, symbols | angles
+        return angles, symbols
 
     def take(self, src: "TrigAlgebra", a: TrigPoly) -> TrigPoly:
         """``a``, an element of the algebra ``src``, in this one (which has the angles and symbols ``a`` uses:
