@@ -232,6 +232,13 @@ def test_ask_errors_are_those_of_the_union_of_every_kind(write, monkeypatch, ask
     assert "spec.yaml:1" in lazy  # at the ask's line (10 and after)
 
 
+def test_unknown_field_of_an_ask_is_matched_against_its_own_kind(write):
+    msg = message(write, SPEC + "  - kind: dynamic_model\n    plot: false\n")
+    assert "unknown field 'plot'" in msg and "did you mean 'plots'?" in msg
+    msg = message(write, SPEC + "  - kind: dynamic_model\n  - kind: equilibria\n    solv: x\n")
+    assert "spec.yaml:13:" in msg and "did you mean 'solve_for'?" in msg
+
+
 def test_unknown_kind_lists_every_kind_at_its_line(write):
     msg = message(write, SPEC + "  - kind: dynamic_model\n  - kind: dynamics\n")
     assert "spec.yaml:12:5: error: unknown or missing ask kind" in msg and ", ".join(sorted(kind_modules())) in msg

@@ -234,14 +234,15 @@ class SpecLoader:
     def _fields_for(self, path: PathT) -> list[str]:
         model: Any = spec_model()
         node = self.loc.data
-        for k in path:
+        for i, k in enumerate(path):
             node = node[k]
             if isinstance(k, int):
                 continue
             field = model.model_fields.get(k) if hasattr(model, "model_fields") else None
             if field is None:
                 return []
-            model = _inner_model(field.annotation, node)
+            item = path[i + 1] if i + 1 < len(path) else None  # a list's model is chosen by its item (its kind)
+            model = _inner_model(field.annotation, node[item] if isinstance(item, int) else node)
         return list(model.model_fields) if hasattr(model, "model_fields") else []
 
     def _symbols(self, spec: SpecBase) -> None:
