@@ -225,11 +225,23 @@ def message(write, text: str) -> str:
 
 @pytest.mark.parametrize("asks", ASK_ERRORS)
 def test_ask_errors_are_those_of_the_union_of_every_kind(write, monkeypatch, asks):
-    import solver.spec.loader as loader
+    import solver.spec.models as models
     lazy = message(write, SPEC + asks)
-    monkeypatch.setattr(loader, "spec_kinds", lambda data: None)  # the union of every kind, as before
+    monkeypatch.setattr(models, "spec_kinds", lambda data: None)  # the union of every kind, as before
     assert message(write, SPEC + asks) == lazy
     assert "spec.yaml:1" in lazy  # at the ask's line (10 and after)
+
+
+@pytest.mark.parametrize("path", sorted(PROBLEMS.glob("*.yaml")), ids=lambda p: p.stem)
+def test_spec_validated_ask_by_ask_equals_the_union_model(path):
+    """validate_spec (SpecBase, then each ask by its kind's model) reads every library spec as the union does."""
+    from solver.spec.models import spec_kinds, spec_model, validate_spec
+    from solver.spec.yamlpos import load_file
+    data = load_file(path).data
+    fast, union = validate_spec(data), spec_model(spec_kinds(data)).model_validate(data)
+    assert type(fast).__name__ == "SpecBase"  # (the fast path was taken)
+    assert [type(a) for a in fast.asks] == [type(a) for a in union.asks] and fast.asks == union.asks
+    assert fast.model_dump() == union.model_dump()
 
 
 def test_unknown_field_of_an_ask_is_matched_against_its_own_kind(write):

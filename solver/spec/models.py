@@ -8,7 +8,7 @@ from __future__ import annotations
 from functools import lru_cache
 from typing import Annotated, Any, Literal, Optional, Union
 
-from pydantic import BaseModel, ConfigDict, Field, create_model
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
 from solver.registry import ASKS, ask_kinds, kind_modules, load_all
 
@@ -115,6 +115,24 @@ class SpecBase(Strict):
     expected: dict[str, Any] = Field({}, description="printed results for `robosolve verify` (see docs/spec.md)")
     grading: Optional[dict[str, Any]] = Field(None, description="grading options (see docs/grading.md)")
     notes: str = Field("", description="free notes: assumptions, reconstruction of lost figures, errata")
+    asks: list[Any] = Field(description="what is asked, in order")  # (typed by spec_model; see validate_spec)
+
+
+def validate_spec(data: Any) -> SpecBase:
+    """``spec_model(spec_kinds(data)).model_validate(data)``. When every ask names a known kind, without building
+    that model (pydantic builds the union's schema once per process, more than validating a spec costs): the
+    spec's fields by :class:`SpecBase`, each ask by its kind's options model, as the union discriminated by
+    `kind` would. Any error: the union model validates, for its errors as they are."""
+    kinds = spec_kinds(data)
+    found = ask_kinds(kinds) if kinds is not None else None
+    if found is not None:
+        try:
+            spec = SpecBase.model_validate(data)
+            spec.asks = [found[k].options.model_validate(a) for k, a in zip(kinds, data["asks"])]
+            return spec
+        except ValidationError:
+            pass
+    return spec_model(kinds).model_validate(data)
 
 
 def spec_model(kinds: tuple[str, ...] | None = None) -> type[BaseModel]:
