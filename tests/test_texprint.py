@@ -7,7 +7,7 @@ import random
 import sympy as sp
 
 from solver.publish.render import Latex, _Printer
-from solver.publish.texprint import DirectLatex
+from solver.publish.texprint import DirectLatex, negative
 
 q1, q2, q3, m1, l1, dq1, dq2, I3, a, b = sp.symbols("q1 q2 q3 m1 l1 dq1 dq2 I3 a b")
 SYMS = [q1, q2, q3, m1, l1, dq1, dq2, I3, a, b]
@@ -58,6 +58,16 @@ def test_direct_latex_is_the_printers_on_random_expressions() -> None:
         assert direct.doprint(e) == ref, e
         checked += e.is_Add or e.is_Mul
     assert checked > 400
+
+
+def test_negative_is_could_extract_minus_sign() -> None:
+    rng = random.Random("negative")
+    seen = set()
+    for _ in range(400):
+        for t in sp.Add.make_args(_random_expr(rng)) + (-sp.zoo * q1, sp.Mul(-1, q1 + l1, evaluate=False)):
+            assert negative(t) == t.could_extract_minus_sign(), t
+            seen.add((type(t).__name__, negative(t)))
+    assert {("Mul", True), ("Mul", False)} <= seen
 
 
 def test_the_printer_with_its_direct_printer_on_other_expressions() -> None:

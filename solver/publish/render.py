@@ -15,7 +15,7 @@ from sympy.printing.str import StrPrinter
 
 from solver.math.nounits import without_units
 from solver.publish.termorder import ordered_terms, printing_order
-from solver.publish.texprint import DirectLatex
+from solver.publish.texprint import DirectLatex, negative
 from solver.publish.textprint import OutsideText, text
 from solver.results import Result, Solution
 from solver.spec.expr import DECIMAL
@@ -234,7 +234,7 @@ class Latex:
         if e.is_Add:
             out = ""
             for k, a in enumerate(e.args):
-                neg = a.could_extract_minus_sign()
+                neg = negative(a)
                 body = self.fast(-a if neg else a, memo)
                 out += ("- " if neg else "") + body if k == 0 else (" - " if neg else " + ") + body
             return out
@@ -994,7 +994,7 @@ def _fast_text(e: Any, memo: dict | None) -> str:
     if e.is_Add:
         out = ""
         for k, a in enumerate(e.args):
-            neg = a.could_extract_minus_sign()
+            neg = negative(a)
             body = _fast_str(-a if neg else a, memo)
             out += ("-" if neg else "") + body if k == 0 else (" - " if neg else " + ") + body
         return out

@@ -28,7 +28,7 @@ import sympy as sp
 
 from solver.publish.termorder import printing_order
 
-__all__ = ["DirectLatex"]
+__all__ = ["DirectLatex", "negative"]
 
 _TRIG = (sp.sin, sp.cos)
 _NUMBER_END = re.compile(r"[0-9][} ]*$")  # sympy's test for a number separator between two factors
@@ -104,7 +104,7 @@ class DirectLatex:
         out = ""
         for i, term in enumerate(terms):
             if i:
-                if term.could_extract_minus_sign():
+                if negative(term):
                     out += " - "
                     term = -term
                 else:
@@ -162,3 +162,14 @@ class DirectLatex:
             return f"{name}{{\\left({s} \\right)}}"
         return f"{name} {{{s}}}"
 
+
+def negative(term: sp.Expr) -> bool:
+    """``term.could_extract_minus_sign()``; for a product, the sign of its rational coefficient (sympy's
+    ``Mul.could_extract_minus_sign`` first builds −term and compares the two trees, for zoo·x)."""
+    if type(term) is sp.Mul:
+        c = term.args[0]  # (a product's number, if any, comes first)
+        if c.is_Rational:
+            return bool(c.is_negative)
+        if not c.is_Number:  # no number at all: −term has one, the trees differ, and sympy answers False
+            return False
+    return bool(term.could_extract_minus_sign())
