@@ -574,10 +574,24 @@ def _power(g: sp.Symbol, m: int) -> sp.Expr:
     return hit
 
 
+_EXPRS: dict = {}  # polynomial -> its tree: equal factors of different coefficients become one object, which the
+# printers' memos then find by identity (equal but distinct trees are compared node by node at every hit)
+
+
 def poly_expr(p: PolyElement) -> sp.Expr:
     """``p.as_expr()``, the same tree built without sympy's flattening: a polynomial's terms are distinct
     monomials, so each product is its coefficient (first, unless 1) and its powers in sympy's argument order, and
-    the sum its constant (first) and its terms in that order, as ``Mul.flatten`` and ``Add.flatten`` leave them."""
+    the sum its constant (first) and its terms in that order, as ``Mul.flatten`` and ``Add.flatten`` leave them.
+    Memoized."""
+    hit = _EXPRS.get(p)
+    if hit is None:
+        if len(_EXPRS) > 50000:
+            _EXPRS.clear()
+        hit = _EXPRS[p] = _poly_expr(p)
+    return hit
+
+
+def _poly_expr(p: PolyElement) -> sp.Expr:
     gens = p.ring.symbols
     to_sympy = p.ring.domain.to_sympy
     terms, const = [], None
