@@ -23,6 +23,9 @@ import sympy as sp
 from sympy.polys.domains import QQ, ZZ
 from sympy.polys.rings import PolyElement, PolyRing
 
+from solver.math import ringcode
+
+ringcode.install()  # a ring's monomial arithmetic compiled once per user, not once per process
 Key = tuple[tuple[int, ...], int]  # (k, 0 for cos | 1 for sin)
 TrigPoly = dict[Key, PolyElement]
 
