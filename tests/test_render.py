@@ -456,3 +456,30 @@ def test_a_displayed_matrix_counts_its_left_side_and_its_fractions_as_printed():
     assert equation(g, "g", "g", tex, ".") == f"\\[g = {tex(g)}.\\]"
     long_lhs = equation(g, "g(q) = \\left(\\frac{\\partial U}{\\partial q}\\right)^T", "g", tex, ".")
     assert "\\begin{bmatrix} g_{i} \\end{bmatrix}" in long_lhs and "g_{2} = " in long_lhs
+
+
+def test_a_matrix_over_a_long_common_denominator_writes_it_once():
+    """A matrix too wide for the line whose entries share one long denominator Δ (an inverse, a pseudoinverse) is
+    written (1/Δ) N, Δ on its own line once, N whole when it fits and entry by entry otherwise (2021-02-04-ex3's J#
+    repeated a three-line denominator in each of its six entries); entries over different denominators, a short
+    denominator, or a symbol printed Δ keep the entry-by-entry form."""
+    from solver.publish.render import Latex, common_denominator, equation
+    tex = Latex({}, {})
+    a, b, c, q1, q2 = sp.symbols("a b c q1 q2")
+    d = (a + b + c) ** 3 + a * b * c * sp.cos(q2) + a**2 * sp.sin(q1) + b**2 * c * sp.cos(q1 + q2)
+    N = sp.Matrix([[a * sp.cos(q1), -b * sp.sin(q1 + q2)], [c, 0]])
+    out = equation(N / d, "J^{-1}(q)", "j", tex, ".")
+    lines = out.split("\n")
+    assert lines[0] == f"\\[J^{{-1}}(q) = \\frac{{1}}{{\\Delta}}\\,{tex(N)}, \\quad\\text{{with}}\\]"
+    assert lines[1:] == [f"\\[\\Delta = {tex(d)}.\\]"]
+    wide = N.applyfunc(lambda e: e * sp.expand((a + 2 * b + q1) ** 3) if e != 0 else e)
+    out = equation(wide / d, "J^{-1}(q)", "j", tex, ".")
+    assert "\\frac{1}{\\Delta}\\begin{bmatrix} n_{ij} \\end{bmatrix}" in out and out.count("\\Delta =") == 1
+    assert "n_{11} = " in out and "n_{22}" in out and "and $n_{22} = 0$." in out and "\\frac" not in out.split(
+        "n_{11}")[1]
+    assert common_denominator(-N / d, tex, 70)[1] == -N  # (the sign of the quotients stays in N)
+    mixed = sp.Matrix([[a / d, b / (d + 1)], [c / d, 0]])
+    assert common_denominator(mixed, tex, 70) is None and "j_{12} = " in equation(mixed, "J", "j", tex)
+    assert common_denominator(N / (a + b), tex, 70) is None  # short: each entry reads well
+    Delta = sp.Symbol("Delta")
+    assert common_denominator(N.subs(c, Delta) / d, tex, 70) is None

@@ -631,16 +631,42 @@ def equation(value: Any, lhs: str, entry: str, tex: Callable[[Any], str], punct:
              width: int = 70) -> str:
     """A displayed ``lhs = value``; a matrix or vector too wide for the page is written entry by entry
     (``entry``_{ij} = ..., zero entries and the lower triangle of a symmetric matrix left out), each long entry
-    broken into lines."""
+    broken into lines; one whose entries share a long denominator Δ as (1/Δ) N, Δ written once
+    (:func:`common_denominator`)."""
     if not isinstance(value, sp.MatrixBase):
         return _broken(lhs, tex(value), punct, width, value, tex)
     cells = [[tex(value[i, j]) for j in range(value.cols)] for i in range(value.rows)]
-    widest = max(sum(printed_width(c) + 6 for c in row) for row in cells)  # + column separation
-    if widest <= width and widest + formula_width(lhs) <= width + DISPLAY_LHS:
+    if _fits(cells, lhs, width):
         return f"\\[{lhs} = {tex(value)}{punct}\\]"
+    over = common_denominator(value, tex, width)
+    if over is not None:
+        d, N = over
+        cells = [[tex(N[i, j]) for j in range(N.cols)] for i in range(N.rows)]
+        head = f"{lhs} = \\frac{{1}}{{\\Delta}}"
+        if _fits(cells, head, width):
+            return "\n".join([f"\\[{head}\\,{tex(N)}, \\quad\\text{{with}}\\]",
+                              _broken("\\Delta", tex(d), punct, width, d, tex)])
+        return "\n".join([f"\\[{head}\\begin{{bmatrix}} n_{{{_ij(N)}}} \\end{{bmatrix}}, \\quad\\text{{with}}\\]",
+                          _broken("\\Delta", tex(d), "", width, d, tex)] + _entries(N, "n", cells, tex, punct, width))
+    return "\n".join([f"\\[{lhs} = \\begin{{bmatrix}} {entry}_{{{_ij(value)}}} \\end{{bmatrix}}, \\quad\\text{{with}}\\]"]
+                     + _entries(value, entry, cells, tex, punct, width))
+
+
+def _ij(value: sp.MatrixBase) -> str:
+    return "ij" if value.cols > 1 else "i"
+
+
+def _fits(cells: list[list[str]], lhs: str, width: int) -> bool:
+    """Whether a matrix of LaTeX ``cells`` fits the line, after ``lhs``."""
+    widest = max(sum(printed_width(c) + 6 for c in row) for row in cells)  # + column separation
+    return widest <= width and widest + formula_width(lhs) <= width + DISPLAY_LHS
+
+
+def _entries(value: sp.MatrixBase, entry: str, cells: list[list[str]], tex: Callable[[Any], str], punct: str,
+             width: int) -> list[str]:
+    """The lines ``entry``_{ij} = ... of a matrix written entry by entry, then its zero entries in one sentence."""
     symmetric = value.rows == value.cols and value == value.T
-    out = [f"\\[{lhs} = \\begin{{bmatrix}} {entry}_{{{'ij' if value.cols > 1 else 'i'}}} \\end{{bmatrix}}, "
-           "\\quad\\text{with}\\]"]
+    out = []
     for i in range(value.rows):
         for j in range(value.cols):
             if value[i, j] == 0 or (symmetric and j < i):
@@ -653,7 +679,36 @@ def equation(value: Any, lhs: str, entry: str, tex: Callable[[Any], str], punct:
         out.append("and $" + " = ".join(zeros) + " = 0$" + (punct or "."))
     elif punct:
         out[-1] = out[-1].replace("\\]", f"{punct}\\]") if out[-1].endswith("\\]") else out[-1]
-    return "\n".join(out)
+    return out
+
+
+def common_denominator(value: sp.MatrixBase, tex: Callable[[Any], str],
+                       width: int) -> tuple[sp.Expr, sp.MatrixBase] | None:
+    """(Δ, N) with value = N / Δ when at least two entries are non-zero and every one is a quotient n_ij / Δ over
+    the same denominator (up to its sign), printed wider than a third of the line (a short one reads well in each
+    entry); None otherwise, or when the matrix's own symbols print as Δ or n."""
+    nums: dict[tuple[int, int], sp.Expr] = {}
+    d = None
+    for i in range(value.rows):
+        for j in range(value.cols):
+            if value[i, j] == 0:
+                continue
+            n, den = sp.fraction(value[i, j])
+            if den == 1:
+                return None
+            if d is None:
+                d = den
+            elif den != d:
+                if den != -d:
+                    return None
+                n = -n
+            nums[(i, j)] = n
+    if d is None or len(nums) < 2 or printed_width(tex(d)) <= width // 3:
+        return None
+    names = {tex(s) for s in value.free_symbols}
+    if "\\Delta" in names or any(t == "n" or t.startswith("n_") for t in names):
+        return None
+    return d, sp.Matrix(value.rows, value.cols, lambda i, j: nums.get((i, j), 0))
 
 
 def equations(items: list, tex: Callable[[Any], str], sep: str = ", \\qquad ", punct: str = "",
