@@ -736,7 +736,8 @@ def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]],
     coefficient through :func:`nice_poly` (``groups``: :func:`product_groups`, when already computed)."""
     if groups is None:
         groups = product_groups(coeffs, angles)
-    trig = [sp.cos(x) for x in angles] + [sp.sin(x) for x in angles]
+    plain = [type(x) is not sp.Symbol for x in angles]  # (cos x of a symbol: nothing to evaluate, the same object)
+    trig = [sp.cos(x, evaluate=e) for x, e in zip(angles, plain)] + [sp.sin(x, evaluate=e) for x, e in zip(angles, plain)]
     return sp.Add(*[nice_poly(g) * sp.Mul(*[f ** e for f, e in zip(trig, key)]) for key, g in groups.items()])
 
 
