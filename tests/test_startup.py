@@ -264,3 +264,47 @@ def test_schema_is_the_union_of_every_kind_after_a_lazy_load(write):
     assert len(names) == len(kind_modules())
     kinds = load_all()
     assert names == [kinds[k].options.__name__ for k in kind_modules()]
+
+
+ANTHROPOMORPHIC = """\
+id: s3r
+title: spatial RRR by DH
+symbols: {d1: base height, a2: link 2, a3: link 3, m1: mass 1, m2: mass 2, m3: mass 3, g0: gravity,
+          I1xx: i, I1yy: i, I1zz: i, I2xx: i, I2yy: i, I2zz: i, I3xx: i, I3yy: i, I3zz: i}
+robot:
+  joints: [R, R, R]
+  gravity: [0, 0, -g0]
+  dh:
+    table:
+      - {a: 0, alpha: pi/2, d: d1, theta: q1}
+      - {a: a2, alpha: 0, d: 0, theta: q2}
+      - {a: a3, alpha: 0, d: 0, theta: q3}
+    links:
+      - {mass: m1, com: [0, 0, 0], inertia: [I1xx, I1yy, I1zz]}
+      - {mass: m2, com: [-a2/2, 0, 0], inertia: [I2xx, I2yy, I2zz]}
+      - {mass: m3, com: [-a3/2, 0, 0], inertia: [I3xx, I3yy, I3zz]}
+asks:
+  - kind: dynamic_model
+    plots: false
+"""
+
+
+def test_a_dh_model_imports_nothing_once_the_chapters_are_loaded(tmp_path):
+    """Loading, solving and printing a DH arm's model (without figures: their samples evaluate sin and cos at
+    numbers) imports no module (sympy's first evaluated sin or cos imports sympy.sets.setexpr and more: ~12 ms of
+    a small solve, which the canonical form does not need)."""
+    spec = tmp_path / "s3r.yaml"
+    spec.write_text(ANTHROPOMORPHIC)
+    probe = ("import sys, json\n"
+             "from solver.registry import load_all\n"
+             "from solver.spec import load_problem\n"
+             "from solver.solve import solve_problem\n"
+             "from solver.publish.render import render\n"
+             "load_all(); import sympy.tensor.tensor\n"
+             "before = set(sys.modules)\n"
+             f"p = load_problem({str(spec)!r}); s = solve_problem(p); out = render(p, s, 'json')\n"
+             "print(json.dumps({'new': sorted(set(sys.modules) - before), 'model': 'model' in json.loads(out)['results']}))")
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    assert got["model"] and [m for m in got["new"] if m not in ("solver.sandbox", "solver.solve")] == []
