@@ -277,6 +277,21 @@ def test_product_cost_bound_is_a_lower_bound(e: sp.Expr) -> None:
     assert product_cost_bound(groups) <= count_ops(product_form(coeffs, ANGLES, groups))
 
 
+@settings(max_examples=80, deadline=None)
+@given(exprs)
+def test_product_form_is_sympys_sum_of_products_node_for_node(e: sp.Expr) -> None:
+    """product_form builds its sum and products without sympy's flattening (fourier.mul_distinct, add_distinct):
+    the same tree, in stored order, as Add(*[nice(g)·Π f^e]) evaluated by sympy."""
+    from solver.math.fourier import product_groups
+    coeffs = fourier_coefficients(e, ANGLES)
+    if not coeffs:
+        return
+    groups = product_groups(coeffs, ANGLES)
+    trig = [sp.cos(x) for x in ANGLES] + [sp.sin(x) for x in ANGLES]
+    ref = sp.Add(*[nice_poly(g) * sp.Mul(*[f ** k for f, k in zip(trig, key)]) for key, g in groups.items()])
+    assert tree(product_form(coeffs, ANGLES, groups)) == tree(ref)
+
+
 def test_product_form_not_printed_when_it_cannot_be_shorter(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     """A long trigonometric polynomial whose product form is longer: fourier_expr returns the Fourier form without
     building the product form (whose coefficients are factored one by one); a short one still gets it."""

@@ -738,7 +738,9 @@ def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]],
         groups = product_groups(coeffs, angles)
     plain = [type(x) is not sp.Symbol for x in angles]  # (cos x of a symbol: nothing to evaluate, the same object)
     trig = [sp.cos(x, evaluate=e) for x, e in zip(angles, plain)] + [sp.sin(x, evaluate=e) for x, e in zip(angles, plain)]
-    return sp.Add(*[nice_poly(g) * sp.Mul(*[f ** e for f, e in zip(trig, key)]) for key, g in groups.items()])
+    terms = [mul_distinct(sp.S.One, [nice_poly(g)] + [f if e == 1 else f ** e for f, e in zip(trig, key) if e])
+             for key, g in groups.items()]  # (distinct monomials in cos/sin times polynomials: nothing merges)
+    return add_distinct(terms) if terms else sp.S.Zero
 
 
 def factor_list_expr(expr: sp.Expr) -> tuple[sp.Expr, list[tuple[sp.Expr, int]]]:
