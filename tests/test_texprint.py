@@ -92,3 +92,19 @@ def test_direct_latex_on_a_model_entry() -> None:
     c = -d2 * l1 * m2 * dq2 * (2 * dq1 + dq2) * sp.sin(q2 + q1)
     assert lx(c) == (r"- d_{2} l_{1} m_{2} \left(\dot{q}_{2} + 2 \dot{q}_{1}\right) \dot{q}_{2} "
                      r"\sin{\left(q_{1} + q_{2} \right)}")
+
+
+def test_direct_latex_of_products_with_a_fraction() -> None:
+    """Products with a rational coefficient, as the spatial arms' models have them (m a²/8, -(I_xx - I_yy)/2 s c),
+    written \\frac{p f₁⋯f_k}{q} directly; a sum over a number is left to the printer."""
+    cases = [sp.Rational(3, 8) * a**2 * m1, -a / 2, sp.Rational(-1, 4) * sp.sin(q1) * sp.cos(q2) * dq1,
+             sp.Rational(5, 3) * sp.cos(q1 + q2) ** 2, sp.Mul(sp.Rational(1, 2), a + l1, evaluate=False),
+             sp.Rational(1, 2) * (a + l1) ** 2 * dq2, sp.Rational(7, 2) * b * (q1 - q2) * l1,
+             I3 * dq1**2 / 2 + sp.Rational(3, 4) * m1 * l1**2 * dq1 * dq2 - a * b / 6]
+    for e in cases:
+        ref = _Printer(NAMES, RANK).doprint(e)
+        assert DirectLatex(_Printer(NAMES, RANK)).doprint(e) == ref, e
+        printer, direct = _wired()
+        assert direct.doprint(e) == ref, e
+    assert DirectLatex(_Printer(NAMES, RANK)).doprint(cases[0]) == r"\frac{3 \left(a^{\ast}\right)^{2} m_{1}}{8}"
+    assert DirectLatex(_Printer(NAMES, RANK)).doprint(cases[1]) == r"- \frac{a^{\ast}}{2}"

@@ -1,23 +1,25 @@
 """The LaTeX of a polynomial-like expression, printed directly: what the reports' printer writes, without sympy's
 generic dispatch at every node.
 
-For sums, products with an integer coefficient, positive integer powers, symbols, numbers, sin and cos (what a
+For sums, products with a rational coefficient, positive integer powers, symbols, numbers, sin and cos (what a
 dynamic model is made of), :class:`DirectLatex` writes exactly what ``render._Printer`` (sympy's LatexPrinter
 with the teacher's order of factors) writes:
 
 - a sum: its terms in sympy's printing order (stored order inside a product, as the printer sets order 'none'
   there), a term that can extract a minus sign written ``- t``, a sum term in ``\\left( \\right)``;
 - a product c·f₁⋯f_k (c = ±1 or an integer, k ≥ 2): the factors sorted by the printer's key, a sum in
-  ``\\left( \\right)``, separated by a space (sympy's number separator between a digit and a number);
+  ``\\left( \\right)``, separated by a space (sympy's number separator between a digit and a number); with
+  c = ±p/q (q > 1; k ≥ 1, a single factor not a sum) ``± \\frac{p f₁⋯f_k}{q}``, as sympy's fraction() splits
+  it;
 - a power b^e (e a positive integer): ``\\sin^{e} {x}`` for sin and cos, a sum base in ``\\left( \\right)``, a
   symbol whose LaTeX has a superscript in parentheses, an even power of a sum that would start with a minus sign
   written with the opposite base (the printer's rule);
 - sin and cos: ``\\sin {x}`` when sympy folds the brackets, else ``\\sin{\\left(x \\right)}``.
 
-Every other node (fractions, negative or fractional powers, other functions, unevaluated products of numbers) is
-printed by the printer itself, in the same order setting, and the printer hands the plain subexpressions of what
-it prints back here (``_Printer._print``); ``tests/test_texprint.py`` checks the equality with the printer on
-random expressions.
+Every other node (quotients by symbols, negative or fractional powers, other functions, unevaluated products of
+numbers) is printed by the printer itself, in the same order setting, and the printer hands the plain subexpressions
+of what it prints back here (``_Printer._print``); ``tests/test_texprint.py`` checks the equality with the printer
+on random expressions.
 """
 from __future__ import annotations
 
@@ -116,18 +118,28 @@ class DirectLatex:
     def _product(self, e: sp.Mul, order: Any) -> str:
         coeff, rest = e.as_coeff_Mul()
         factors = sp.Mul.make_args(rest)
-        if len(factors) < 2 or not coeff.is_Integer or any(
-                f.is_Number or f.is_Mul or (f.is_Pow and f.exp.is_negative) for f in factors):
+        if not coeff.is_Rational or any(f.is_Number or f.is_Mul or (f.is_Pow and f.exp.is_negative)
+                                        for f in factors):
             return self._sympy(e, order)
-        body = ""
-        for f in sorted(factors, key=self.p._factor_key):
-            s = self.tex(f, "none")  # (the printer prints a product's factors with order 'none')
-            body = self._joined(body, f"\\left({s}\\right)" if f.is_Add else s)
+        if len(factors) < 2:
+            f = factors[0]
+            if coeff.is_Integer or f.is_Add:
+                return self._sympy(e, order)
+            body = self.tex(f, order)  # (a single factor: printed in the printer's own order)
+        else:
+            body = ""
+            for f in sorted(factors, key=self.p._factor_key):
+                s = self.tex(f, "none")  # (the printer prints a product's factors with order 'none')
+                body = self._joined(body, f"\\left({s}\\right)" if f.is_Add else s)
+        sign = "- " if coeff < 0 else ""
+        if coeff.q != 1:  # sympy's fraction(): \frac{|p| body}{q}
+            num = body if abs(coeff.p) == 1 else self._joined(str(abs(coeff.p)), body)
+            return f"{sign}\\frac{{{num}}}{{{coeff.q}}}"
         if coeff == 1:
             return body
         if coeff == -1:
             return "- " + body
-        return ("- " if coeff < 0 else "") + self._joined(str(abs(coeff.p)), body)
+        return sign + self._joined(str(abs(coeff.p)), body)
 
     def _joined(self, left: str, right: str) -> str:
         """Two factors' LaTeX side by side, as sympy's convert_args joins them: its number separator between a
