@@ -41,3 +41,13 @@ def test_equals_sympy_count_ops() -> None:
     assert count_ops(-sp.Rational(1, 3) * x) == sp.count_ops(-x / 3) == 2
     minus = sp.Mul(-1, x + 1 / y, evaluate=False)
     assert count_ops(minus) == sp.count_ops(minus) == 2                 # NEG, DIV: sympy counts no ADD under −
+
+
+def test_products_with_a_fraction_counted_as_sympy_does() -> None:
+    """p/q·f₁⋯f_k counted without building sympy's fraction (the spatial arms' coefficients): the same integer,
+    including a single sum, which sympy's fraction distributes (3/4·(a + b) -> 3a + 3b)."""
+    cases = [sp.Rational(3, 8) * x**2 * y, -x * y / 2, sp.Rational(-5, 4) * sp.sin(q) * sp.cos(q) ** 2 * z,
+             sp.Mul(sp.Rational(3, 4), x + y, evaluate=False), sp.Mul(sp.Rational(1, 2), x + y, evaluate=False),
+             sp.Mul(sp.Rational(3, 4), x + y, z, evaluate=False), sp.Rational(7, 3) * (x + 2 * y) ** 2 * z,
+             x / 2, sp.Rational(-1, 2) * sp.cos(2 * q)]
+    assert [count_ops(e) for e in cases] == [sp.count_ops(e) for e in cases]

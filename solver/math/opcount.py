@@ -7,7 +7,6 @@ from __future__ import annotations
 from functools import lru_cache
 
 import sympy as sp
-from sympy.core.function import _coeff_isneg
 from sympy.simplify.radsimp import fraction
 
 
@@ -37,6 +36,13 @@ def _count_ops(e: sp.Basic) -> int:
         if e.is_Mul and not any((a.is_Pow and a.exp.is_negative) or (a.is_Rational and a.q != 1) or a.is_Mul
                                 or isinstance(a, sp.exp) for a in e.args):
             num, den = e, sp.S.One      # fraction(e) without a denominator, the common case
+        elif e.is_Mul and e.args[0].is_Rational and len(e.args) > 1 + e.args[1].is_Add and not any(
+                (a.is_Pow and a.exp.is_negative) or a.is_Number or a.is_Mul or isinstance(a, sp.exp)
+                for a in e.args[1:]):
+            # p/q·f₁⋯f_k (k ≥ 2 when f₁ is a sum: p·(a + b) would be distributed): fraction(e) = (p·f₁⋯f_k, q),
+            # counted without building it: the quotient's 1 (q is an integer), the numerator's products and factors
+            c, rest = e.args[0], e.args[1:]
+            return n + 1 + len(rest) - (c.p == 1) + sum(_count_ops(a) for a in rest)
         else:
             num, den = fraction(e)
         if num.is_Integer:
@@ -45,6 +51,18 @@ def _count_ops(e: sp.Basic) -> int:
             return n + 1 + (0 if den.is_Integer else _count_ops(den)) + _count_ops(num)
         return n + _rest(e)
     return _rest(e)
+
+
+def _coeff_isneg(a: sp.Basic) -> bool:
+    """sympy's ``_coeff_isneg``: a number, or a product's leading number, that is negative (a rational's sign read
+    from its numerator: ``is_extended_negative`` runs the assumptions system once per new number)."""
+    if a.is_MatMul:
+        a = a.args[0]
+    if a.is_Mul:
+        a = a.args[0]
+    if a.is_Rational:
+        return a.p < 0
+    return bool(a.is_Number and a.is_extended_negative)
 
 
 def _rest(e: sp.Basic) -> int:
