@@ -134,7 +134,7 @@ class _Printer(_Memo, LatexPrinter):
             return super()._needs_mul_brackets(expr, first, last)
         if expr.is_Mul:
             return not first and expr.could_extract_minus_sign()
-        return bool(expr.is_Add or (expr.is_Rational and expr.is_negative))
+        return bool(expr.is_Add or (expr.is_Rational and expr.p < 0))
 
     def _needs_add_brackets(self, expr: sp.Expr) -> bool:
         """sympy's rule, directly for plain expressions: a sum."""

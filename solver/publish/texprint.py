@@ -181,7 +181,7 @@ def negative(term: sp.Expr) -> bool:
     if type(term) is sp.Mul:
         c = term.args[0]  # (a product's number, if any, comes first)
         if c.is_Rational:
-            return bool(c.is_negative)
+            return c.p < 0
         if not c.is_Number:  # no number at all: −term has one, the trees differ, and sympy answers False
             return False
     return bool(term.could_extract_minus_sign())
