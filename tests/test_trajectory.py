@@ -346,3 +346,15 @@ def test_reports_render_in_both_formats():
     md, tex = render(p, sols, "md"), render(p, sols, "tex")
     assert "axis-angle" in md and "\\theta_{AB}" in tex and "\\begin{itemize}" not in tex.split("Cartesian")[1][:50]
     assert "0.9069" in md  # the corrected angular velocity, as a number
+
+
+def test_motion_figure_legends_name_several_coordinates_only():
+    """One coordinate: its axes name it (q, q̇, q̈), no legend repeating it on every panel; several: one labelled
+    curve each."""
+    one = solve_problem(load_problem(PROBLEMS / "2022-01-11-ex2.yaml"))
+    fig = next(f for s in one for f in s.figures if f.name == "law")
+    assert [[c.label for c in p.curves] for p in fig.panels] == [[""]] * 3
+    assert [p.ylabel for p in fig.panels][0] == "$q$"
+    two = solve_problem(load_problem(PROBLEMS / "2019-09-11-ex2.yaml"))
+    fig = next(f for s in two for f in s.figures if f.name == "motion")
+    assert [[c.label for c in p.curves] for p in fig.panels] == [["$q_{1}$", "$q_{2}$"]] * 3

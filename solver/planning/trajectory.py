@@ -225,7 +225,7 @@ def law_figure(name: str, caption: str, motion: Motion, values: dict, var: str =
             curves = []
             for law, lab in zip(motion.derivative(k) if k else motion.laws, labels):
                 xs, ys = sample(law, values)
-                curves.append(Curve(lab, xs, ys))
+                curves.append(Curve(lab if len(labels) > 1 else "", xs, ys))  # (one coordinate: the axis names it)
             panels.append(Panel("$t$", ylab, curves))
         return panels
 

@@ -79,7 +79,8 @@ def draw(fig: Figure, path: Path) -> None:
         if not any(c.filled for c in panel.curves):  # y = 0 is no reference on a map
             ax.axhline(0, color="0.6", linewidth=0.8)
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8, loc="best")
+        if ax.get_legend_handles_labels()[1]:  # (a single unnamed curve: its axis names it)
+            ax.legend(fontsize=8, loc="best")
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     f.tight_layout()
