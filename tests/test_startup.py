@@ -303,7 +303,8 @@ def test_a_dh_model_imports_nothing_once_the_chapters_are_loaded(tmp_path):
              "load_all(); import sympy.tensor.tensor\n"
              "before = set(sys.modules)\n"
              f"p = load_problem({str(spec)!r}); s = solve_problem(p); out = render(p, s, 'json')\n"
-             "print(json.dumps({'new': sorted(set(sys.modules) - before), 'model': 'model' in json.loads(out)['results']}))")
+             "new = sorted(set(sys.modules) - before)\n"
+             "print(json.dumps({'new': new, 'model': 'model' in json.loads(out)['results']}))")
     run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert run.returncode == 0, run.stderr[-2000:]
     got = json.loads(run.stdout.strip().splitlines()[-1])

@@ -736,8 +736,8 @@ def product_form(coeffs: dict[tuple[int, ...], tuple[PolyElement, PolyElement]],
     coefficient through :func:`nice_poly` (``groups``: :func:`product_groups`, when already computed)."""
     if groups is None:
         groups = product_groups(coeffs, angles)
-    plain = [type(x) is not sp.Symbol for x in angles]  # (cos x of a symbol: nothing to evaluate, the same object)
-    trig = [sp.cos(x, evaluate=e) for x, e in zip(angles, plain)] + [sp.sin(x, evaluate=e) for x, e in zip(angles, plain)]
+    evaluate = [type(x) is not sp.Symbol for x in angles]  # (cos x of a symbol: nothing to evaluate, the same object)
+    trig = [f(x, evaluate=e) for f in (sp.cos, sp.sin) for x, e in zip(angles, evaluate)]
     terms = [mul_distinct(sp.S.One, [nice_poly(g)] + [f if e == 1 else f ** e for f, e in zip(trig, key) if e])
              for key, g in groups.items()]  # (distinct monomials in cos/sin times polynomials: nothing merges)
     return add_distinct(terms) if terms else sp.S.Zero

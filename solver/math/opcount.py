@@ -39,8 +39,9 @@ def _count_ops(e: sp.Basic) -> int:
         elif e.is_Mul and e.args[0].is_Rational and len(e.args) > 1 + e.args[1].is_Add and not any(
                 (a.is_Pow and a.exp.is_negative) or a.is_Number or a.is_Mul or isinstance(a, sp.exp)
                 for a in e.args[1:]):
-            # p/q·f₁⋯f_k (k ≥ 2 when f₁ is a sum: p·(a + b) would be distributed): fraction(e) = (p·f₁⋯f_k, q),
-            # counted without building it: the quotient's 1 (q is an integer), the numerator's products and factors
+            # p/q·f₁⋯f_k (k ≥ 2 when f₁ is a sum: p·(a + b) would be distributed): fraction(e) is
+            # (p·f₁⋯f_k, q), counted without building it: the quotient's 1 (q is an integer), then the
+            # numerator's products and factors
             c, rest = e.args[0], e.args[1:]
             return n + 1 + len(rest) - (c.p == 1) + sum(_count_ops(a) for a in rest)
         else:

@@ -648,8 +648,8 @@ def equation(value: Any, lhs: str, entry: str, tex: Callable[[Any], str], punct:
                               _broken("\\Delta", tex(d), punct, width, d, tex)])
         return "\n".join([f"\\[{head}\\begin{{bmatrix}} n_{{{_ij(N)}}} \\end{{bmatrix}}, \\quad\\text{{with}}\\]",
                           _broken("\\Delta", tex(d), "", width, d, tex)] + _entries(N, "n", cells, tex, punct, width))
-    return "\n".join([f"\\[{lhs} = \\begin{{bmatrix}} {entry}_{{{_ij(value)}}} \\end{{bmatrix}}, \\quad\\text{{with}}\\]"]
-                     + _entries(value, entry, cells, tex, punct, width))
+    head = f"\\[{lhs} = \\begin{{bmatrix}} {entry}_{{{_ij(value)}}} \\end{{bmatrix}}, \\quad\\text{{with}}\\]"
+    return "\n".join([head] + _entries(value, entry, cells, tex, punct, width))
 
 
 def _ij(value: sp.MatrixBase) -> str:

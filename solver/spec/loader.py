@@ -20,8 +20,8 @@ from solver.registry import load_all
 from solver.results import Deferred
 from solver.spec import expr as exprmod
 from solver.spec.errors import ExprError, Place, UserError
-from solver.spec.models import (DH, Link, RobotSpec, SpecBase, Strict, SymbolInfo, _inner_model, json_schema, spec_model,
-                                validate_spec)
+from solver.spec.models import (DH, Link, RobotSpec, SpecBase, Strict, SymbolInfo, _inner_model, json_schema,
+                                spec_model, validate_spec)
 from solver.spec.problem import Ask, AskContext, Problem
 from solver.spec.robot import Body, Robot
 from solver.spec.texmath import math_problem, text_math_problem
